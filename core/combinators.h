@@ -1,0 +1,51 @@
+#pragma once
+// Warps built from other warps or from a matrix: identity, affine, composition.
+
+#include <memory>
+
+#include "core/warp.h"
+
+namespace spacewarp {
+
+/// x' = x.
+class IdentityWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override { return x; }
+  Mat3 jacobian(const Vec3&) const override { return Mat3(1.0); }
+};
+
+/// x' = M [x, 1] for a 4 x 4 homogeneous matrix whose last row is (0, 0, 0, 1).
+class AffineWarp final : public Warp {
+ public:
+  /// `matrix` is column-major (GLM): matrix[3] is the translation column. Throws InvalidInput
+  /// if an entry is not finite or the last row is not (0, 0, 0, 1) (projective maps are not
+  /// affine warps).
+  explicit AffineWarp(const Mat4& matrix);
+
+  Vec3 apply(const Vec3& x) const override { return linear_ * x + translation_; }
+  Mat3 jacobian(const Vec3&) const override { return linear_; }
+
+  const Mat3& linear() const { return linear_; }
+  const Vec3& translation() const { return translation_; }
+
+ private:
+  Mat3 linear_;
+  Vec3 translation_;
+};
+
+/// x' = second(first(x)); the Jacobian follows the chain rule, J = J_second(first(x)) J_first(x).
+class ComposedWarp final : public Warp {
+ public:
+  /// Throws InvalidInput if either warp is null.
+  ComposedWarp(std::shared_ptr<const Warp> first, std::shared_ptr<const Warp> second);
+
+  Vec3 apply(const Vec3& x) const override { return second_->apply(first_->apply(x)); }
+  Mat3 jacobian(const Vec3& x) const override;
+  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
+
+ private:
+  std::shared_ptr<const Warp> first_;
+  std::shared_ptr<const Warp> second_;
+};
+
+}  // namespace spacewarp

@@ -1,0 +1,111 @@
+#include "core/warp.h"
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+
+namespace {
+
+// Columns of J^-T scaled by det(J): the cofactor matrix, well defined even when J is singular.
+Mat3 cofactor(const Mat3& j) {
+  return Mat3(glm::cross(j[1], j[2]), glm::cross(j[2], j[0]), glm::cross(j[0], j[1]));
+}
+
+// |det J| small against the product of its column lengths means J is numerically singular.
+bool isSingular(const Mat3& j) {
+  const double det = glm::determinant(j);
+  const double scale = glm::length(j[0]) * glm::length(j[1]) * glm::length(j[2]);
+  return !std::isfinite(det) || std::abs(det) <= 1e-14 * scale;
+}
+
+}  // namespace
+
+Mat3 Warp::jacobian(const Vec3& x) const {
+  const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, maxAbs(x));
+  Mat3 j;
+  for (int axis = 0; axis < 3; ++axis) {
+    Vec3 step(0.0);
+    step[axis] = h;
+    // The realised step (x + h) - (x - h) may differ from 2h in floating point; divide by it.
+    const Vec3 plus = x + step;
+    const Vec3 minus = x - step;
+    j[axis] = (apply(plus) - apply(minus)) / (plus[axis] - minus[axis]);
+  }
+  return j;
+}
+
+void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
+  if (in.size() != out.size()) {
+    throw InvalidInput("Warp::applyBatch: input has " + std::to_string(in.size()) +
+                       " points but output has " + std::to_string(out.size()));
+  }
+  // Every point is independent, so the partition (and the thread count) cannot change results.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = apply(in[i]);
+                    });
+}
+
+Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n) {
+  const Mat3 j = warp.jacobian(x);
+  Vec3 v = cofactor(j) * n;  // = det(J) J^-T n
+  if (glm::determinant(j) < 0.0) v = -v;
+  const double len = glm::length(v);
+  if (!(len > 0.0) || !std::isfinite(len)) return Vec3(0.0);
+  return v / len;
+}
+
+Vec3 transformVector(const Warp& warp, const Vec3& x, const Vec3& v) {
+  return warp.jacobian(x) * v;
+}
+
+InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options) {
+  if (!isFinite(y)) throw InvalidInput("inverse: the target point is not finite");
+  const Vec3 fy = warp.apply(y);
+  const double scale = options.lengthScale > 0.0
+                           ? options.lengthScale
+                           : std::max({maxAbs(y), maxAbs(fy - y), 1e-300});
+  const double tolerance = options.tolerance * scale;
+
+  InverseResult result;
+  result.x = y - (fy - y);
+  double residual = glm::length(warp.apply(result.x) - y);
+  if (!std::isfinite(residual)) {  // the seed left the warp's domain: start from y instead
+    result.x = y;
+    residual = glm::length(fy - y);
+  }
+  for (;;) {
+    result.residual = residual;
+    if (residual <= tolerance) {
+      result.converged = true;
+      return result;
+    }
+    if (result.iterations >= options.maxIterations) return result;
+    const Mat3 j = warp.jacobian(result.x);
+    if (isSingular(j)) return result;
+    const Vec3 dx = -(glm::inverse(j) * (warp.apply(result.x) - y));
+    // Backtracking: halve the step until the residual decreases.
+    bool accepted = false;
+    for (double t = 1.0; t > 1e-10; t *= 0.5) {
+      const Vec3 candidate = result.x + t * dx;
+      const double r = glm::length(warp.apply(candidate) - y);
+      if (r < residual) {
+        result.x = candidate;
+        residual = r;
+        accepted = true;
+        break;
+      }
+    }
+    ++result.iterations;
+    if (!accepted) return result;  // stalled: report the best point found
+  }
+}
+
+}  // namespace spacewarp

@@ -1,0 +1,63 @@
+#pragma once
+// The Warp interface: a map x -> x' of 3D space. Every warp in spacewarp implements it, and
+// everything that consumes warps (soups, point sets, volumes, inversion, normals) takes it.
+
+#include <span>
+
+#include "core/math.h"
+
+namespace spacewarp {
+
+/// A map of 3D space, x -> x'. Every method is const and thread-safe.
+class Warp {
+ public:
+  virtual ~Warp() = default;
+
+  /// The warped position of x (world units).
+  virtual Vec3 apply(const Vec3& x) const = 0;
+
+  /// The Jacobian d x' / d x at x. The default is central differences with a step of
+  /// cbrt(machine epsilon) * max(1, |x|_inf) ~ 6e-6 per axis (about 1e-10 relative error for
+  /// smooth warps);
+  /// warps whose math allows it override this with the analytic Jacobian.
+  virtual Mat3 jacobian(const Vec3& x) const;
+
+  /// out[i] = apply(in[i]) for every i, in parallel (TBB). The result does not depend on the
+  /// number of threads. `in` and `out` must have the same size; they may be the same span.
+  /// Throws InvalidInput when the sizes differ.
+  virtual void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const;
+};
+
+/// The normal n at x carried through the warp: J^-T n, normalised. A warp that is singular
+/// at x gives a zero vector rather than NaN.
+Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n);
+
+/// The tangent vector v at x carried through the warp: J v (not normalised).
+Vec3 transformVector(const Warp& warp, const Vec3& x, const Vec3& v);
+
+/// Options of inverse().
+struct InverseOptions {
+  /// Newton iterations at most.
+  int maxIterations = 50;
+  /// Converged when |warp(x) - y| <= tolerance * scale, where scale is `lengthScale` if it is
+  /// positive, and otherwise max(|y|_inf, |warp(y) - y|_inf, 1e-300).
+  double tolerance = 1e-12;
+  /// World-unit length that the tolerance is relative to; 0 means "derive from y".
+  double lengthScale = 0.0;
+};
+
+/// What inverse() found. `converged` is false when the iterations ran out, the Jacobian was
+/// singular, or the residual stopped decreasing; `x` is then the best point found.
+struct InverseResult {
+  Vec3 x{0.0};
+  bool converged = false;
+  int iterations = 0;
+  double residual = 0.0;  ///< |warp(x) - y| in world units.
+};
+
+/// Finds x with warp(x) = y by damped Newton (backtracking on the residual), seeded by the
+/// reflected displacement x0 = y - (warp(y) - y). Never throws for non-convergence: it
+/// reports it. Throws InvalidInput if y is not finite.
+InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options = {});
+
+}  // namespace spacewarp
