@@ -28,8 +28,9 @@ class Warp {
   virtual void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const;
 };
 
-/// The normal n at x carried through the warp: J^-T n, normalised. A warp that is singular
-/// at x gives a zero vector rather than NaN.
+/// The normal n at x carried through the warp: J^-T n, normalised, computed through the
+/// cofactor matrix det(J) J^-T so that it stays defined where J is singular: at rank 2 it is
+/// the normal of the image plane, at rank 1 or 0 a zero vector (never NaN).
 Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n);
 
 /// The tangent vector v at x carried through the warp: J v (not normalised).

@@ -1,0 +1,69 @@
+#pragma once
+// Bend after Barr, "Global and local deformations of solid primitives" (SIGGRAPH 1984): the
+// region along a spine is wrapped onto a circular arc of curvature `rate`.
+
+#include <limits>
+#include <span>
+
+#include "core/axis_frame.h"
+#include "core/warp.h"
+
+namespace spacewarp {
+
+/// Parameters of BendWarp.
+///
+/// Local frame: y = s = dot(x - origin, a) along the unit spine a = normalize(axis), z along the
+/// unit direction d (`direction` with its component along a removed), x along b = a × d. With
+/// ŷ = clamp(y, lo, hi), θ = k ŷ, S = sin θ, C = cos θ (Barr's bend, centre of the bend at y = 0):
+///   X = x,   Y = -S z + S / k + C (y - ŷ),   Z = C z + (1 - C) / k + S (y - ŷ).
+/// The spine (z = 0) between the limits is wrapped onto the circle of radius 1/k whose centre is
+/// at origin + d / k; beyond the limits the space moves rigidly with the end of the bent region.
+/// The map is locally invertible where 1 - k z > 0 (between the spine's centre of curvature and
+/// the far side); at 1 - k z = 0 (the centre of curvature) it is singular, beyond that it folds.
+struct BendParams {
+  Vec3 origin{0.0};  ///< A point on the spine where the bend starts (y = 0), world units.
+  /// The spine: the direction along which the object extends and bends. Any finite non-zero
+  /// length. Default +z.
+  Vec3 axis{0.0, 0.0, 1.0};
+  /// Towards the centre of curvature for a positive rate. Orthogonalised against `axis`; must not
+  /// be parallel to it. Any finite non-zero length. Default +x.
+  Vec3 direction{1.0, 0.0, 0.0};
+  /// Curvature k: bend angle per unit length along the spine, radians per world unit.
+  /// 0 is exactly the identity; negative bends away from `direction`.
+  double rate = 0.0;
+  double lo = -std::numeric_limits<double>::infinity();  ///< Lower limit on y, world units.
+  double hi = std::numeric_limits<double>::infinity();   ///< Upper limit on y, world units.
+};
+
+/// Barr's bend (see BendParams). Analytic Jacobian: in the local frame, dX/dx = 1,
+/// dY/dy = C (1 - k' z), dY/dz = -S, dZ/dy = S (1 - k' z), dZ/dz = C with k' = k between the
+/// limits and 0 beyond them (a pure rotation there); det J = 1 - k' z.
+///
+/// Without limits the bend is periodic along the spine (period 2 pi / |k|) and folds at
+/// 1 - k z = 0, so a point has many preimages. The generic inverse() (Newton seeded by the
+/// reflected displacement) reliably returns the one with 1 - k z > 0 for bend angles |k ŷ| up to
+/// about 1 rad; at larger angles it can converge to another preimage.
+class BendWarp final : public Warp {
+ public:
+  /// Throws InvalidInput for a zero or non-finite axis or direction, a direction parallel to the
+  /// axis, a non-finite origin or rate, a NaN limit or lo > hi (or lo = +inf, hi = -inf).
+  explicit BendWarp(const BendParams& params);
+
+  Vec3 apply(const Vec3& x) const override;
+  Mat3 jacobian(const Vec3& x) const override;
+  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
+
+  /// The parameters as given (axis and direction not normalised or orthogonalised).
+  const BendParams& params() const { return params_; }
+  /// The unit spine a.
+  const Vec3& axis() const { return frame_.axis; }
+  /// The unit direction d towards the centre of curvature, perpendicular to the axis.
+  const Vec3& direction() const { return direction_; }
+
+ private:
+  BendParams params_;
+  detail::AxisFrame frame_;
+  Vec3 direction_;
+};
+
+}  // namespace spacewarp

@@ -1,0 +1,55 @@
+#pragma once
+// Taper after Barr, "Global and local deformations of solid primitives" (SIGGRAPH 1984): the
+// cross-sections perpendicular to an axis scale by a factor that varies linearly along it.
+
+#include <limits>
+#include <span>
+
+#include "core/axis_frame.h"
+#include "core/warp.h"
+
+namespace spacewarp {
+
+/// Parameters of TaperWarp. With a = normalize(axis), s = dot(x - origin, a), ŝ = clamp(s, lo, hi)
+/// and p = x - origin - s a (the part perpendicular to the axis), the taper keeps the axial
+/// coordinate and scales p by r(ŝ) = 1 + rate ŝ:  x' = origin + s a + r(ŝ) p.
+/// Beyond the limits the scale stays at its value at the limit (continuous).
+///
+/// r ≤ 0 turns the shape inside out: where r = 0 the cross-section collapses onto the axis (the
+/// Jacobian is singular and the map not invertible there); where r < 0 the cross-section is
+/// mirrored through the axis, so the tapered object passes through itself across the plane
+/// r = 0 (det J = r² stays positive: within the plane of the cross-section the mirror is a half
+/// turn). Such parameters are not rejected, but inverse() is only supported where r > 0.
+struct TaperParams {
+  Vec3 origin{0.0};  ///< A point on the taper axis where r = 1, world units. Default origin.
+  Vec3 axis{0.0, 0.0, 1.0};  ///< Direction of the axis; any finite non-zero length. Default +z.
+  double rate = 0.0;  ///< dr/ds: change of the scale per unit length, 1 / world units. 0: identity.
+  double lo = -std::numeric_limits<double>::infinity();  ///< Lower limit on s, world units.
+  double hi = std::numeric_limits<double>::infinity();   ///< Upper limit on s, world units.
+};
+
+/// Barr's taper (see TaperParams). Analytic Jacobian:
+/// J = a aᵀ + r (I - a aᵀ) + r'(s) p aᵀ with r' = rate between the limits, 0 beyond; det J = r².
+class TaperWarp final : public Warp {
+ public:
+  /// Throws InvalidInput for a zero or non-finite axis, a non-finite origin or rate, a NaN limit
+  /// or lo > hi (or lo = +inf, hi = -inf).
+  explicit TaperWarp(const TaperParams& params);
+
+  Vec3 apply(const Vec3& x) const override;
+  Mat3 jacobian(const Vec3& x) const override;
+  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
+
+  /// The parameters as given (the axis not normalised).
+  const TaperParams& params() const { return params_; }
+  /// The unit axis.
+  const Vec3& axis() const { return frame_.axis; }
+  /// The scale r(ŝ) = 1 + rate clamp(s, lo, hi) of the cross-section at axial coordinate s.
+  double scaleAt(double s) const { return 1.0 + params_.rate * frame_.clamp(s); }
+
+ private:
+  TaperParams params_;
+  detail::AxisFrame frame_;
+};
+
+}  // namespace spacewarp

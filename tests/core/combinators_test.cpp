@@ -1,0 +1,166 @@
+#include "core/combinators.h"
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/bend.h"
+#include "core/errors.h"
+#include "core/taper.h"
+#include "core/twist.h"
+#include "test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using test::randomPoints;
+using test::relativeError;
+
+// A general affine map: rotation-shear-scale plus a translation (column-major).
+Mat4 generalAffine() {
+  Mat4 m(1.0);
+  m[0] = {1.2, 0.3, -0.1, 0.0};
+  m[1] = {-0.2, 0.9, 0.4, 0.0};
+  m[2] = {0.05, -0.3, 1.1, 0.0};
+  m[3] = {0.5, -1.0, 2.0, 1.0};
+  return m;
+}
+
+std::shared_ptr<const Warp> twist() {
+  TwistParams p;
+  p.origin = Vec3(0.2, -0.1, 0.0);
+  p.axis = Vec3(0.3, 0.1, 1.0);
+  p.rate = 0.9;
+  return std::make_shared<TwistWarp>(p);
+}
+
+std::shared_ptr<const Warp> bend() {
+  BendParams p;
+  p.axis = Vec3(1, 0, 0);
+  p.direction = Vec3(0, 1, 0.2);
+  p.rate = 0.2;
+  return std::make_shared<BendWarp>(p);
+}
+
+std::shared_ptr<const Warp> taper() {
+  TaperParams p;
+  p.origin = Vec3(0.0, 0.0, -0.5);
+  p.axis = Vec3(0, 1, 0);
+  p.rate = 0.1;
+  return std::make_shared<TaperWarp>(p);
+}
+
+TEST(IdentityWarp, IsTheIdentity) {
+  const IdentityWarp warp;
+  std::mt19937 rng(11);
+  const std::vector<Vec3> points = randomPoints(rng, 200, -5.0, 5.0);
+  for (const Vec3& x : points) {
+    EXPECT_EQ(warp.apply(x), x);
+    EXPECT_EQ(warp.jacobian(x), Mat3(1.0));
+  }
+  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points));
+  EXPECT_TRUE(test::inverseRecovers(warp, points));
+  EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng));
+  EXPECT_TRUE(test::batchIsDeterministic(warp, randomPoints(rng, 100'000, -5.0, 5.0)));
+}
+
+TEST(AffineWarp, AppliesTheMatrix) {
+  const Mat4 m = generalAffine();
+  const AffineWarp warp(m);
+  std::mt19937 rng(12);
+  const std::vector<Vec3> points = randomPoints(rng, 200, -5.0, 5.0);
+  for (const Vec3& x : points) {
+    const Vec3 expected = Vec3(m * glm::dvec4(x, 1.0));
+    EXPECT_LT(relativeError(warp.apply(x), expected), 1e-15);
+  }
+  EXPECT_EQ(warp.translation(), Vec3(0.5, -1.0, 2.0));
+  EXPECT_EQ(warp.linear(), Mat3(m));
+  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points));
+  EXPECT_TRUE(test::inverseRecovers(warp, points));
+  EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng));
+  EXPECT_TRUE(test::batchIsDeterministic(warp, randomPoints(rng, 100'000, -5.0, 5.0)));
+}
+
+TEST(AffineWarp, RejectsProjectiveAndNonFiniteMatrices) {
+  for (int c = 0; c < 3; ++c) {
+    Mat4 m = generalAffine();
+    m[c][3] = 0.25;  // a projective last row
+    EXPECT_THROW(AffineWarp{m}, InvalidInput) << "column " << c;
+  }
+  Mat4 w = generalAffine();
+  w[3][3] = 2.0;
+  EXPECT_THROW(AffineWarp{w}, InvalidInput);
+  for (int c = 0; c < 4; ++c) {
+    for (int r = 0; r < 3; ++r) {
+      Mat4 m = generalAffine();
+      m[c][r] = std::numeric_limits<double>::quiet_NaN();
+      EXPECT_THROW(AffineWarp{m}, InvalidInput) << "entry " << r << ", " << c;
+      m[c][r] = -std::numeric_limits<double>::infinity();
+      EXPECT_THROW(AffineWarp{m}, InvalidInput) << "entry " << r << ", " << c;
+    }
+  }
+  try {
+    Mat4 m = generalAffine();
+    m[1][2] = std::numeric_limits<double>::quiet_NaN();
+    AffineWarp{m};
+    FAIL() << "no exception";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("(2, 1)"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ComposedWarp, RejectsNullWarps) {
+  EXPECT_THROW(ComposedWarp(nullptr, twist()), InvalidInput);
+  EXPECT_THROW(ComposedWarp(twist(), nullptr), InvalidInput);
+}
+
+TEST(ComposedWarp, AppliesBothInOrderWithTheChainRule) {
+  const std::vector<std::pair<std::shared_ptr<const Warp>, std::shared_ptr<const Warp>>> pairs = {
+      {twist(), bend()},
+      {bend(), twist()},
+      {taper(), std::make_shared<AffineWarp>(generalAffine())},
+      {std::make_shared<AffineWarp>(generalAffine()), taper()},
+      {twist(), std::make_shared<ComposedWarp>(bend(), taper())},
+  };
+  std::mt19937 rng(13);
+  for (const auto& [first, second] : pairs) {
+    const ComposedWarp warp(first, second);
+    const std::vector<Vec3> points = randomPoints(rng, 200, -1.5, 1.5);
+    for (const Vec3& x : points) {
+      EXPECT_EQ(warp.apply(x), second->apply(first->apply(x)));
+      const Mat3 chain = second->jacobian(first->apply(x)) * first->jacobian(x);
+      EXPECT_LT(relativeError(warp.jacobian(x), chain), 1e-15);
+    }
+    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points));
+    EXPECT_TRUE(test::inverseRecovers(warp, points));
+    EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng));
+  }
+}
+
+TEST(ComposedWarp, OrderMatters) {
+  const ComposedWarp ab(twist(), bend());
+  const ComposedWarp ba(bend(), twist());
+  const Vec3 x(1.0, 0.5, 1.2);
+  EXPECT_GT(glm::length(ab.apply(x) - ba.apply(x)), 1e-3);
+}
+
+TEST(ComposedWarp, BatchIsBitIdenticalToApplyForAnyThreadCount) {
+  std::mt19937 rng(14);
+  const std::vector<Vec3> points = randomPoints(rng, 100'000, -3.0, 3.0);
+  EXPECT_TRUE(test::batchIsDeterministic(ComposedWarp(twist(), bend()), points));
+  EXPECT_TRUE(test::batchIsDeterministic(
+      ComposedWarp(taper(), std::make_shared<ComposedWarp>(twist(), bend())), points));
+}
+
+TEST(ComposedWarp, BatchRejectsMismatchedSizes) {
+  const ComposedWarp warp(twist(), bend());
+  std::vector<Vec3> in(5), out(4);
+  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput);
+}
+
+}  // namespace
+}  // namespace spacewarp

@@ -1,0 +1,220 @@
+#include "core/warp.h"
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "core/bend.h"
+#include "core/combinators.h"
+#include "core/errors.h"
+#include "core/taper.h"
+#include "core/twist.h"
+#include "test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using test::randomPoints;
+using test::relativeError;
+
+// A smooth nonlinear warp that keeps the default (finite-difference) Jacobian and batch.
+class SinWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override {
+    return {std::sin(x.y), x.x * x.z, std::exp(0.1 * x.x)};
+  }
+  static Mat3 exactJacobian(const Vec3& x) {
+    Mat3 j(0.0);  // j[c][r] = d out_r / d x_c
+    j[1][0] = std::cos(x.y);
+    j[0][1] = x.z;
+    j[2][1] = x.x;
+    j[0][2] = 0.1 * std::exp(0.1 * x.x);
+    return j;
+  }
+};
+
+// x + 0.3 (sin y, sin z, sin x), keeping the default Jacobian.
+class WobbleWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override {
+    return x + 0.3 * Vec3(std::sin(x.y), std::sin(x.z), std::sin(x.x));
+  }
+};
+
+// Maps all of space onto the plane z = 0 (singular everywhere), without overriding anything.
+class FlattenWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override { return {x.x + 0.1 * x.y * x.y, x.y, 0.0}; }
+};
+
+TEST(Warp, DefaultJacobianMatchesClosedForm) {
+  const SinWarp warp;
+  std::mt19937 rng(1);
+  for (const Vec3& x : randomPoints(rng, 500, -3.0, 3.0)) {
+    const Mat3 j = warp.jacobian(x);
+    const Mat3 exact = SinWarp::exactJacobian(x);
+    EXPECT_LE(relativeError(j, exact), 1e-8) << test::toString(x);
+  }
+  // Far from the origin the step grows with |x|, so the relative accuracy holds.
+  for (const Vec3& x : randomPoints(rng, 100, 20.0, 40.0)) {
+    const Mat3 exact = SinWarp::exactJacobian(x);
+    EXPECT_LE(test::frobenius(warp.jacobian(x) - exact) / test::frobenius(exact), 1e-7)
+        << test::toString(x);
+  }
+}
+
+TEST(Warp, TestHelperFiniteDifferencesMatchClosedForm) {
+  const SinWarp warp;
+  std::mt19937 rng(2);
+  for (const Vec3& x : randomPoints(rng, 200, -3.0, 3.0))
+    EXPECT_LE(relativeError(test::finiteDifferenceJacobian(warp, x), SinWarp::exactJacobian(x)),
+              1e-9);
+}
+
+TEST(Warp, TransformVectorIsJacobianTimesVector) {
+  const SinWarp warp;
+  const Vec3 x(0.3, -0.4, 1.2), v(1.0, 2.0, -0.5);
+  EXPECT_EQ(transformVector(warp, x, v), warp.jacobian(x) * v);
+}
+
+TEST(Warp, TransformNormalIsInverseTransposeNormalised) {
+  Mat4 m(1.0);
+  m[0] = {2.0, 0.5, 0.0, 0.0};
+  m[1] = {0.0, 1.0, 0.3, 0.0};
+  m[2] = {0.1, 0.0, 3.0, 0.0};
+  const AffineWarp warp(m);
+  const Vec3 n = glm::normalize(Vec3(1.0, -2.0, 0.5));
+  const Vec3 expected = glm::normalize(glm::transpose(glm::inverse(warp.linear())) * n);
+  EXPECT_LT(relativeError(transformNormal(warp, Vec3(0.0), n), expected), 1e-15);
+  // A reflection flips the orientation, but the normal still follows J^-T n, not its opposite.
+  const AffineWarp mirror(glm::scale(Mat4(1.0), Vec3(-1.0, 1.0, 1.0)));
+  EXPECT_LT(relativeError(transformNormal(mirror, Vec3(0.0), Vec3(1, 0, 0)), Vec3(-1, 0, 0)),
+            1e-15);
+}
+
+TEST(Warp, TransformNormalOfACollapsedWarpIsZeroNotNaN) {
+  const AffineWarp collapse(
+      Mat4(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 2.0, 3.0, 1.0));
+  const Vec3 n = transformNormal(collapse, Vec3(1.0), Vec3(0, 0, 1));
+  EXPECT_EQ(n, Vec3(0.0));
+}
+
+TEST(Warp, NormalsOfTheDefaultJacobianStayPerpendicular) {
+  const SinWarp warp;
+  std::mt19937 rng(3);
+  // Keep away from the singular set (cos y = 0 or x = 0) so J is well conditioned.
+  const std::vector<Vec3> points = test::randomPointsWhere(
+      rng, 200, -1.2, 1.2, [](const Vec3& x) { return std::abs(x.x) > 0.2; });
+  EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng, 1e-12));
+}
+
+TEST(Warp, InverseOfASmoothWarpConverges) {
+  // The identity plus a perturbation with Lipschitz constant 0.3 < 1: injective everywhere.
+  const WobbleWarp warp;
+  std::mt19937 rng(4);
+  EXPECT_TRUE(test::inverseRecovers(warp, randomPoints(rng, 200, -5.0, 5.0)));
+}
+
+TEST(Warp, InverseOfANonInjectiveWarpFindsAPreimage) {
+  // sin is not injective: whatever inverse() reports as converged must map onto the target.
+  const SinWarp warp;
+  std::mt19937 rng(7);
+  for (const Vec3& x : test::randomPointsWhere(rng, 200, -1.0, 1.0,
+                                               [](const Vec3& p) { return std::abs(p.x) > 0.3; })) {
+    const Vec3 y = warp.apply(x);
+    const InverseResult r = inverse(warp, y);
+    EXPECT_LE(glm::length(warp.apply(r.x) - y), r.residual * (1.0 + 1e-12));
+    if (r.converged) {
+      const double scale = std::max({maxAbs(y), maxAbs(warp.apply(y) - y), 1e-300});
+      EXPECT_LE(r.residual, 1e-12 * scale);
+    }
+  }
+}
+
+TEST(Warp, InverseOfAWarpOntoAPlaneReportsNoConvergence) {
+  const FlattenWarp warp;
+  InverseResult r;
+  ASSERT_NO_THROW(r = inverse(warp, Vec3(1.0, 2.0, 3.0)));
+  EXPECT_FALSE(r.converged);
+  EXPECT_TRUE(isFinite(r.x));
+  EXPECT_GT(r.residual, 1.0);  // z = 3 is out of reach
+}
+
+TEST(Warp, InverseRejectsNonFiniteTarget) {
+  const SinWarp warp;
+  EXPECT_THROW(inverse(warp, Vec3(0.0, std::numeric_limits<double>::quiet_NaN(), 0.0)),
+               InvalidInput);
+  EXPECT_THROW(inverse(warp, Vec3(std::numeric_limits<double>::infinity(), 0.0, 0.0)),
+               InvalidInput);
+}
+
+TEST(Warp, InverseHonoursMaxIterations) {
+  const TwistWarp warp([] {
+    TwistParams p;
+    p.rate = 2.0;
+    return p;
+  }());
+  InverseOptions options;
+  options.maxIterations = 1;
+  const InverseResult r = inverse(warp, warp.apply(Vec3(1.5, -0.5, 1.0)), options);
+  EXPECT_LE(r.iterations, 1);
+  if (!r.converged) {
+    EXPECT_GT(r.residual, 0.0);
+  }
+}
+
+TEST(Warp, DefaultBatchIsBitIdenticalToApplyForAnyThreadCount) {
+  const SinWarp warp;
+  std::mt19937 rng(5);
+  EXPECT_TRUE(test::batchIsDeterministic(warp, randomPoints(rng, 100'000, -3.0, 3.0)));
+}
+
+TEST(Warp, DefaultBatchRejectsMismatchedSizesAndAcceptsEmpty) {
+  const SinWarp warp;
+  std::vector<Vec3> in(5), out(6), none;
+  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput);
+  EXPECT_NO_THROW(warp.applyBatch(none, none));
+}
+
+// The analytic warps against the same shared properties through the Warp interface.
+TEST(Warp, AnalyticWarpsThroughTheInterface) {
+  std::vector<std::unique_ptr<Warp>> warps;
+  {
+    TwistParams p;
+    p.origin = Vec3(0.1, 0.2, 0.3);
+    p.axis = Vec3(1, 1, 1);
+    p.rate = 0.8;
+    warps.push_back(std::make_unique<TwistWarp>(p));
+  }
+  {
+    BendParams p;
+    p.axis = Vec3(0, 1, 0);
+    p.direction = Vec3(0, 0, 1);
+    p.rate = 0.3;
+    p.lo = -1.0;
+    p.hi = 1.0;
+    warps.push_back(std::make_unique<BendWarp>(p));
+  }
+  {
+    TaperParams p;
+    p.axis = Vec3(1, 0, 0);
+    p.rate = 0.1;
+    warps.push_back(std::make_unique<TaperWarp>(p));
+  }
+  std::mt19937 rng(6);
+  for (const auto& warp : warps) {
+    // Inside (-0.98, 0.98)^3: away from the bend's limits at +-1.
+    const std::vector<Vec3> points = randomPoints(rng, 200, -0.98, 0.98);
+    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(*warp, points));
+    EXPECT_TRUE(test::inverseRecovers(*warp, points));
+    EXPECT_TRUE(test::normalsStayPerpendicular(*warp, points, rng));
+  }
+}
+
+}  // namespace
+}  // namespace spacewarp
