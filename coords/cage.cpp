@@ -1,0 +1,253 @@
+#include "coords/cage.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <string>
+#include <utility>
+
+#include "core/errors.h"
+#include "core/io/mesh_io.h"
+
+namespace spacewarp {
+
+namespace {
+
+std::string str(std::size_t i) { return std::to_string(i); }
+
+// Newell's normal of a polygon (area-weighted, robust for non-planar and concave polygons).
+Vec3 newellNormal(std::span<const Vec3> p) {
+  Vec3 n(0.0);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Vec3& a = p[i];
+    const Vec3& b = p[(i + 1) % p.size()];
+    n += Vec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+  }
+  return n;
+}
+
+double cross2(const glm::dvec2& a, const glm::dvec2& b) { return a.x * b.y - a.y * b.x; }
+
+// Triangulates one polygon (local indices into `p`): a fan when it is convex in its plane,
+// ear clipping otherwise. Returns false if no ear can be found (a self-intersecting polygon).
+bool triangulatePolygon(std::span<const Vec3> p, std::vector<glm::uvec3>& out) {
+  const std::size_t n = p.size();
+  if (n == 3) {
+    out.emplace_back(0, 1, 2);
+    return true;
+  }
+  // Project onto the plane orthogonal to the Newell normal, keeping orientation.
+  const Vec3 normal = newellNormal(p);
+  const double len = glm::length(normal);
+  if (!(len > 0.0)) return false;
+  const Vec3 w = normal / len;
+  const Vec3 helper = std::abs(w.x) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+  const Vec3 u = glm::normalize(glm::cross(helper, w));
+  const Vec3 v = glm::cross(w, u);
+  std::vector<glm::dvec2> q(n);
+  for (std::size_t i = 0; i < n; ++i) q[i] = {glm::dot(p[i] - p[0], u), glm::dot(p[i] - p[0], v)};
+
+  bool convex = true;
+  for (std::size_t i = 0; i < n && convex; ++i)
+    convex = cross2(q[(i + 1) % n] - q[i], q[(i + 2) % n] - q[(i + 1) % n]) > 0.0;
+  if (convex) {
+    for (std::size_t i = 1; i + 1 < n; ++i)
+      out.emplace_back(0, static_cast<unsigned>(i), static_cast<unsigned>(i + 1));
+    return true;
+  }
+
+  std::vector<unsigned> ring(n);
+  for (std::size_t i = 0; i < n; ++i) ring[i] = static_cast<unsigned>(i);
+  auto inside = [&](const glm::dvec2& x, const glm::dvec2& a, const glm::dvec2& b,
+                    const glm::dvec2& c) {
+    return cross2(b - a, x - a) >= 0.0 && cross2(c - b, x - b) >= 0.0 && cross2(a - c, x - c) >= 0.0;
+  };
+  while (ring.size() > 3) {
+    bool clipped = false;
+    for (std::size_t i = 0; i < ring.size() && !clipped; ++i) {
+      const unsigned ia = ring[(i + ring.size() - 1) % ring.size()], ib = ring[i],
+                     ic = ring[(i + 1) % ring.size()];
+      if (cross2(q[ib] - q[ia], q[ic] - q[ib]) <= 0.0) continue;  // reflex or flat corner
+      bool ear = true;
+      for (unsigned j : ring) {
+        if (j != ia && j != ib && j != ic && inside(q[j], q[ia], q[ib], q[ic])) {
+          ear = false;
+          break;
+        }
+      }
+      if (!ear) continue;
+      out.emplace_back(ia, ib, ic);
+      ring.erase(ring.begin() + static_cast<std::ptrdiff_t>(i));
+      clipped = true;
+    }
+    if (!clipped) return false;
+  }
+  out.emplace_back(ring[0], ring[1], ring[2]);
+  return true;
+}
+
+}  // namespace
+
+Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
+  auto fail = [&](const std::string& what) { throw InvalidInput(name_ + ": " + what); };
+
+  if (soup.positions.size() < 4)
+    fail("a cage needs at least 4 vertices, this one has " + str(soup.positions.size()));
+  for (std::size_t i = 0; i < soup.positions.size(); ++i)
+    if (!isFinite(soup.positions[i])) fail("vertex " + str(i) + " has a non-finite coordinate");
+  if (soup.polygonCount() == 0) fail("a cage needs faces, this one has none");
+  try {
+    soup.validate();
+  } catch (const InvalidInput& e) {
+    fail(e.what());
+  }
+  vertices_ = soup.positions;
+  inputOffsets_ = soup.faceOffsets;
+  inputIndices_ = soup.faceIndices;
+  const BoundingBox box = boundingBox(vertices_);
+  diagonal_ = box.diagonal();
+
+  // Triangulate, recording each triangle's source polygon.
+  const double minArea = 1e-12 * diagonal_ * diagonal_;
+  std::vector<glm::uvec3> local;
+  std::vector<Vec3> corners;
+  for (std::size_t f = 0; f < soup.polygonCount(); ++f) {
+    const auto poly = soup.polygon(f);
+    corners.clear();
+    for (std::uint32_t v : poly) corners.push_back(vertices_[v]);
+    local.clear();
+    if (!triangulatePolygon(corners, local))
+      fail("face " + str(f) + " could not be triangulated (degenerate or self-intersecting)");
+    for (const glm::uvec3& t : local) {
+      const Triangle tri(poly[t.x], poly[t.y], poly[t.z]);
+      const Vec3 cross = glm::cross(vertices_[tri.y] - vertices_[tri.x],
+                                    vertices_[tri.z] - vertices_[tri.x]);
+      if (0.5 * glm::length(cross) <= minArea)
+        fail("face " + str(f) + " has zero area (vertices " + str(tri.x) + ", " + str(tri.y) +
+             ", " + str(tri.z) + ")");
+      triangles_.push_back(tri);
+      triangleSource_.push_back(static_cast<std::uint32_t>(f));
+    }
+  }
+
+  std::vector<bool> used(vertices_.size(), false);
+  for (const Triangle& t : triangles_) used[t.x] = used[t.y] = used[t.z] = true;
+  for (std::size_t i = 0; i < used.size(); ++i)
+    if (!used[i]) fail("vertex " + str(i) + " is not used by any face");
+
+  // Edge -> the triangles using it, with the direction each traverses it in.
+  struct Use {
+    std::uint32_t triangle;
+    bool forward;  // traverses the edge from its smaller to its larger vertex
+  };
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<Use>> edges;
+  for (std::uint32_t t = 0; t < triangles_.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = triangles_[t][k], b = triangles_[t][(k + 1) % 3];
+      edges[{std::min(a, b), std::max(a, b)}].push_back({t, a < b});
+    }
+  }
+  for (const auto& [edge, uses] : edges) {
+    const std::string e = "edge (" + str(edge.first) + ", " + str(edge.second) + ")";
+    if (uses.size() == 1) fail("the cage is not closed: open boundary at " + e);
+    if (uses.size() > 2)
+      fail("non-manifold " + e + " is shared by " + str(uses.size()) + " triangles");
+  }
+
+  // Consistent orientation by a breadth-first walk over each component: neighbours across an
+  // edge must traverse it in opposite directions.
+  std::vector<std::vector<std::pair<std::uint32_t, bool>>> neighbours(triangles_.size());
+  for (const auto& [edge, uses] : edges) {
+    const bool same = uses[0].forward == uses[1].forward;  // same direction: one must flip
+    neighbours[uses[0].triangle].push_back({uses[1].triangle, same});
+    neighbours[uses[1].triangle].push_back({uses[0].triangle, same});
+  }
+  std::vector<int> flip(triangles_.size(), -1);  // -1 unvisited, 0 keep, 1 flip
+  std::vector<std::uint32_t> component;
+  for (std::uint32_t seed = 0; seed < triangles_.size(); ++seed) {
+    if (flip[seed] != -1) continue;
+    component.assign(1, seed);
+    flip[seed] = 0;
+    for (std::size_t head = 0; head < component.size(); ++head) {
+      const std::uint32_t t = component[head];
+      for (const auto& [u, differ] : neighbours[t]) {
+        const int want = flip[t] ^ static_cast<int>(differ);
+        if (flip[u] == -1) {
+          flip[u] = want;
+          component.push_back(u);
+        } else if (flip[u] != want) {
+          fail("the cage is not orientable (triangles " + str(t) + " and " + str(u) +
+               " of face " + str(triangleSource_[u]) + " cannot agree)");
+        }
+      }
+    }
+    // Outward: the component's signed volume (after the consistent flips) must be positive.
+    double signedVolume = 0.0;
+    for (std::uint32_t t : component) {
+      const Triangle& tri = triangles_[t];
+      const double v = glm::dot(vertices_[tri.x], glm::cross(vertices_[tri.y], vertices_[tri.z]));
+      signedVolume += flip[t] ? -v : v;
+    }
+    if (signedVolume < 0.0)
+      for (std::uint32_t t : component) flip[t] ^= 1;
+  }
+  for (std::size_t t = 0; t < triangles_.size(); ++t) {
+    if (flip[t]) {
+      std::swap(triangles_[t].y, triangles_[t].z);
+      ++reorientedCount_;
+    }
+  }
+  for (const Triangle& t : triangles_)
+    volume_ += glm::dot(vertices_[t.x], glm::cross(vertices_[t.y], vertices_[t.z])) / 6.0;
+  if (!(volume_ > 0.0)) fail("the cage encloses no volume");
+}
+
+Cage Cage::fromFile(const std::filesystem::path& path) {
+  return Cage(readSoup(path), path.string());
+}
+
+Vec3 Cage::normal(std::size_t t) const {
+  const Triangle& tri = triangles_[t];
+  return glm::normalize(
+      glm::cross(vertices_[tri.y] - vertices_[tri.x], vertices_[tri.z] - vertices_[tri.x]));
+}
+
+double Cage::area(std::size_t t) const {
+  const Triangle& tri = triangles_[t];
+  return 0.5 * glm::length(
+                   glm::cross(vertices_[tri.y] - vertices_[tri.x], vertices_[tri.z] - vertices_[tri.x]));
+}
+
+std::vector<Vec3> Cage::posedVertices(const PolygonSoup& posed, const std::string& name) const {
+  if (posed.positions.size() != vertices_.size()) {
+    throw InvalidInput(name + ": the posed cage has " + str(posed.positions.size()) +
+                       " vertices but the rest cage " + name_ + " has " + str(vertices_.size()));
+  }
+  if (posed.polygonCount() != 0) {
+    const std::size_t restFaces = inputOffsets_.size() - 1;
+    if (posed.polygonCount() != restFaces) {
+      throw InvalidInput(name + ": the posed cage has " + str(posed.polygonCount()) +
+                         " faces but the rest cage " + name_ + " has " + str(restFaces));
+    }
+    if (posed.faceOffsets != inputOffsets_ || posed.faceIndices != inputIndices_) {
+      for (std::size_t f = 0; f < restFaces; ++f) {
+        const auto p = posed.polygon(f);
+        const auto* begin = inputIndices_.data() + inputOffsets_[f];
+        const auto* end = inputIndices_.data() + inputOffsets_[f + 1];
+        if (!std::equal(p.begin(), p.end(), begin, end))
+          throw InvalidInput(name + ": face " + str(f) + " differs from the rest cage's face " +
+                             str(f));
+      }
+    }
+  }
+  for (std::size_t i = 0; i < posed.positions.size(); ++i)
+    if (!isFinite(posed.positions[i]))
+      throw InvalidInput(name + ": vertex " + str(i) + " has a non-finite coordinate");
+  return posed.positions;
+}
+
+std::vector<Vec3> Cage::posedVerticesFromFile(const std::filesystem::path& path) const {
+  return posedVertices(readSoup(path), path.string());
+}
+
+}  // namespace spacewarp

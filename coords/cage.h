@@ -1,0 +1,75 @@
+#pragma once
+// The cage: a closed, consistently and outwardly oriented triangle mesh that controls a
+// deformation through cage coordinates (mean-value, Green, harmonic).
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "core/geometry.h"
+
+namespace spacewarp {
+
+using Triangle = glm::u32vec3;  ///< Three vertex indices.
+
+/// A validated cage. Polygons are triangulated (a fan for convex faces, ear clipping
+/// otherwise); triangleSource() records which input polygon every triangle came from, so
+/// results are reproducible. Triangles are oriented consistently with outward normals.
+class Cage {
+ public:
+  /// Validates and triangulates `soup`; `name` (usually the file) prefixes every message.
+  /// Throws InvalidInput naming the element for: fewer than 4 vertices, a non-finite
+  /// coordinate, a polygon with fewer than 3 vertices or an index out of range, a vertex used by
+  /// no face, a zero-area triangle, an open boundary (names an edge), a non-manifold edge
+  /// (more than two triangles), or a non-orientable surface. An inconsistently oriented but
+  /// orientable surface is re-oriented (see reorientedCount()), and every component whose
+  /// signed volume is negative is flipped so normals point outward.
+  explicit Cage(const PolygonSoup& soup, const std::string& name = "cage");
+
+  /// Reads a cage from any supported file (OBJ, OFF, PLY). Throws IoError for unreadable files
+  /// and InvalidInput (naming the file) for invalid cages.
+  static Cage fromFile(const std::filesystem::path& path);
+
+  std::span<const Vec3> vertices() const { return vertices_; }
+  std::span<const Triangle> triangles() const { return triangles_; }
+  std::size_t vertexCount() const { return vertices_.size(); }
+  std::size_t triangleCount() const { return triangles_.size(); }
+
+  /// For triangle t, the index of the input polygon it was cut from.
+  std::span<const std::uint32_t> triangleSource() const { return triangleSource_; }
+
+  /// How many input triangles had to be flipped for a consistent outward orientation.
+  std::size_t reorientedCount() const { return reorientedCount_; }
+
+  /// The bounding-box diagonal: the length that every tolerance on this cage is relative to.
+  double diagonal() const { return diagonal_; }
+
+  /// The enclosed volume (positive: triangles face outward).
+  double volume() const { return volume_; }
+
+  /// Unit outward normal and area of triangle t.
+  Vec3 normal(std::size_t t) const;
+  double area(std::size_t t) const;
+
+  /// The vertices of a posed cage, checked against this (rest) cage: the vertex count must
+  /// match, and if the posed soup has polygons they must be the rest polygons. Throws
+  /// InvalidInput saying which count differs, or naming a non-finite vertex.
+  std::vector<Vec3> posedVertices(const PolygonSoup& posed, const std::string& name) const;
+  std::vector<Vec3> posedVerticesFromFile(const std::filesystem::path& path) const;
+
+ private:
+  std::string name_;
+  std::vector<Vec3> vertices_;
+  std::vector<Triangle> triangles_;
+  std::vector<std::uint32_t> triangleSource_;
+  std::vector<std::uint32_t> inputOffsets_, inputIndices_;  // the input polygons, for posed checks
+  std::size_t reorientedCount_ = 0;
+  double diagonal_ = 0.0;
+  double volume_ = 0.0;
+};
+
+}  // namespace spacewarp

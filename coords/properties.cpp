@@ -1,0 +1,124 @@
+#include "coords/properties.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+
+namespace {
+
+// The weight rows of `points`, row-major, points.size() × columnCount().
+std::vector<double> weightRows(const Coordinates& c, std::span<const Vec3> points) {
+  std::vector<double> rows(points.size() * c.columnCount());
+  c.weightsBatch(points, rows);
+  return rows;
+}
+
+}  // namespace
+
+PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cage,
+                                 std::span<const Vec3> samples, const PropertyOptions& options) {
+  const std::size_t nv = coordinates.controlPointCount();
+  const std::size_t m = coordinates.columnCount();
+  if (nv != cage.vertexCount()) {
+    throw InvalidInput("measureProperties: the coordinates have " + std::to_string(nv) +
+                       " control points but the cage has " + std::to_string(cage.vertexCount()) +
+                       " vertices");
+  }
+  if (samples.empty()) throw InvalidInput("measureProperties: no sample points");
+  const double diagonal = cage.diagonal();
+
+  std::vector<Vec3> restColumns(m);
+  coordinates.columnControls(cage.vertices(), restColumns);
+
+  // The similarity-posed cage and its column controls, as displacements.
+  const Vec3 centre = 0.5 * (boundingBox(cage.vertices()).min + boundingBox(cage.vertices()).max);
+  Mat4 similarity = glm::translate(Mat4(1.0), centre + options.similarityTranslation * diagonal);
+  similarity = glm::rotate(similarity, options.similarityAngle, glm::normalize(options.similarityAxis));
+  similarity = glm::scale(similarity, Vec3(options.similarityScale));
+  similarity = glm::translate(similarity, -centre);
+  auto applySimilarity = [&](const Vec3& x) { return Vec3(similarity * glm::dvec4(x, 1.0)); };
+  std::vector<Vec3> posed(nv), displacement(m);
+  for (std::size_t i = 0; i < nv; ++i) posed[i] = applySimilarity(cage.vertices()[i]);
+  coordinates.columnControls(posed, displacement);
+  for (std::size_t c = 0; c < m; ++c) displacement[c] -= restColumns[c];
+
+  PropertyReport report;
+  report.sampleCount = samples.size();
+  report.minWeight = std::numeric_limits<double>::infinity();
+  std::size_t negative = 0, samplesNegative = 0;
+  const std::vector<double> rows = weightRows(coordinates, samples);
+  for (std::size_t s = 0; s < samples.size(); ++s) {
+    const double* w = rows.data() + s * m;
+    double sum = 0.0;
+    bool anyNegative = false;
+    for (std::size_t i = 0; i < nv; ++i) {
+      sum += w[i];
+      report.minWeight = std::min(report.minWeight, w[i]);
+      if (w[i] < 0.0) {
+        ++negative;
+        anyNegative = true;
+      }
+    }
+    samplesNegative += anyNegative;
+    Vec3 reproduced(0.0), moved(samples[s]);
+    for (std::size_t c = 0; c < m; ++c) {
+      reproduced += w[c] * restColumns[c];
+      moved += w[c] * displacement[c];
+    }
+    report.partitionOfUnity = std::max(report.partitionOfUnity, std::abs(sum - 1.0));
+    report.linearReproduction =
+        std::max(report.linearReproduction, glm::length(reproduced - samples[s]) / diagonal);
+    report.similarityReproduction = std::max(
+        report.similarityReproduction, glm::length(moved - applySimilarity(samples[s])) / diagonal);
+  }
+  report.negativeFraction = static_cast<double>(negative) / static_cast<double>(samples.size() * nv);
+  report.samplesWithNegative =
+      static_cast<double>(samplesNegative) / static_cast<double>(samples.size());
+
+  // Lagrange property: w_i(v_j) = δ_ij.
+  const std::vector<double> atVertices = weightRows(coordinates, cage.vertices());
+  for (std::size_t j = 0; j < nv; ++j)
+    for (std::size_t i = 0; i < nv; ++i)
+      report.lagrange = std::max(report.lagrange,
+                                 std::abs(atVertices[j * m + i] - (i == j ? 1.0 : 0.0)));
+
+  // Linear interpolation on faces: at random barycentric points of every triangle.
+  std::mt19937_64 rng(options.seed);
+  auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  std::vector<Vec3> onFaces;
+  std::vector<Vec3> barycentric;
+  for (const Triangle& t : cage.triangles()) {
+    for (std::size_t k = 0; k < options.faceSamplesPerTriangle; ++k) {
+      double a = unit(), b = unit();
+      if (a + b > 1.0) a = 1.0 - a, b = 1.0 - b;
+      const Vec3 bc(1.0 - a - b, a, b);
+      barycentric.push_back(bc);
+      onFaces.push_back(bc.x * cage.vertices()[t.x] + bc.y * cage.vertices()[t.y] +
+                        bc.z * cage.vertices()[t.z]);
+    }
+  }
+  const std::vector<double> atFaces = weightRows(coordinates, onFaces);
+  std::vector<double> expected(nv);
+  for (std::size_t f = 0; f < onFaces.size(); ++f) {
+    const Triangle& t = cage.triangles()[f / options.faceSamplesPerTriangle];
+    std::fill(expected.begin(), expected.end(), 0.0);
+    expected[t.x] += barycentric[f].x;
+    expected[t.y] += barycentric[f].y;
+    expected[t.z] += barycentric[f].z;
+    for (std::size_t i = 0; i < nv; ++i)
+      report.faceInterpolation =
+          std::max(report.faceInterpolation, std::abs(atFaces[f * m + i] - expected[i]));
+  }
+  return report;
+}
+
+}  // namespace spacewarp

@@ -1,0 +1,56 @@
+#pragma once
+// The coordinate property kit: measures the properties that cage coordinates are expected to
+// have, for any Coordinates and sample points, and returns numbers a test suite can assert on.
+
+#include <cstdint>
+#include <span>
+
+#include "coords/cage.h"
+#include "core/coordinates.h"
+
+namespace spacewarp {
+
+/// Options of measureProperties().
+struct PropertyOptions {
+  /// Random points (uniform barycentric) per cage triangle for the face-interpolation check.
+  std::size_t faceSamplesPerTriangle = 4;
+  /// Seed of those random points (the report is deterministic for a given seed).
+  std::uint64_t seed = 1;
+  /// The similarity used for the similarity-reproduction check: rotation angle (radians) about
+  /// the axis, uniform scale, and translation in units of the cage diagonal.
+  double similarityAngle = 0.7;
+  Vec3 similarityAxis{1.0, 2.0, 3.0};
+  double similarityScale = 1.3;
+  Vec3 similarityTranslation{0.1, -0.2, 0.3};
+};
+
+/// What measureProperties() found. Errors are maxima over the samples; lengths are relative to
+/// the cage's bounding-box diagonal. Only the first controlPointCount() columns (the vertex
+/// weights) count for partition of unity, signs, Lagrange and face interpolation; the face
+/// columns of Green coordinates count for linear and similarity reproduction.
+struct PropertyReport {
+  std::size_t sampleCount = 0;
+  double partitionOfUnity = 0.0;    ///< max |Σ_i w_i(x) − 1|
+  double linearReproduction = 0.0;  ///< max |Σ_c w_c(x) C_c(rest) − x| / diagonal
+  double minWeight = 0.0;           ///< smallest vertex weight at any sample
+  double negativeFraction = 0.0;    ///< fraction of (sample, vertex) weights below zero
+  double samplesWithNegative = 0.0; ///< fraction of samples with at least one negative weight
+  /// max |w_i(v_j) − δ_ij| over the cage vertices v_j (interpolating coordinates have 0).
+  double lagrange = 0.0;
+  /// max |w(x) − barycentric(x)| at random points on cage triangles (interpolating coordinates
+  /// are linear on faces).
+  double faceInterpolation = 0.0;
+  /// max |x' − S(x)| / diagonal, where the cage is posed by the similarity S (rotation, uniform
+  /// scale, translation) and x' is the deformed sample. 0 for coordinates that reproduce
+  /// similarities (Green); other coordinates reproduce only affine maps of the whole cage, and a
+  /// similarity is affine, so every linearly precise coordinate passes this too.
+  double similarityReproduction = 0.0;
+};
+
+/// Measures every property of `coordinates` (whose control points must be the vertices of
+/// `cage`) at `samples` (n points, world units). Throws InvalidInput if the coordinates'
+/// control-point count differs from the cage's vertex count or `samples` is empty.
+PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cage,
+                                 std::span<const Vec3> samples, const PropertyOptions& options = {});
+
+}  // namespace spacewarp

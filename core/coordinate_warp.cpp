@@ -1,0 +1,65 @@
+#include "core/coordinate_warp.h"
+
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+
+CoordinateWarp::CoordinateWarp(std::shared_ptr<const Coordinates> coordinates,
+                               std::span<const Vec3> posed)
+    : coordinates_(std::move(coordinates)) {
+  if (!coordinates_) throw InvalidInput("CoordinateWarp: the coordinates are null");
+  const std::size_t m = coordinates_->columnCount();
+  std::vector<Vec3> rest(m);
+  displacement_.resize(m);
+  coordinates_->columnControls(coordinates_->restControlPoints(), rest);
+  coordinates_->columnControls(posed, displacement_);
+  for (std::size_t c = 0; c < m; ++c) displacement_[c] -= rest[c];
+}
+
+namespace {
+
+Vec3 displace(const Vec3& x, std::span<const double> w, std::span<const Vec3> displacement) {
+  Vec3 sum(0.0);
+  for (std::size_t c = 0; c < w.size(); ++c) sum += w[c] * displacement[c];
+  return x + sum;
+}
+
+}  // namespace
+
+Vec3 CoordinateWarp::apply(const Vec3& x) const {
+  std::vector<double> w(displacement_.size());
+  coordinates_->weights(x, w);
+  return displace(x, w, displacement_);
+}
+
+void CoordinateWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
+  if (in.size() != out.size()) {
+    throw InvalidInput("CoordinateWarp::applyBatch: input has " + std::to_string(in.size()) +
+                       " points but output has " + std::to_string(out.size()));
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      std::vector<double> w(displacement_.size());
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        coordinates_->weights(in[i], w);
+                        out[i] = displace(in[i], w, displacement_);
+                      }
+                    });
+}
+
+Mat3 CoordinateWarp::jacobian(const Vec3& x) const {
+  std::vector<Vec3> gradients(displacement_.size());
+  if (!coordinates_->weightGradients(x, gradients)) return Warp::jacobian(x);
+  Mat3 j(1.0);
+  // J += d ∇wᵀ: column k of the outer product is d * (∇w)_k.
+  for (std::size_t c = 0; c < gradients.size(); ++c)
+    for (int k = 0; k < 3; ++k) j[k] += displacement_[c] * gradients[c][k];
+  return j;
+}
+
+}  // namespace spacewarp

@@ -1,0 +1,72 @@
+#include "core/coordinates.h"
+
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+
+std::string Coordinates::columnName(std::size_t c) const {
+  const std::size_t n = controlPointCount();
+  // Built by append: GCC 12 warns (-Wrestrict, falsely) on "literal" + std::string.
+  std::string name(1, c < n ? 'v' : 'f');
+  name += std::to_string(c < n ? c : c - n);
+  return name;
+}
+
+void Coordinates::checkWeightsArguments(const Vec3& x, std::size_t rowSize) const {
+  if (!isFinite(x)) throw InvalidInput("coordinates: the query point is not finite");
+  if (rowSize != columnCount()) {
+    throw InvalidInput("coordinates: the weight row has " + std::to_string(rowSize) +
+                       " entries but there are " + std::to_string(columnCount()) + " columns");
+  }
+}
+
+void Coordinates::weightsBatch(std::span<const Vec3> points, std::span<double> rows) const {
+  const std::size_t m = columnCount();
+  if (rows.size() != points.size() * m) {
+    throw InvalidInput("coordinates: " + std::to_string(points.size()) + " points need " +
+                       std::to_string(points.size() * m) + " weights but the output has " +
+                       std::to_string(rows.size()));
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 64),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        weights(points[i], rows.subspan(i * m, m));
+                    });
+}
+
+std::size_t Coordinates::sparseWeights(const Vec3& x, std::span<SparseWeight> out) const {
+  std::vector<double> row(columnCount());
+  weights(x, row);
+  std::size_t count = 0;
+  for (std::size_t c = 0; c < row.size(); ++c) {
+    if (row[c] == 0.0) continue;
+    if (count == out.size())
+      throw InvalidInput("coordinates: more non-zero weights than the sparse row holds");
+    out[count++] = {static_cast<std::uint32_t>(c), row[c]};
+  }
+  return count;
+}
+
+void Coordinates::columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const {
+  if (posed.size() != controlPointCount()) {
+    throw InvalidInput("coordinates: " + std::to_string(posed.size()) +
+                       " posed control points given, " + std::to_string(controlPointCount()) +
+                       " expected");
+  }
+  if (out.size() != columnCount())
+    throw InvalidInput("coordinates: the column-control output has the wrong size");
+  for (std::size_t i = 0; i < posed.size(); ++i) {
+    if (!isFinite(posed[i]))
+      throw InvalidInput("posed control point " + std::to_string(i) + " is not finite");
+    out[i] = posed[i];
+  }
+}
+
+bool Coordinates::weightGradients(const Vec3&, std::span<Vec3>) const { return false; }
+
+}  // namespace spacewarp

@@ -1,0 +1,80 @@
+#pragma once
+// The coordinate interface shared by every warp that is linear in its controls: cage
+// coordinates (mean-value, Green, harmonic), FFD lattices and RBF handles.
+//
+// Such a warp moves a point x by a weighted sum of control displacements:
+//
+//     x' = x + Σ_c w_c(x) (C_c(posed) − C_c(rest))
+//
+// where C is the column-control matrix built from the posed control points: the control
+// points themselves, plus (for Green coordinates) one scaled face normal per cage face. For
+// coordinates with linear precision (Σ_c w_c(x) C_c(rest) = x) this is the familiar
+// x' = Σ_c w_c(x) C_c(posed); written as a displacement it is exactly the identity at rest
+// and also covers warps that do not reproduce x outside their domain (an FFD lattice with an
+// identity border).
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/math.h"
+
+namespace spacewarp {
+
+/// One non-zero entry of a sparse weight row.
+struct SparseWeight {
+  std::uint32_t column = 0;
+  double weight = 0.0;
+};
+
+/// Coordinates of points with respect to a set of controls. Every method is const and
+/// thread-safe.
+class Coordinates {
+ public:
+  virtual ~Coordinates() = default;
+
+  /// How many control points a user poses: cage vertices, lattice points, RBF handles.
+  virtual std::size_t controlPointCount() const = 0;
+
+  /// The rest positions of the control points (controlPointCount() entries, world units).
+  virtual std::span<const Vec3> restControlPoints() const = 0;
+
+  /// Columns of the weight matrix: controlPointCount(), plus one per face for Green coordinates.
+  virtual std::size_t columnCount() const { return controlPointCount(); }
+
+  /// The name of column c, for exports: "v<i>" for control point i, "f<j>" for face j.
+  virtual std::string columnName(std::size_t c) const;
+
+  /// The weights of one point: row[c] = w_c(x) for every column. `row` has columnCount()
+  /// entries. Throws InvalidInput if x is not finite or the row has the wrong size.
+  virtual void weights(const Vec3& x, std::span<double> row) const = 0;
+
+  /// The weights of many points, row-major (points.size() × columnCount()), in parallel and
+  /// independent of the thread count. The default calls weights() per point.
+  virtual void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const;
+
+  /// At most how many weights of one point are non-zero: columnCount() for dense coordinates
+  /// (cages, RBF); 8 for a trilinear lattice, 4 for harmonic coordinates on tets.
+  virtual std::size_t maxNonZeros() const { return columnCount(); }
+
+  /// The non-zero weights of one point, into `out` (at least maxNonZeros() entries), sorted by
+  /// column; returns how many were written. The default filters weights().
+  virtual std::size_t sparseWeights(const Vec3& x, std::span<SparseWeight> out) const;
+
+  /// The column controls C (columnCount() entries) for the given control points
+  /// (controlPointCount() entries): the points themselves by default; Green coordinates append
+  /// the scaled face normals. Throws InvalidInput if `posed` has the wrong size or is not finite.
+  virtual void columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const;
+
+  /// The gradients ∇w_c(x) of every weight (columnCount() entries), if the coordinates offer
+  /// them analytically; returns false (leaving `out` unspecified) if they do not, and callers
+  /// fall back to finite differences.
+  virtual bool weightGradients(const Vec3& x, std::span<Vec3> out) const;
+
+ protected:
+  /// Throws InvalidInput unless x is finite and row.size() == columnCount().
+  void checkWeightsArguments(const Vec3& x, std::size_t rowSize) const;
+};
+
+}  // namespace spacewarp

@@ -1,0 +1,107 @@
+#include "coords/properties.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/errors.h"
+#include "coords_test_shapes.h"
+
+namespace spacewarp {
+namespace {
+
+// Barycentric coordinates of a tetrahedron: the one cage whose coordinates are known in closed
+// form, with every property exact. `skew` breaks partition of unity on purpose, `shuffle`
+// breaks the Lagrange property while keeping partition of unity.
+class TetBarycentric final : public Coordinates {
+ public:
+  TetBarycentric(const Cage& cage, double skew = 0.0, bool shuffle = false)
+      : cage_(cage), skew_(skew), shuffle_(shuffle) {}
+  std::size_t controlPointCount() const override { return 4; }
+  std::span<const Vec3> restControlPoints() const override { return cage_.vertices(); }
+  void weights(const Vec3& x, std::span<double> row) const override {
+    checkWeightsArguments(x, row.size());
+    const auto& v = cage_.vertices();
+    const Mat3 m(v[1] - v[0], v[2] - v[0], v[3] - v[0]);
+    const Vec3 l = glm::inverse(m) * (x - v[0]);
+    row[0] = 1.0 - l.x - l.y - l.z;
+    row[1] = l.x + skew_;  // v1 is not the origin, so the skew also breaks reproduction
+    row[2] = l.y;
+    row[3] = l.z;
+    if (shuffle_) std::swap(row[0], row[1]);
+  }
+
+ private:
+  const Cage& cage_;
+  double skew_;
+  bool shuffle_;
+};
+
+std::vector<Vec3> samplesInBox(const Vec3& lo, const Vec3& hi, int n) {
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Vec3> s;
+  for (int i = 0; i < n; ++i) s.push_back(lo + (hi - lo) * Vec3(u(rng), u(rng), u(rng)));
+  return s;
+}
+
+TEST(Properties, ExactCoordinatesHaveEveryProperty) {
+  const Cage cage(test::tetrahedron());
+  const TetBarycentric exact(cage);
+  const auto samples = samplesInBox(Vec3(-1), Vec3(2), 500);  // inside and outside
+  const PropertyReport r = measureProperties(exact, cage, samples);
+  EXPECT_EQ(r.sampleCount, 500u);
+  EXPECT_LE(r.partitionOfUnity, 1e-14);
+  EXPECT_LE(r.linearReproduction, 1e-14);
+  EXPECT_LE(r.lagrange, 1e-15);
+  EXPECT_LE(r.faceInterpolation, 1e-14);
+  EXPECT_LE(r.similarityReproduction, 1e-14);
+  // Barycentric coordinates go negative outside the tetrahedron, and most of this box is
+  // outside it.
+  EXPECT_LT(r.minWeight, -1.0);
+  EXPECT_GT(r.samplesWithNegative, 0.5);
+  EXPECT_GT(r.negativeFraction, 0.1);
+  EXPECT_LE(r.negativeFraction, r.samplesWithNegative);
+}
+
+TEST(Properties, InsideConvexCageWeightsArePositive) {
+  const Cage cage(test::tetrahedron());
+  std::vector<Vec3> inside;
+  for (const Vec3& p : samplesInBox(Vec3(0), Vec3(1), 2000))
+    if (p.x + p.y + p.z < 1.0) inside.push_back(p);
+  const PropertyReport r = measureProperties(TetBarycentric(cage), cage, inside);
+  EXPECT_GE(r.minWeight, 0.0);
+  EXPECT_EQ(r.negativeFraction, 0.0);
+}
+
+TEST(Properties, DetectsBrokenPartitionOfUnity) {
+  const Cage cage(test::tetrahedron());
+  const auto samples = samplesInBox(Vec3(0), Vec3(0.3), 100);
+  const PropertyReport r = measureProperties(TetBarycentric(cage, 1e-3), cage, samples);
+  EXPECT_NEAR(r.partitionOfUnity, 1e-3, 1e-12);
+  EXPECT_GT(r.linearReproduction, 1e-4);
+  EXPECT_NEAR(r.lagrange, 1e-3, 1e-12);
+  EXPECT_NEAR(r.faceInterpolation, 1e-3, 1e-12);
+  EXPECT_GT(r.similarityReproduction, 1e-4);
+}
+
+TEST(Properties, DetectsBrokenInterpolation) {
+  const Cage cage(test::tetrahedron());
+  const auto samples = samplesInBox(Vec3(0), Vec3(0.3), 100);
+  const PropertyReport r = measureProperties(TetBarycentric(cage, 0.0, true), cage, samples);
+  EXPECT_LE(r.partitionOfUnity, 1e-14);  // still sums to one
+  EXPECT_NEAR(r.lagrange, 1.0, 1e-14);
+  EXPECT_GT(r.faceInterpolation, 0.1);
+  EXPECT_GT(r.linearReproduction, 0.01);
+}
+
+TEST(Properties, RejectsMismatchedCageAndEmptySamples) {
+  const Cage tet(test::tetrahedron());
+  const Cage star(test::star());
+  const auto samples = samplesInBox(Vec3(0), Vec3(0.3), 10);
+  EXPECT_THROW(measureProperties(TetBarycentric(tet), star, samples), InvalidInput);
+  EXPECT_THROW(measureProperties(TetBarycentric(tet), tet, std::span<const Vec3>()), InvalidInput);
+}
+
+}  // namespace
+}  // namespace spacewarp
