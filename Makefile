@@ -1,0 +1,53 @@
+# Entry points for people and CI. Every target installs the Debian packages it needs first
+# (a quick no-op when they are present), then configures and builds with CMake + Ninja.
+BUILD ?= build
+ASAN_BUILD ?= build-asan
+JOBS ?= $(shell nproc)
+DEMO_OUT ?= out/demo
+CMAKE_FLAGS ?=
+
+# CI turns warnings into errors.
+ifeq ($(CI),true)
+  CMAKE_FLAGS += -DSPACEWARP_WARNINGS_AS_ERRORS=ON
+endif
+
+.PHONY: all deps configure build demo test sanitize bench fuzz format clean
+
+all: build
+
+deps:
+	./scripts/install-deps.sh
+
+configure: deps
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+
+build: configure
+	cmake --build $(BUILD) -j $(JOBS)
+
+demo: build
+	$(BUILD)/apps/spacewarp demo $(DEMO_OUT)
+
+test: build
+	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
+
+# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer.
+sanitize: deps
+	cmake -S . -B $(ASAN_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  -DSPACEWARP_SANITIZE=ON -DSPACEWARP_BUILD_BENCHMARKS=OFF $(CMAKE_FLAGS)
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+	ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --test-dir $(ASAN_BUILD) --output-on-failure -j $(JOBS)
+
+bench: build
+	$(BUILD)/bench/spacewarp_bench --benchmark_repetitions=5 \
+	  --benchmark_report_aggregates_only=true --benchmark_counters_tabular=true
+
+# Runs each file-reader fuzzer for FUZZ_SECONDS (default 60).
+fuzz: deps
+	./tests/fuzz/run.sh
+
+format:
+	clang-format -i $$(git ls-files '*.h' '*.cpp')
+
+clean:
+	rm -rf $(BUILD) $(ASAN_BUILD) build-fuzz out

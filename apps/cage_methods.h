@@ -1,0 +1,27 @@
+#pragma once
+// The cage-coordinate methods the command line offers, by name. Adding a method is one line
+// in cage_methods.cpp.
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "coords/cage.h"
+#include "core/coordinates.h"
+#include "core/warp.h"
+
+namespace spacewarp::cli {
+
+/// The names of the cage-coordinate methods ("green", "mvc", ...), sorted.
+std::vector<std::string> cageMethods();
+
+/// Coordinates of `method` for `cage`. Throws InvalidInput for an unknown method.
+std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
+                                                   std::shared_ptr<const Cage> cage);
+
+/// The warp of `method` with the rest cage and posed cage read from files.
+std::shared_ptr<const Warp> cageWarp(const std::string& method, const std::filesystem::path& cage,
+                                     const std::filesystem::path& pose);
+
+}  // namespace spacewarp::cli

@@ -1,0 +1,333 @@
+// End-to-end tests of the spacewarp executable: results, exit codes, messages, and that a
+// failure leaves no output file behind.
+
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/io/mesh_io.h"
+#include "core/primitives.h"
+#include "core/twist.h"
+
+namespace fs = std::filesystem;
+using namespace spacewarp;
+using ::testing::HasSubstr;
+
+namespace {
+
+struct CliResult {
+  int exitCode = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("spacewarp_cli_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  CliResult run(const std::string& args) {
+    const std::string cmd = std::string(SPACEWARP_CLI) + " " + args + " >" +
+                            (dir_ / "stdout.txt").string() + " 2>" + (dir_ / "stderr.txt").string();
+    const int status = std::system(cmd.c_str());
+    CliResult r;
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(dir_ / "stdout.txt");
+    r.err = slurp(dir_ / "stderr.txt");
+    fs::remove(dir_ / "stdout.txt");
+    fs::remove(dir_ / "stderr.txt");
+    return r;
+  }
+
+  fs::path write(const std::string& name, const std::string& content) {
+    std::ofstream(dir_ / name, std::ios::binary) << content;
+    return dir_ / name;
+  }
+
+  // Nothing but the inputs the test wrote may be in the folder after a failed run.
+  void expectNoOutput(const fs::path& output) {
+    EXPECT_FALSE(fs::exists(output)) << output;
+    for (const auto& entry : fs::directory_iterator(dir_))
+      EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp")));
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(CliTest, TwistRigMatchesTheClosedForm) {
+  PolygonSoup bar = makeBoxSurface(Vec3(-0.5, -0.5, -1), Vec3(0.5, 0.5, 1), {2, 2, 4});
+  writeSoup(bar, dir_ / "bar.ply");
+  write("twist.json",
+        R"({"method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 2], "rate": 0.5})");
+  const CliResult r =
+      run("deform --rig " + (dir_ / "twist.json").string() + " " + (dir_ / "bar.ply").string() +
+          " -o " + (dir_ / "out.obj").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const PolygonSoup out = readSoup(dir_ / "out.obj");
+  ASSERT_EQ(out.size(), bar.size());
+  ASSERT_EQ(out.faceIndices, bar.faceIndices);
+  for (std::size_t i = 0; i < bar.size(); ++i) {
+    // Rotation about +z by 0.5 * z, written out by hand.
+    const Vec3 p = bar.positions[i];
+    const double a = 0.5 * p.z;
+    const Vec3 expected(std::cos(a) * p.x - std::sin(a) * p.y,
+                        std::sin(a) * p.x + std::cos(a) * p.y, p.z);
+    EXPECT_NEAR(glm::length(out.positions[i] - expected), 0.0, 1e-14) << i;
+  }
+}
+
+TEST_F(CliTest, AffineRigIsRowMajorOnColumnPoints) {
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1), Vec3(1), 100, 3);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("affine.json",
+        R"({"method": "affine", "matrix": [[0, -1, 0, 5], [1, 0, 0, 6], [0, 0, 2, 7], [0, 0, 0, 1]]})");
+  const CliResult r = run("deform --rig " + (dir_ / "affine.json").string() + " " +
+                          (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const PolygonSoup out = readSoup(dir_ / "out.ply");
+  ASSERT_EQ(out.size(), cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Vec3 p = cloud.positions[i];
+    EXPECT_EQ(out.positions[i], Vec3(-p.y + 5, p.x + 6, 2 * p.z + 7)) << i;
+  }
+  // Per-point attributes are carried through.
+  ASSERT_EQ(out.attributes.size(), 1u);
+  EXPECT_EQ(out.attributes[0].values, cloud.attributes[0].values);
+}
+
+TEST_F(CliTest, InfoPrintsCountsAndBox) {
+  writeSoup(makeBoxSurface(Vec3(0), Vec3(1, 2, 3), {1, 1, 1}), dir_ / "box.off");
+  const CliResult r = run("info " + (dir_ / "box.off").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("vertices:   8"));
+  EXPECT_THAT(r.out, HasSubstr("polygons:   6"));
+  EXPECT_THAT(r.out, HasSubstr("bbox max:   1 2 3"));
+}
+
+TEST_F(CliTest, UsageErrorsExitWith2) {
+  EXPECT_EQ(run("").exitCode, 2);
+  EXPECT_EQ(run("deform").exitCode, 2);
+  EXPECT_EQ(run("frobnicate").exitCode, 2);
+  EXPECT_EQ(run("deform --help").exitCode, 0);
+}
+
+struct BadRig {
+  const char* name;
+  const char* json;
+  const char* message;
+};
+
+class CliBadRigTest : public CliTest, public ::testing::WithParamInterface<BadRig> {};
+
+TEST_P(CliBadRigTest, ExitsWith3AndWritesNothing) {
+  writeSoup(makeBoxSurface(Vec3(0), Vec3(1), {1, 1, 1}), dir_ / "box.obj");
+  write("rig.json", GetParam().json);
+  const fs::path output = dir_ / "out.obj";
+  const CliResult r = run("deform --rig " + (dir_ / "rig.json").string() + " " +
+                          (dir_ / "box.obj").string() + " -o " + output.string());
+  EXPECT_EQ(r.exitCode, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("rig.json"));
+  EXPECT_THAT(r.err, HasSubstr(GetParam().message));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;  // one line
+  expectNoOutput(output);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Rigs, CliBadRigTest,
+    ::testing::Values(
+        BadRig{"NotJson", R"({"method": "twist", )", "JSON"},
+        BadRig{"MissingKey", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1]})",
+               "'rate' is missing"},
+        BadRig{"UnknownKey",
+               R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1], "rate": 1, "rat": 2})",
+               "'rat'"},
+        BadRig{"UnknownMethod", R"({"method": "warp9"})", "warp9"},
+        BadRig{"ShortVector", R"({"method": "twist", "origin": [0,0], "axis": [0,0,1], "rate": 1})",
+               "'origin'"},
+        BadRig{"ZeroAxis", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,0], "rate": 1})",
+               "axis"},
+        BadRig{"ProjectiveMatrix",
+               R"({"method": "affine", "matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[1,0,0,1]]})",
+               "last row"},
+        BadRig{"NestedError",
+               R"({"method": "compose", "warps": [{"method": "taper", "origin": [0,0,0], "axis": [0,0,1]}]})",
+               "warps[0]"}),
+    [](const auto& info) { return std::string(info.param.name); });
+
+struct BadFile {
+  const char* name;
+  const char* file;
+  const char* content;
+};
+
+class CliBadFileTest : public CliTest, public ::testing::WithParamInterface<BadFile> {};
+
+TEST_P(CliBadFileTest, ExitsWith3NamesTheFileAndWritesNothing) {
+  write("rig.json", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1], "rate": 1})");
+  const fs::path input =
+      GetParam().content ? write(GetParam().file, GetParam().content) : dir_ / GetParam().file;
+  const fs::path output = dir_ / "out.ply";
+  const CliResult r = run("deform --rig " + (dir_ / "rig.json").string() + " " + input.string() +
+                          " -o " + output.string());
+  EXPECT_EQ(r.exitCode, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr(GetParam().file));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  expectNoOutput(output);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Files, CliBadFileTest,
+    ::testing::Values(
+        BadFile{"TruncatedBinaryPly", "trunc.ply",
+                "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
+                "property float y\nproperty float z\nend_header\n\x01\x02\x03"},
+        BadFile{"WrongCountPly", "count.ply",
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                "property float z\nend_header\n0 0 0\n1 1 1\n"},
+        BadFile{"OutOfRangeObj", "range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"},
+        BadFile{"NanOff", "nan.off", "OFF\n3 1 0\n0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"},
+        BadFile{"Missing", "missing.obj", nullptr},
+        BadFile{"UnknownExtension", "model.stl", "solid x\n"}),
+    [](const auto& info) { return std::string(info.param.name); });
+
+TEST_F(CliTest, BadInputDoesNotReplaceAnExistingOutput) {
+  write("rig.json", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1], "rate": 1})");
+  write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+  const fs::path output = write("out.obj", "precious");
+  const CliResult r = run("deform --rig " + (dir_ / "rig.json").string() + " " +
+                          (dir_ / "bad.obj").string() + " -o " + output.string());
+  EXPECT_EQ(r.exitCode, 3);
+  EXPECT_EQ(slurp(output), "precious");
+}
+
+TEST_F(CliTest, DemoWritesEveryResult) {
+  const CliResult r = run("demo " + (dir_ / "demo").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  for (const char* name : {"bar_twist.obj", "bar_bend.obj", "bar_taper.obj", "cloud_twist.ply",
+                           "cloud_bend.ply", "cloud_taper.ply"}) {
+    const PolygonSoup soup = readSoup(dir_ / "demo" / name);
+    EXPECT_GT(soup.size(), 0u) << name;
+  }
+}
+
+}  // namespace
+
+namespace {
+
+// A cage and a posed copy moved by a known similarity (which both mean-value and Green
+// coordinates reproduce exactly), as files.
+struct CageFiles {
+  fs::path rest, pose;
+};
+
+Vec3 similarity(const Vec3& p) { return Vec3(-1.5 * p.y + 1.0, 1.5 * p.x, 1.5 * p.z - 2.0); }
+
+CageFiles writeBoxCage(const fs::path& dir) {
+  const PolygonSoup cage = makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1});
+  PolygonSoup posed = cage;
+  for (Vec3& p : posed.positions) p = similarity(p);
+  writeSoup(cage, dir / "cage.obj");
+  writeSoup(posed, dir / "pose.obj");
+  return {dir / "cage.obj", dir / "pose.obj"};
+}
+
+TEST_F(CliTest, CageMethodsReproduceASimilarityPose) {
+  const CageFiles cage = writeBoxCage(dir_);
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-0.9), Vec3(0.9), 200, 11);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("mvc.json", R"({"method": "mvc", "cage": "cage.obj", "pose": "pose.obj"})");
+  for (const std::string how : {"--method mvc", "--method green", "--rig mvc.json"}) {
+    const std::string flags = how.starts_with("--rig")
+                                  ? "--rig " + (dir_ / "mvc.json").string()
+                                  : how + " --cage " + cage.rest.string() + " --pose " +
+                                        cage.pose.string();
+    const CliResult r = run("deform " + flags + " " + (dir_ / "cloud.ply").string() + " -o " +
+                            (dir_ / "out.ply").string());
+    ASSERT_EQ(r.exitCode, 0) << how << ": " << r.err;
+    const PolygonSoup out = readSoup(dir_ / "out.ply");
+    ASSERT_EQ(out.size(), cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      ASSERT_LE(glm::length(out.positions[i] - similarity(cloud.positions[i])), 1e-11)
+          << how << " point " << i;
+    }
+  }
+}
+
+TEST_F(CliTest, WeightsCsvHasHeaderAndOneRowPerPoint) {
+  const CageFiles cage = writeBoxCage(dir_);
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-0.9), Vec3(0.9), 50, 12);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  for (const std::string method : {"mvc", "green"}) {
+    const fs::path csv = dir_ / (method + ".csv");
+    const CliResult r = run("weights --method " + method + " --cage " + cage.rest.string() + " " +
+                            (dir_ / "cloud.ply").string() + " -o " + csv.string());
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    std::ifstream in(csv);
+    std::string header;
+    std::getline(in, header);
+    const std::size_t columns = method == "mvc" ? 8 : 8 + 12;
+    EXPECT_EQ(std::count(header.begin(), header.end(), ',') + 1, static_cast<long>(columns));
+    EXPECT_TRUE(header.starts_with("v0,v1,"));
+    EXPECT_EQ(header.find("f0") != std::string::npos, method == "green");
+    std::string line;
+    std::size_t rows = 0;
+    while (std::getline(in, line)) {
+      std::stringstream s(line);
+      std::string cell;
+      double vertexSum = 0.0;
+      for (std::size_t c = 0; std::getline(s, cell, ','); ++c)
+        if (c < 8) vertexSum += std::stod(cell);
+      EXPECT_NEAR(vertexSum, 1.0, 1e-12) << method << " row " << rows;
+      ++rows;
+    }
+    EXPECT_EQ(rows, cloud.size());
+  }
+}
+
+TEST_F(CliTest, InvalidCagesExitWith3) {
+  const CageFiles cage = writeBoxCage(dir_);
+  write("open.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n");
+  write("short.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n");
+  writeSoup(makeBoxSurface(Vec3(0), Vec3(1), {1, 1, 1}), dir_ / "cloud.ply");
+  const fs::path output = dir_ / "out.ply";
+  const CliResult open = run("deform --method mvc --cage " + (dir_ / "open.obj").string() +
+                             " --pose " + (dir_ / "open.obj").string() + " " +
+                             (dir_ / "cloud.ply").string() + " -o " + output.string());
+  EXPECT_EQ(open.exitCode, 3);
+  EXPECT_THAT(open.err, HasSubstr("open.obj"));
+  EXPECT_THAT(open.err, HasSubstr("open boundary at edge"));
+  const CliResult mismatch = run("deform --method green --cage " + cage.rest.string() +
+                                 " --pose " + (dir_ / "short.obj").string() + " " +
+                                 (dir_ / "cloud.ply").string() + " -o " + output.string());
+  EXPECT_EQ(mismatch.exitCode, 3);
+  EXPECT_THAT(mismatch.err, HasSubstr("4 vertices"));
+  expectNoOutput(output);
+  EXPECT_EQ(run("deform --method harmonica --cage a --pose b in.obj -o out.obj").exitCode, 2);
+  EXPECT_EQ(run("deform --method mvc in.obj -o out.obj").exitCode, 2);  // --cage missing
+}
+
+}  // namespace
