@@ -98,8 +98,9 @@ void writeJson(const nlohmann::json& j, const fs::path& path) {
   writeFileAtomically(path, [&](std::ostream& out) { out << j.dump(2) << '\n'; });
 }
 
-// The built-in example: a subdivided bar and a point cloud in the same box, twisted and bent
-// through rigs written next to them, exactly as `spacewarp deform --rig` would do it.
+// The built-in example: a subdivided bar and a point cloud in the same box, twisted, bent,
+// tapered and deformed by a posed cage (mean-value and Green coordinates) through rigs written
+// next to them, exactly as `spacewarp deform --rig` would do it.
 void runDemo(const fs::path& dir) {
   fs::create_directories(dir);
   const Vec3 lo(-0.5, -0.5, -2.0), hi(0.5, 0.5, 2.0);
@@ -111,7 +112,7 @@ void runDemo(const fs::path& dir) {
   writeSoup(cloudSoup, dir / "cloud.ply");
 
   const double pi = std::numbers::pi;
-  const std::map<std::string, nlohmann::json> rigs = {
+  std::map<std::string, nlohmann::json> rigs = {
       {"twist", {{"method", "twist"}, {"origin", {0, 0, 0}}, {"axis", {0, 0, 1}}, {"rate", pi / 4}}},
       {"bend",
        {{"method", "bend"},
@@ -126,6 +127,20 @@ void runDemo(const fs::path& dir) {
         {"rate", 0.2},
         {"limits", {-2, 2}}}},
   };
+  // A cage around the bar, posed by swaying its rings sideways, for the cage methods.
+  const PolygonSoup cage = makeBoxSurface(lo - 0.1, hi + 0.1, {1, 1, 4});
+  PolygonSoup pose = cage;
+  for (Vec3& p : pose.positions) {
+    const double t = (p.z - lo.z + 0.1) / (hi.z - lo.z + 0.2);  // 0 at the bottom, 1 at the top
+    const double angle = 0.6 * t;
+    p = Vec3(std::cos(angle) * p.x - std::sin(angle) * p.y + 0.8 * t * t,
+             std::sin(angle) * p.x + std::cos(angle) * p.y, p.z);
+  }
+  writeSoup(cage, dir / "cage.obj");
+  writeSoup(pose, dir / "cage_pose.obj");
+  rigs["mvc"] = {{"method", "mvc"}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
+  rigs["green"] = {{"method", "green"}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
+
   for (const auto& [name, rig] : rigs) {
     const fs::path rigPath = dir / (name + ".json");
     writeJson(rig, rigPath);
@@ -189,7 +204,7 @@ int run(int argc, char** argv) {
   weightsCmd->add_option("-o,--output", weightsOutput, "CSV file")->required();
 
   std::string demoDir = "out/demo";
-  CLI::App* demo = app.add_subcommand("demo", "Twist, bend and taper built-in example geometry");
+  CLI::App* demo = app.add_subcommand("demo", "Twist, bend, taper and cage-deform built-in example geometry");
   demo->add_option("DIR", demoDir, "output folder")->capture_default_str();
 
   try {

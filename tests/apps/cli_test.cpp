@@ -226,7 +226,8 @@ TEST_F(CliTest, DemoWritesEveryResult) {
   const CliResult r = run("demo " + (dir_ / "demo").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
   for (const char* name : {"bar_twist.obj", "bar_bend.obj", "bar_taper.obj", "cloud_twist.ply",
-                           "cloud_bend.ply", "cloud_taper.ply"}) {
+                           "cloud_bend.ply", "cloud_taper.ply", "bar_mvc.obj", "bar_green.obj",
+                           "cloud_mvc.ply", "cloud_green.ply"}) {
     const PolygonSoup soup = readSoup(dir_ / "demo" / name);
     EXPECT_GT(soup.size(), 0u) << name;
   }
