@@ -1,0 +1,41 @@
+#pragma once
+// Reading and writing polygon soups and point clouds, with the format chosen by the file
+// extension.
+
+#include <filesystem>
+
+#include "core/geometry.h"
+#include "core/io/ply.h"
+
+namespace spacewarp {
+
+/// The supported file formats.
+enum class FileFormat { Obj, Off, Ply };
+
+/// The format of `path` from its extension, compared case-insensitively: .obj, .off, .ply.
+/// Throws IoError naming the file when the extension is missing or unknown.
+FileFormat formatFromPath(const std::filesystem::path& path);
+
+/// Reads a polygon soup (or a point cloud: a soup with no polygons) from `path`, in the format
+/// its extension names (see readObj, readOff, readPly for what each keeps). The result passes
+/// PolygonSoup::validate(). Throws IoError, and nothing else, naming the file: unknown
+/// extension, a file that cannot be opened ("cannot open"), a directory, malformed content
+/// (with the line or element at fault), or a soup that fails validation.
+PolygonSoup readSoup(const std::filesystem::path& path);
+
+/// Options of writeSoup().
+struct WriteOptions {
+  /// The encoding of .ply output; binary little-endian is compact and exact.
+  PlyEncoding plyEncoding = PlyEncoding::BinaryLittleEndian;
+};
+
+/// Writes `soup` to `path` in the format its extension names (see writeObj, writeOff,
+/// writePly), atomically through writeFileAtomically(): on failure no partial or temporary
+/// file is left and an existing file at `path` is untouched. Throws IoError naming the file
+/// for an unknown extension or an I/O failure (e.g. a missing or unwritable directory), and
+/// InvalidInput for a soup that the format cannot store (see PolygonSoup::validate() and
+/// writePly).
+void writeSoup(const PolygonSoup& soup, const std::filesystem::path& path,
+               const WriteOptions& options = {});
+
+}  // namespace spacewarp

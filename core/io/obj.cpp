@@ -1,0 +1,398 @@
+#include "core/io/obj.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <limits>
+#include <new>
+#include <sstream>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+#include <tiny_obj_loader.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Reading
+
+constexpr std::int64_t kMaxVertices = std::numeric_limits<std::int32_t>::max();
+
+/// Throws IoError messages that name the file and the line.
+class ObjError {
+ public:
+  ObjError(const std::string& name, std::size_t line) : name_(name), line_(line) {}
+  [[noreturn]] void fail(const std::string& message) const {
+    throw IoError(name_ + ":" + std::to_string(line_) + ": " + message);
+  }
+
+ private:
+  const std::string& name_;
+  std::size_t line_;
+};
+
+enum class NumberStatus { Ok, NotANumber, OutOfRange };
+
+/// Parses a whole token as a double with correct rounding (std::from_chars). Accepts a leading
+/// '+'. Underflow gives the nearest representable value; overflow gives OutOfRange.
+NumberStatus parseDouble(std::string_view token, double& value) {
+  const bool plus = !token.empty() && token.front() == '+';
+  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
+  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-')))
+    return NumberStatus::NotANumber;
+  const char* end = token.data() + token.size();
+  const auto [ptr, ec] = std::from_chars(token.data(), end, value, std::chars_format::general);
+  if (ptr != end) return NumberStatus::NotANumber;
+  if (ec == std::errc::result_out_of_range) {
+    const std::string copy(token);
+    value = std::strtod(copy.c_str(), nullptr);
+    return std::isfinite(value) ? NumberStatus::Ok : NumberStatus::OutOfRange;
+  }
+  return ec == std::errc() ? NumberStatus::Ok : NumberStatus::NotANumber;
+}
+
+/// Parses a whole token as an integer with an optional sign.
+bool parseInteger(std::string_view token, std::int64_t& value) {
+  const bool plus = !token.empty() && token.front() == '+';
+  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
+  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-'))) return false;
+  const char* end = token.data() + token.size();
+  const auto [ptr, ec] = std::from_chars(token.data(), end, value);
+  return ec == std::errc() && ptr == end;
+}
+
+/// Splits a line into tokens separated by spaces and tabs (the separators tinyobjloader uses),
+/// stopping at a '#' that starts a token (a trailing comment).
+void tokenize(std::string_view line, std::vector<std::string_view>& tokens) {
+  tokens.clear();
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    if (i == line.size() || line[i] == '#') break;
+    const std::size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+    tokens.push_back(line.substr(start, i - start));
+  }
+}
+
+/// Resolves a 1-based or negative (relative) OBJ index against `count` elements seen so far.
+/// Returns false when the index is zero or out of range.
+bool resolveIndex(std::int64_t index, std::int64_t count, std::int64_t& resolved) {
+  if (index > 0 && index <= count) {
+    resolved = index - 1;
+    return true;
+  }
+  if (index < 0 && -index <= count) {
+    resolved = count + index;
+    return true;
+  }
+  return false;
+}
+
+/// Reads "x y z [more numbers]" after the keyword: the three first coordinates must be
+/// finite, every token must be a number.
+Vec3 parseTriple(const std::vector<std::string_view>& tokens, const ObjError& error,
+                 const char* what) {
+  if (tokens.size() < 4) error.fail(std::string(what) + " has fewer than 3 coordinates");
+  double xyz[3] = {0.0, 0.0, 0.0};
+  for (std::size_t t = 1; t < tokens.size(); ++t) {
+    double value = 0.0;
+    const NumberStatus status = parseDouble(tokens[t], value);
+    if (status == NumberStatus::NotANumber)
+      error.fail(std::string(what) + ": '" + std::string(tokens[t]) + "' is not a number");
+    if (t <= 3) {
+      if (status == NumberStatus::OutOfRange || !std::isfinite(value))
+        error.fail(std::string(what) + " has a non-finite coordinate");
+      xyz[t - 1] = value;
+    }
+  }
+  return {xyz[0], xyz[1], xyz[2]};
+}
+
+/// Checks one face corner "v", "v/t", "v//n" or "v/t/n" against the element counts so far.
+void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t texcoordCount,
+                 std::int64_t normalCount, const ObjError& error) {
+  std::string_view parts[3];
+  int partCount = 0;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t slash = corner.find('/', start);
+    if (partCount == 3) error.fail("malformed face corner '" + std::string(corner) + "'");
+    parts[partCount++] =
+        corner.substr(start, slash == std::string_view::npos ? slash : slash - start);
+    if (slash == std::string_view::npos) break;
+    start = slash + 1;
+  }
+  const std::int64_t counts[3] = {vertexCount, texcoordCount, normalCount};
+  const char* kinds[3] = {"vertex", "texture coordinate", "normal"};
+  const char* plurals[3] = {"vertices", "texture coordinates", "normals"};
+  for (int p = 0; p < partCount; ++p) {
+    if (p == 1 && parts[p].empty() && partCount == 3) continue;  // "v//n"
+    std::int64_t index = 0;
+    if (!parseInteger(parts[p], index))
+      error.fail("malformed face corner '" + std::string(corner) + "'");
+    std::int64_t resolved = 0;
+    if (!resolveIndex(index, counts[p], resolved)) {
+      error.fail(std::string("face ") + kinds[p] + " index " + std::to_string(index) +
+                 (index == 0 ? " is invalid (OBJ indices start at 1)"
+                             : " is out of range (" + std::to_string(counts[p]) + " " + plurals[p] +
+                                   " so far)"));
+    }
+  }
+}
+
+/// What the own pass over the lines collects: exact positions and normals, the size of every
+/// face, and the text handed to tinyobjloader (only v, vn, vt and f lines, normalised, with
+/// blank lines in place of everything else so that line numbers stay the same).
+struct Scan {
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;
+  std::vector<std::uint32_t> faceSizes;
+  std::uint64_t cornerCount = 0;
+  std::string forwarded;
+};
+
+Scan scanLines(std::string_view text, const std::string& name) {
+  Scan scan;
+  scan.forwarded.reserve(text.size() + 1);
+  std::vector<std::string_view> tokens;
+  std::int64_t texcoordCount = 0;
+  std::size_t lineNumber = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    // Lines end with "\n", "\r\n" or "\r", as in tinyobjloader.
+    std::size_t end = pos;
+    while (end < text.size() && text[end] != '\n' && text[end] != '\r') ++end;
+    const std::string_view line = text.substr(pos, end - pos);
+    pos = end;
+    if (pos < text.size()) {
+      const bool crlf = text[pos] == '\r' && pos + 1 < text.size() && text[pos + 1] == '\n';
+      pos += crlf ? 2 : 1;
+    }
+    ++lineNumber;
+
+    const ObjError error(name, lineNumber);
+    if (line.find('\0') != std::string_view::npos) error.fail("unexpected NUL byte");
+    tokenize(line, tokens);
+    if (tokens.empty()) {
+      scan.forwarded += '\n';
+      continue;
+    }
+    const std::string_view keyword = tokens.front();
+    if (keyword == "v") {
+      if (static_cast<std::int64_t>(scan.positions.size()) >= kMaxVertices)
+        error.fail("too many vertices");
+      scan.positions.push_back(parseTriple(tokens, error, "vertex"));
+    } else if (keyword == "vn") {
+      if (static_cast<std::int64_t>(scan.normals.size()) >= kMaxVertices)
+        error.fail("too many normals");
+      scan.normals.push_back(parseTriple(tokens, error, "normal"));
+    } else if (keyword == "vt") {
+      if (texcoordCount >= kMaxVertices) error.fail("too many texture coordinates");
+      ++texcoordCount;
+    } else if (keyword == "f") {
+      if (tokens.size() < 4) error.fail("face has fewer than 3 vertices");
+      for (std::size_t t = 1; t < tokens.size(); ++t) {
+        checkCorner(tokens[t], static_cast<std::int64_t>(scan.positions.size()), texcoordCount,
+                    static_cast<std::int64_t>(scan.normals.size()), error);
+      }
+      const std::uint64_t corners = tokens.size() - 1;
+      if (scan.cornerCount + corners > std::numeric_limits<std::uint32_t>::max())
+        error.fail("too many face indices for 32-bit offsets");
+      scan.cornerCount += corners;
+      scan.faceSizes.push_back(static_cast<std::uint32_t>(corners));
+    } else {
+      scan.forwarded += '\n';  // Not needed for the soup: comments, groups, materials, ...
+      continue;
+    }
+    for (std::size_t t = 0; t < tokens.size(); ++t) {
+      if (t > 0) scan.forwarded += ' ';
+      scan.forwarded += tokens[t];
+    }
+    scan.forwarded += '\n';
+  }
+  return scan;
+}
+
+/// Turns the per-corner normal indices into per-vertex normals when they are unambiguous
+/// (see readObj); otherwise leaves the soup without normals.
+void assignNormals(PolygonSoup& soup, const std::vector<Vec3>& fileNormals,
+                   const std::vector<int>& cornerNormals) {
+  const std::size_t n = soup.positions.size();
+  if (fileNormals.empty() || n == 0) return;
+  bool anyReferenced = false;
+  bool allReferenced = true;
+  for (int index : cornerNormals) {
+    if (index >= 0)
+      anyReferenced = true;
+    else
+      allReferenced = false;
+  }
+  if (!anyReferenced) {
+    if (fileNormals.size() == n) soup.normals = fileNormals;
+    return;
+  }
+  if (!allReferenced) return;
+
+  constexpr int kUnset = -1;
+  std::vector<int> normalOf(n, kUnset);
+  for (std::size_t c = 0; c < cornerNormals.size(); ++c) {
+    const std::uint32_t v = soup.faceIndices[c];
+    const int k = cornerNormals[c];
+    if (normalOf[v] == kUnset) {
+      normalOf[v] = k;
+    } else if (normalOf[v] != k && fileNormals[static_cast<std::size_t>(normalOf[v])] !=
+                                       fileNormals[static_cast<std::size_t>(k)]) {
+      return;  // Two different normals at one vertex (flat shading, creases).
+    }
+  }
+  std::vector<Vec3> normals(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    if (normalOf[v] != kUnset) {
+      normals[v] = fileNormals[static_cast<std::size_t>(normalOf[v])];
+    } else if (fileNormals.size() == n) {
+      normals[v] = fileNormals[v];  // Unreferenced vertex: one vn per v.
+    } else {
+      return;
+    }
+  }
+  soup.normals = std::move(normals);
+}
+
+PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
+  std::ostringstream buffer;
+  if (in.peek() != std::char_traits<char>::eof()) buffer << in.rdbuf();
+  if (in.bad()) throw IoError(name + ": read error");
+  const std::string text = std::move(buffer).str();
+
+  Scan scan = scanLines(text, name);
+
+  tinyobj::attrib_t attrib;
+  std::vector<tinyobj::shape_t> shapes;
+  std::vector<tinyobj::material_t> materials;
+  std::string warning;
+  std::string error;
+  std::istringstream forwarded(std::move(scan.forwarded));
+  if (!tinyobj::LoadObj(&attrib, &shapes, &materials, &warning, &error, &forwarded,
+                        /*readMatFn=*/nullptr, /*triangulate=*/false,
+                        /*default_vcols_fallback=*/false)) {
+    // Not expected after the own pass; tinyobjloader's messages end with a newline.
+    while (!error.empty() && (error.back() == '\n' || error.back() == '.')) error.pop_back();
+    throw IoError(name + ": tinyobjloader rejected the file: " + error);
+  }
+  if (attrib.vertices.size() != 3 * scan.positions.size() ||
+      attrib.normals.size() != 3 * scan.normals.size()) {
+    throw IoError(name + ": inconsistent vertex or normal count from tinyobjloader");
+  }
+
+  PolygonSoup soup;
+  soup.positions = std::move(scan.positions);
+  soup.faceIndices.reserve(scan.cornerCount);
+  std::vector<int> cornerNormals;
+  cornerNormals.reserve(scan.cornerCount);
+  const int vertexCount = static_cast<int>(soup.positions.size());
+  const int normalCount = static_cast<int>(scan.normals.size());
+  for (const tinyobj::shape_t& shape : shapes) {
+    for (const tinyobj::index_t& corner : shape.mesh.indices) {
+      if (corner.vertex_index < 0 || corner.vertex_index >= vertexCount ||
+          corner.normal_index < -1 || corner.normal_index >= normalCount) {
+        throw IoError(name + ": inconsistent face index from tinyobjloader");
+      }
+      soup.faceIndices.push_back(static_cast<std::uint32_t>(corner.vertex_index));
+      cornerNormals.push_back(corner.normal_index);
+    }
+  }
+  if (soup.faceIndices.size() != scan.cornerCount)
+    throw IoError(name + ": inconsistent face count from tinyobjloader");
+  // tinyobjloader stores face sizes as unsigned char; the own pass has the true sizes.
+  soup.faceOffsets.reserve(scan.faceSizes.size() + 1);
+  std::uint32_t offset = 0;
+  for (std::uint32_t size : scan.faceSizes) {
+    offset += size;
+    soup.faceOffsets.push_back(offset);
+  }
+  assignNormals(soup, scan.normals, cornerNormals);
+  return soup;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing
+
+void appendNumber(std::string& out, double value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  out.append(buffer, result.ptr);
+}
+
+void appendIndex(std::string& out, std::uint64_t value) {
+  char buffer[24];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  out.append(buffer, result.ptr);
+}
+
+void appendVectorLine(std::string& out, const char* keyword, const Vec3& v) {
+  out += keyword;
+  for (int c = 0; c < 3; ++c) {
+    out += ' ';
+    appendNumber(out, v[c]);
+  }
+  out += '\n';
+}
+
+/// Flushes `buffer` to `out` once it is large.
+void drain(std::string& buffer, std::ostream& out, bool force = false) {
+  if (force || buffer.size() >= (1u << 16)) {
+    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    buffer.clear();
+  }
+}
+
+}  // namespace
+
+PolygonSoup readObj(std::istream& in, const std::string& name) {
+  try {
+    return readObjImpl(in, name);
+  } catch (const IoError&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw IoError(name + ": out of memory");
+  } catch (const std::exception& e) {
+    throw IoError(name + ": " + e.what());
+  }
+}
+
+void writeObj(const PolygonSoup& soup, std::ostream& out) {
+  soup.validate();
+  std::string buffer;
+  buffer.reserve(1u << 17);
+  for (const Vec3& p : soup.positions) {
+    appendVectorLine(buffer, "v", p);
+    drain(buffer, out);
+  }
+  for (const Vec3& n : soup.normals) {
+    appendVectorLine(buffer, "vn", n);
+    drain(buffer, out);
+  }
+  const bool withNormals = soup.hasNormals();
+  for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
+    buffer += 'f';
+    for (std::uint32_t v : soup.polygon(p)) {
+      buffer += ' ';
+      appendIndex(buffer, std::uint64_t{v} + 1);
+      if (withNormals) {
+        buffer += "//";
+        appendIndex(buffer, std::uint64_t{v} + 1);
+      }
+    }
+    buffer += '\n';
+    drain(buffer, out);
+  }
+  drain(buffer, out, true);
+}
+
+}  // namespace spacewarp

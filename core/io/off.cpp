@@ -1,0 +1,294 @@
+#include "core/io/off.h"
+
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <limits>
+#include <new>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Reading
+
+enum class NumberStatus { Ok, NotANumber, OutOfRange };
+
+/// Parses a whole token as a double with correct rounding (std::from_chars). Accepts a leading
+/// '+'. Underflow gives the nearest representable value; overflow gives OutOfRange.
+NumberStatus parseDouble(std::string_view token, double& value) {
+  const bool plus = !token.empty() && token.front() == '+';
+  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
+  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-')))
+    return NumberStatus::NotANumber;
+  const char* end = token.data() + token.size();
+  const auto [ptr, ec] = std::from_chars(token.data(), end, value, std::chars_format::general);
+  if (ptr != end) return NumberStatus::NotANumber;
+  if (ec == std::errc::result_out_of_range) {
+    const std::string copy(token);
+    value = std::strtod(copy.c_str(), nullptr);
+    return std::isfinite(value) ? NumberStatus::Ok : NumberStatus::OutOfRange;
+  }
+  return ec == std::errc() ? NumberStatus::Ok : NumberStatus::NotANumber;
+}
+
+/// Parses a whole token as an integer with an optional sign.
+bool parseInteger(std::string_view token, std::int64_t& value) {
+  const bool plus = !token.empty() && token.front() == '+';
+  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
+  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-'))) return false;
+  const char* end = token.data() + token.size();
+  const auto [ptr, ec] = std::from_chars(token.data(), end, value);
+  return ec == std::errc() && ptr == end;
+}
+
+bool isSpace(char c) {
+  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+/// Reads the content lines of an OFF file (comments removed, blank lines skipped) as tokens,
+/// and throws IoError messages that name the file and the current line.
+class LineReader {
+ public:
+  LineReader(std::istream& in, const std::string& name) : in_(in), name_(name) {}
+
+  /// Moves to the next line with content; false at the end of the file.
+  bool next() {
+    while (std::getline(in_, line_)) {
+      ++lineNumber_;
+      tokens_.clear();
+      const std::string_view text(line_);
+      std::size_t i = 0;
+      while (i < text.size()) {
+        while (i < text.size() && isSpace(text[i])) ++i;
+        if (i == text.size() || text[i] == '#') break;
+        const std::size_t start = i;
+        while (i < text.size() && !isSpace(text[i]) && text[i] != '#') ++i;
+        tokens_.push_back(text.substr(start, i - start));
+      }
+      if (!tokens_.empty()) return true;
+    }
+    if (in_.bad()) throw IoError(name_ + ": read error");
+    return false;
+  }
+
+  const std::vector<std::string_view>& tokens() const { return tokens_; }
+
+  [[noreturn]] void fail(const std::string& message) const {
+    throw IoError(name_ + ":" + std::to_string(lineNumber_) + ": " + message);
+  }
+
+  /// "what index: 'token' problem" for token t (index < 0: no index).
+  [[noreturn]] void fail(const char* what, std::int64_t index, const char* problem,
+                         std::size_t t) const {
+    fail(std::string(what) + (index >= 0 ? " " + std::to_string(index) : std::string()) + ": '" +
+         std::string(tokens_[t].substr(0, 64)) + "' " + problem);
+  }
+
+  /// Token t as a number (an overflowing one gives infinity); `what` and `index` name the
+  /// element in the message ("vertex 3: 'abc' is not a number").
+  double number(std::size_t t, const char* what, std::int64_t index) const {
+    double value = 0.0;
+    const NumberStatus status = parseDouble(tokens_[t], value);
+    if (status == NumberStatus::NotANumber) fail(what, index, "is not a number", t);
+    if (status == NumberStatus::OutOfRange) value = std::numeric_limits<double>::infinity();
+    return value;
+  }
+
+  /// Token t as an integer.
+  std::int64_t integer(std::size_t t, const char* what, std::int64_t index = -1) const {
+    std::int64_t value = 0;
+    if (!parseInteger(tokens_[t], value)) fail(what, index, "is not an integer", t);
+    return value;
+  }
+
+ private:
+  std::istream& in_;
+  const std::string& name_;
+  std::string line_;
+  std::vector<std::string_view> tokens_;
+  std::size_t lineNumber_ = 0;
+};
+
+struct Header {
+  bool normals = false;
+  bool valid = false;
+};
+
+/// Recognises OFF, NOFF, COFF and CNOFF.
+Header parseKeyword(std::string_view keyword) {
+  Header header;
+  if (!keyword.empty() && keyword.front() == 'C') keyword.remove_prefix(1);
+  if (!keyword.empty() && keyword.front() == 'N') {
+    header.normals = true;
+    keyword.remove_prefix(1);
+  }
+  header.valid = keyword == "OFF";
+  return header;
+}
+
+PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
+  LineReader reader(in, name);
+  if (!reader.next()) throw IoError(name + ": empty file, expected an 'OFF' header");
+  const Header header = parseKeyword(reader.tokens().front());
+  if (!header.valid) {
+    reader.fail("not an OFF file: expected 'OFF', found '" +
+                std::string(reader.tokens().front().substr(0, 64)) + "'");
+  }
+  std::size_t firstCount = 1;  // The counts may follow the keyword on the same line.
+  if (reader.tokens().size() == 1) {
+    if (!reader.next()) reader.fail("unexpected end of file: expected the counts line");
+    firstCount = 0;
+  }
+  const std::size_t countTokens = reader.tokens().size() - firstCount;
+  if (countTokens < 2 || countTokens > 3)
+    reader.fail("expected the counts line 'vertices faces [edges]'");
+  const std::int64_t vertexCount = reader.integer(firstCount, "vertex count");
+  const std::int64_t faceCount = reader.integer(firstCount + 1, "face count");
+  if (countTokens == 3) reader.integer(firstCount + 2, "edge count");
+  if (vertexCount < 0 || faceCount < 0) reader.fail("negative count");
+  if (vertexCount > std::numeric_limits<std::uint32_t>::max())
+    reader.fail("too many vertices for 32-bit indices");
+
+  PolygonSoup soup;
+  const std::size_t valuesPerVertex = header.normals ? 6 : 3;
+  for (std::int64_t v = 0; v < vertexCount; ++v) {
+    if (!reader.next()) {
+      reader.fail("unexpected end of file: declared " + std::to_string(vertexCount) +
+                  " vertices, found " + std::to_string(v));
+    }
+    const auto& tokens = reader.tokens();
+    if (tokens.size() < valuesPerVertex) {
+      reader.fail("vertex " + std::to_string(v) + " has " + std::to_string(tokens.size()) +
+                  " values, expected " + std::to_string(valuesPerVertex));
+    }
+    double values[6] = {};
+    for (std::size_t t = 0; t < tokens.size(); ++t) {
+      const double value = reader.number(t, "vertex", v);
+      if (t < valuesPerVertex) values[t] = value;
+    }
+    const Vec3 position(values[0], values[1], values[2]);
+    if (!isFinite(position))
+      reader.fail("vertex " + std::to_string(v) + " has a non-finite coordinate");
+    soup.positions.push_back(position);
+    if (header.normals) {
+      const Vec3 normal(values[3], values[4], values[5]);
+      if (!isFinite(normal))
+        reader.fail("vertex " + std::to_string(v) + " has a non-finite normal");
+      soup.normals.push_back(normal);
+    }
+  }
+
+  std::vector<std::uint32_t> polygon;
+  for (std::int64_t f = 0; f < faceCount; ++f) {
+    if (!reader.next()) {
+      reader.fail("unexpected end of file: declared " + std::to_string(faceCount) +
+                  " faces, found " + std::to_string(f));
+    }
+    const auto& tokens = reader.tokens();
+    const std::int64_t k = reader.integer(0, "face", f);
+    const auto face = [f] { return "face " + std::to_string(f); };
+    if (k < 3) reader.fail(face() + " has " + std::to_string(k) + " vertices, at least 3 needed");
+    if (static_cast<std::uint64_t>(k) > tokens.size() - 1) {
+      reader.fail(face() + " declares " + std::to_string(k) + " vertices but lists " +
+                  std::to_string(tokens.size() - 1));
+    }
+    polygon.clear();
+    for (std::size_t t = 1; t <= static_cast<std::size_t>(k); ++t) {
+      const std::int64_t index = reader.integer(t, "face", f);
+      if (index < 0 || index >= vertexCount) {
+        reader.fail(face() + ": vertex index " + std::to_string(index) + " is out of range (" +
+                    std::to_string(vertexCount) + " vertices)");
+      }
+      polygon.push_back(static_cast<std::uint32_t>(index));
+    }
+    for (std::size_t t = static_cast<std::size_t>(k) + 1; t < tokens.size(); ++t)
+      reader.number(t, "face", f);  // Colour: checked, ignored.
+    if (soup.faceIndices.size() + polygon.size() > std::numeric_limits<std::uint32_t>::max())
+      reader.fail("too many face indices for 32-bit offsets");
+    soup.addPolygon(polygon);
+  }
+
+  if (reader.next()) {
+    reader.fail("unexpected content after the last of the " + std::to_string(faceCount) +
+                " declared faces");
+  }
+  return soup;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing
+
+template <typename T>
+void appendNumber(std::string& out, T value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  out.append(buffer, result.ptr);
+}
+
+/// Flushes `buffer` to `out` once it is large.
+void drain(std::string& buffer, std::ostream& out, bool force = false) {
+  if (force || buffer.size() >= (1u << 16)) {
+    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    buffer.clear();
+  }
+}
+
+}  // namespace
+
+PolygonSoup readOff(std::istream& in, const std::string& name) {
+  try {
+    return readOffImpl(in, name);
+  } catch (const IoError&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw IoError(name + ": out of memory");
+  } catch (const std::exception& e) {
+    throw IoError(name + ": " + e.what());
+  }
+}
+
+void writeOff(const PolygonSoup& soup, std::ostream& out) {
+  soup.validate();
+  const bool withNormals = soup.hasNormals();
+  std::string buffer;
+  buffer.reserve(1u << 17);
+  buffer += withNormals ? "NOFF\n" : "OFF\n";
+  appendNumber(buffer, soup.positions.size());
+  buffer += ' ';
+  appendNumber(buffer, soup.polygonCount());
+  buffer += " 0\n";
+  for (std::size_t v = 0; v < soup.positions.size(); ++v) {
+    for (int c = 0; c < 3; ++c) {
+      if (c > 0) buffer += ' ';
+      appendNumber(buffer, soup.positions[v][c]);
+    }
+    if (withNormals) {
+      for (int c = 0; c < 3; ++c) {
+        buffer += ' ';
+        appendNumber(buffer, soup.normals[v][c]);
+      }
+    }
+    buffer += '\n';
+    drain(buffer, out);
+  }
+  for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
+    const auto polygon = soup.polygon(p);
+    appendNumber(buffer, polygon.size());
+    for (std::uint32_t v : polygon) {
+      buffer += ' ';
+      appendNumber(buffer, v);
+    }
+    buffer += '\n';
+    drain(buffer, out);
+  }
+  drain(buffer, out, true);
+}
+
+}  // namespace spacewarp

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Builds the reader fuzzers (fuzz_obj, fuzz_off, fuzz_ply) with clang in build-fuzz/ and runs
+# each one for a number of seconds on a copy of the seed corpus in tests/fuzz/corpus/.
+#
+#   tests/fuzz/run.sh [SECONDS]        (default: $FUZZ_SECONDS, else 60)
+#
+# Environment: FUZZ_SECONDS, FUZZ_BUILD_DIR (default <repo>/build-fuzz), FUZZ_JOBS (build
+# parallelism, default 2), FUZZ_TARGETS (default "obj off ply").
+# Exits non-zero when a fuzzer reports a finding (crash, sanitizer error, leak, timeout); the
+# reproducer is saved in $FUZZ_BUILD_DIR/fuzz-artifacts/<format>/.
+set -euo pipefail
+
+seconds="${1:-${FUZZ_SECONDS:-60}}"
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+build="${FUZZ_BUILD_DIR:-$root/build-fuzz}"
+jobs="${FUZZ_JOBS:-2}"
+targets="${FUZZ_TARGETS:-obj off ply}"
+
+cmake -S "$root" -B "$build" -G Ninja \
+  -DCMAKE_CXX_COMPILER=clang++ \
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DSPACEWARP_BUILD_FUZZERS=ON \
+  -DSPACEWARP_BUILD_TESTS=OFF \
+  -DSPACEWARP_BUILD_APPS=OFF \
+  -DSPACEWARP_BUILD_BENCHMARKS=OFF >/dev/null
+
+build_targets=()
+for format in $targets; do build_targets+=("fuzz_$format"); done
+ninja -C "$build" -j "$jobs" "${build_targets[@]}"
+
+status=0
+for format in $targets; do
+  corpus="$build/fuzz-corpus/$format"
+  artifacts="$build/fuzz-artifacts/$format/"
+  mkdir -p "$corpus" "$artifacts"
+  echo "== fuzz_$format for ${seconds}s"
+  if ! "$build/tests/fuzz/fuzz_$format" \
+      -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
+      -print_final_stats=1 -artifact_prefix="$artifacts" \
+      "$corpus" "$root/tests/fuzz/corpus/$format"; then
+    echo "fuzz_$format: FINDING (reproducer in $artifacts)" >&2
+    status=1
+  fi
+done
+exit "$status"

@@ -1,0 +1,316 @@
+#include "core/io/obj.h"
+
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+namespace {
+
+using ::testing::HasSubstr;
+
+/// Doubles that stress decimal round trips: wide exponents, subnormals, extremes, -0.
+double randomCoordinate(std::mt19937_64& rng) {
+  std::uniform_int_distribution<int> kind(0, 9);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  switch (kind(rng)) {
+    case 0:
+      return std::ldexp(unit(rng), std::uniform_int_distribution<int>(-1070, 1020)(rng));
+    case 1:
+      return -0.0;
+    case 2:
+      return std::numeric_limits<double>::denorm_min() *
+             std::uniform_int_distribution<int>(1, 1000)(rng);
+    case 3:
+      return std::numeric_limits<double>::max() * unit(rng);
+    default:
+      return 1000.0 * unit(rng);
+  }
+}
+
+PolygonSoup randomSoup(std::uint64_t seed, std::size_t vertexCount, std::size_t polygonCount,
+                       bool withNormals) {
+  std::mt19937_64 rng(seed);
+  PolygonSoup soup;
+  for (std::size_t v = 0; v < vertexCount; ++v) {
+    soup.positions.emplace_back(randomCoordinate(rng), randomCoordinate(rng),
+                                randomCoordinate(rng));
+    if (withNormals) {
+      std::normal_distribution<double> gauss;
+      const Vec3 n(gauss(rng), gauss(rng), gauss(rng));
+      soup.normals.push_back(glm::normalize(n));
+    }
+  }
+  std::uniform_int_distribution<std::uint32_t> size(3, 7);
+  std::uniform_int_distribution<std::uint32_t> vertex(0,
+                                                      static_cast<std::uint32_t>(vertexCount - 1));
+  std::vector<std::uint32_t> polygon;
+  for (std::size_t p = 0; p < polygonCount; ++p) {
+    polygon.resize(size(rng));
+    for (std::uint32_t& v : polygon) v = vertex(rng);
+    soup.addPolygon(polygon);
+  }
+  return soup;
+}
+
+void expectBitEqual(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    for (int c = 0; c < 3; ++c) {
+      ASSERT_EQ(std::bit_cast<std::uint64_t>(a[i][c]), std::bit_cast<std::uint64_t>(b[i][c]))
+          << "element " << i << " component " << c << ": " << a[i][c] << " vs " << b[i][c];
+    }
+  }
+}
+
+void expectSameSoup(const PolygonSoup& a, const PolygonSoup& b) {
+  expectBitEqual(a.positions, b.positions);
+  expectBitEqual(a.normals, b.normals);
+  EXPECT_EQ(a.faceOffsets, b.faceOffsets);
+  EXPECT_EQ(a.faceIndices, b.faceIndices);
+}
+
+PolygonSoup roundTrip(const PolygonSoup& soup) {
+  std::stringstream stream;
+  writeObj(soup, stream);
+  return readObj(stream, "roundtrip.obj");
+}
+
+PolygonSoup readText(const std::string& text, const std::string& name = "model.obj") {
+  std::istringstream in(text);
+  return readObj(in, name);
+}
+
+/// The message of the IoError that reading `text` throws ("" if none).
+std::string errorOf(const std::string& text, const std::string& name = "model.obj") {
+  try {
+    readText(text, name);
+  } catch (const IoError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ObjTest, RoundTripMixedPolygonsIsExact) {
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    const PolygonSoup soup = randomSoup(seed, 200, 150, false);
+    expectSameSoup(roundTrip(soup), soup);
+  }
+}
+
+TEST(ObjTest, RoundTripWithNormalsIsExact) {
+  for (std::uint64_t seed = 10; seed <= 14; ++seed) {
+    const PolygonSoup soup = randomSoup(seed, 100, 80, true);
+    const PolygonSoup back = roundTrip(soup);
+    ASSERT_TRUE(back.hasNormals());
+    expectSameSoup(back, soup);
+  }
+}
+
+TEST(ObjTest, RoundTripPointCloud) {
+  const PolygonSoup plain = randomSoup(20, 64, 0, false);
+  expectSameSoup(roundTrip(plain), plain);
+  const PolygonSoup withNormals = randomSoup(21, 64, 0, true);
+  const PolygonSoup back = roundTrip(withNormals);
+  EXPECT_EQ(back.polygonCount(), 0u);
+  expectSameSoup(back, withNormals);
+}
+
+TEST(ObjTest, RoundTripEmptySoup) {
+  const PolygonSoup back = roundTrip(PolygonSoup{});
+  EXPECT_EQ(back.size(), 0u);
+  EXPECT_EQ(back.polygonCount(), 0u);
+}
+
+TEST(ObjTest, RoundTripPolygonWithMoreThan255Vertices) {
+  PolygonSoup soup;
+  std::vector<std::uint32_t> ring;
+  for (std::uint32_t i = 0; i < 300; ++i) {
+    const double angle = 2.0 * 3.141592653589793 * i / 300.0;
+    soup.positions.emplace_back(std::cos(angle), std::sin(angle), 0.0);
+    ring.push_back(i);
+  }
+  soup.addPolygon(ring);
+  soup.addPolygon({0, 100, 200});
+  expectSameSoup(roundTrip(soup), soup);
+}
+
+TEST(ObjTest, ReadsCubeWithCommentsGroupsAndTextureCoordinates) {
+  const PolygonSoup cube = readText(
+      "# a unit cube\n"
+      "mtllib cube.mtl\n"
+      "o cube\n"
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+      "v 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1   # trailing comment\n"
+      "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+      "g bottom\nusemtl red\n"
+      "f 1/1 4/4 3/3 2/2\n"
+      "g top\n"
+      "f 5/1 6/2 7/3 8/4\n"
+      "s off\n"
+      "f 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+      "l 1 2\np 3\n");
+  ASSERT_EQ(cube.size(), 8u);
+  EXPECT_EQ(cube.positions[6], Vec3(1, 1, 1));
+  EXPECT_EQ(cube.positions[7], Vec3(0, 1, 1));
+  ASSERT_EQ(cube.polygonCount(), 6u);
+  EXPECT_THAT(cube.polygon(0), ::testing::ElementsAre(0, 3, 2, 1));
+  EXPECT_THAT(cube.polygon(1), ::testing::ElementsAre(4, 5, 6, 7));
+  EXPECT_THAT(cube.polygon(5), ::testing::ElementsAre(3, 0, 4, 7));
+  EXPECT_FALSE(cube.hasNormals());
+  EXPECT_NO_THROW(cube.validate());
+}
+
+TEST(ObjTest, KeepsUnreferencedVerticesInFileOrder) {
+  const PolygonSoup soup = readText("v 9 9 9\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 2 3 4\nv 5 5 5\n");
+  ASSERT_EQ(soup.size(), 5u);
+  EXPECT_EQ(soup.positions[0], Vec3(9, 9, 9));
+  EXPECT_EQ(soup.positions[4], Vec3(5, 5, 5));
+  EXPECT_THAT(soup.polygon(0), ::testing::ElementsAre(1, 2, 3));
+}
+
+TEST(ObjTest, ResolvesRelativeIndices) {
+  const PolygonSoup soup = readText("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 1 1 0\nf -3 -2 -1\n");
+  ASSERT_EQ(soup.polygonCount(), 2u);
+  EXPECT_THAT(soup.polygon(0), ::testing::ElementsAre(0, 1, 2));
+  EXPECT_THAT(soup.polygon(1), ::testing::ElementsAre(1, 2, 3));
+}
+
+TEST(ObjTest, ReadsWindowsLineEndingsAndVertexColours) {
+  const PolygonSoup soup =
+      readText("v 0 0 0 1 0 0\r\nv 1 0 0 0 1 0\r\nv 0 1 0 0 0 1\r\nf 1 2 3\r\n");
+  ASSERT_EQ(soup.size(), 3u);
+  EXPECT_EQ(soup.positions[1], Vec3(1, 0, 0));
+  EXPECT_EQ(soup.polygonCount(), 1u);
+}
+
+TEST(ObjTest, MapsSharedNormalsToVertices) {
+  // Two triangles sharing an edge; the normal indices differ from the vertex indices, but each
+  // vertex always gets the same normal.
+  const PolygonSoup soup = readText(
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+      "vn 0 0 1\nvn 0 1 0\nvn 1 0 0\n"
+      "f 1//1 2//2 3//3\nf 2//2 4//1 3//3\n");
+  ASSERT_TRUE(soup.hasNormals());
+  EXPECT_EQ(soup.normals[0], Vec3(0, 0, 1));
+  EXPECT_EQ(soup.normals[1], Vec3(0, 1, 0));
+  EXPECT_EQ(soup.normals[2], Vec3(1, 0, 0));
+  EXPECT_EQ(soup.normals[3], Vec3(0, 0, 1));
+}
+
+TEST(ObjTest, DropsNormalsThatDifferPerCorner) {
+  // Flat shading: vertex 2 gets two different normals.
+  const PolygonSoup soup = readText(
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+      "vn 0 0 1\nvn 0 1 0\n"
+      "f 1//1 2//1 3//1\nf 2//2 4//2 3//2\n");
+  EXPECT_FALSE(soup.hasNormals());
+  EXPECT_EQ(soup.polygonCount(), 2u);
+}
+
+TEST(ObjTest, DropsNormalsWhenSomeCornersHaveNone) {
+  const PolygonSoup soup =
+      readText("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1//1 2 3//3\n");
+  EXPECT_FALSE(soup.hasNormals());
+}
+
+TEST(ObjTest, DropsNormalsWhenAVertexHasNone) {
+  // Vertex 4 is not referenced and there is no vn per v.
+  const PolygonSoup soup =
+      readText("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\nvn 0 0 1\nf 1//1 2//1 3//1\n");
+  EXPECT_FALSE(soup.hasNormals());
+  EXPECT_EQ(soup.size(), 4u);
+}
+
+TEST(ObjTest, PointCloudWithOneNormalPerVertex) {
+  const PolygonSoup soup = readText("v 0 0 0\nvn 0 0 1\nv 1 0 0\nvn 1 0 0\n");
+  ASSERT_TRUE(soup.hasNormals());
+  EXPECT_EQ(soup.normals[1], Vec3(1, 0, 0));
+}
+
+TEST(ObjTest, EmptyInputIsAnEmptySoup) {
+  const PolygonSoup soup = readText("");
+  EXPECT_EQ(soup.size(), 0u);
+  EXPECT_EQ(soup.polygonCount(), 0u);
+}
+
+TEST(ObjTest, WritesOneBasedFacesWithNormalReferences) {
+  PolygonSoup soup;
+  soup.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  soup.addPolygon({0, 1, 2});
+  std::ostringstream plain;
+  writeObj(soup, plain);
+  EXPECT_THAT(plain.str(), HasSubstr("v 1 0 0\n"));
+  EXPECT_THAT(plain.str(), HasSubstr("f 1 2 3\n"));
+  soup.normals = {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}};
+  std::ostringstream withNormals;
+  writeObj(soup, withNormals);
+  EXPECT_THAT(withNormals.str(), HasSubstr("vn 0 0 1\n"));
+  EXPECT_THAT(withNormals.str(), HasSubstr("f 1//1 2//2 3//3\n"));
+}
+
+TEST(ObjTest, WriteRejectsInvalidSoup) {
+  PolygonSoup soup;
+  soup.positions = {{0, 0, 0}};
+  soup.addPolygon({0, 1, 2});
+  std::ostringstream out;
+  EXPECT_THROW(writeObj(soup, out), InvalidInput);
+}
+
+TEST(ObjTest, RejectsNanCoordinate) {
+  EXPECT_THAT(errorOf("v 0 0 0\n# c\nv nan 0 0\n"),
+              HasSubstr("model.obj:3: vertex has a non-finite coordinate"));
+  EXPECT_THAT(errorOf("v 0 inf 0\n"), HasSubstr("model.obj:1: vertex has a non-finite"));
+  EXPECT_THAT(errorOf("v 0 0 1e999\n"), HasSubstr("model.obj:1: vertex has a non-finite"));
+  EXPECT_THAT(errorOf("v 0 0 0\nvn 0 nan 0\n"), HasSubstr("model.obj:2: normal has a non-finite"));
+}
+
+TEST(ObjTest, RejectsNonNumericToken) {
+  EXPECT_THAT(errorOf("v 0 0 0\nv 1 abc 2\n"),
+              HasSubstr("model.obj:2: vertex: 'abc' is not a number"));
+  EXPECT_THAT(errorOf("v 0 0 0 x\n"), HasSubstr("model.obj:1:"));
+  EXPECT_THAT(errorOf("v 1,5 0 0\n"), HasSubstr("model.obj:1:"));
+  EXPECT_THAT(errorOf("v +-1 0 0\n"), HasSubstr("model.obj:1: vertex: '+-1' is not a number"));
+  EXPECT_EQ(readText("v +1 -0 +.5e1\n").positions[0], Vec3(1, 0, 5));
+}
+
+TEST(ObjTest, RejectsTooFewCoordinates) {
+  EXPECT_THAT(errorOf("v 1 2\n"), HasSubstr("model.obj:1: vertex has fewer than 3 coordinates"));
+  EXPECT_THAT(errorOf("\n\nv\n"), HasSubstr("model.obj:3: vertex has fewer than 3"));
+}
+
+TEST(ObjTest, RejectsOutOfRangeAndZeroFaceIndices) {
+  const std::string triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  EXPECT_THAT(errorOf(triangle + "f 1 2 4\n"),
+              HasSubstr("model.obj:4: face vertex index 4 is out of range (3 vertices so far)"));
+  EXPECT_THAT(errorOf(triangle + "f 0 1 2\n"),
+              HasSubstr("model.obj:4: face vertex index 0 is invalid"));
+  EXPECT_THAT(errorOf(triangle + "f -4 1 2\n"), HasSubstr("model.obj:4: face vertex index -4"));
+  EXPECT_THAT(errorOf(triangle + "f 1//2 2//1 3//1\nvn 0 0 1\n"),
+              HasSubstr("model.obj:4: face normal index 2"));
+  EXPECT_THAT(errorOf(triangle + "f 1 2 99999999999999999999\n"), HasSubstr("model.obj:4:"));
+}
+
+TEST(ObjTest, RejectsMalformedFaces) {
+  const std::string triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  EXPECT_THAT(errorOf(triangle + "f 1 2\n"), HasSubstr("model.obj:4: face has fewer than 3"));
+  EXPECT_THAT(errorOf(triangle + "f 1 2 x\n"), HasSubstr("model.obj:4: malformed face corner 'x'"));
+  EXPECT_THAT(errorOf(triangle + "f 1/ 2 3\n"), HasSubstr("model.obj:4: malformed"));
+  EXPECT_THAT(errorOf(triangle + "f 1/1/1/1 2 3\n"), HasSubstr("model.obj:4: malformed"));
+  EXPECT_THAT(errorOf(triangle + "f +-1 2 3\n"), HasSubstr("model.obj:4: malformed"));
+  EXPECT_THAT(errorOf(triangle + "f ++1 2 3\n"), HasSubstr("model.obj:4: malformed"));
+  EXPECT_EQ(errorOf(triangle + "f +1 2 3\n"), "");
+  EXPECT_THAT(errorOf(std::string("v 0 0 0\0\n", 10)), HasSubstr("model.obj:1: unexpected NUL"));
+}
+
+}  // namespace
+}  // namespace spacewarp
