@@ -1,11 +1,14 @@
 #pragma once
 // Shared helpers of the test suites: seeded random points, an independent finite-difference
-// Jacobian, relative errors, and the checks every Warp must pass (analytic Jacobian, normals,
-// inversion, deterministic batches).
+// Jacobian, relative errors, exception messages, the checks every Warp must pass (analytic
+// Jacobian, normals, inversion, deterministic batches), those checks run over the test
+// configurations of one kind of warp, and the checks of the axial warps' limits.
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <random>
 #include <sstream>
 #include <string>
@@ -14,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include "core/errors.h"
 #include "core/math.h"
 #include "core/warp.h"
 
@@ -45,6 +49,18 @@ inline std::vector<Vec3> randomPointsWhere(std::mt19937& rng, std::size_t n, dou
     if (keep(p)) points.push_back(p);
   }
   return points;
+}
+
+/// The message of the exception of type E that `action()` throws, or "" if it throws none
+/// (an exception of another type propagates). Expect a substring of it to check a message.
+template <typename E, typename Action>
+std::string messageOf(Action&& action) {
+  try {
+    action();
+  } catch (const E& e) {
+    return e.what();
+  }
+  return "";
 }
 
 /// A uniformly distributed unit vector.
@@ -201,6 +217,187 @@ inline ::testing::AssertionResult batchIsDeterministic(const Warp& warp,
     }
   }
   return ::testing::AssertionSuccess();
+}
+
+/// applyBatch with an output span of another size than the input throws InvalidInput.
+inline void expectBatchRejectsMismatchedSizes(const Warp& warp, std::size_t inSize,
+                                              std::size_t outSize) {
+  std::vector<Vec3> in(inSize), out(outSize);
+  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput) << inSize << " in, " << outSize << " out";
+}
+
+/// The checks every smooth Warp passes at `points` (see above): the analytic Jacobian matches
+/// finite differences, inverse() recovers the points, and normals stay perpendicular to
+/// tangents (with random normals drawn from `rng`).
+inline void expectWarpProperties(const Warp& warp, const std::vector<Vec3>& points,
+                                 std::mt19937& rng) {
+  EXPECT_TRUE(jacobianMatchesFiniteDifferences(warp, points));
+  EXPECT_TRUE(inverseRecovers(warp, points));
+  EXPECT_TRUE(normalsStayPerpendicular(warp, points, rng));
+}
+
+/// warp.apply(x) == x at every point (exactly, as EXPECT_EQ compares).
+inline ::testing::AssertionResult leavesPointsUnchanged(const Warp& warp,
+                                                        const std::vector<Vec3>& points) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vec3 moved = warp.apply(points[i]);
+    if (!(moved == points[i])) {
+      return ::testing::AssertionFailure()
+             << "point " << i << " " << toString(points[i]) << " moved to " << toString(moved);
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+/// The warp moves `points` as one rigid motion: at each point the Jacobian is a rotation
+/// (|JᵀJ - I| relative error below 1e-14, |det J - 1| at most 1e-14), and the distance between
+/// consecutive points is kept within 1e-12 relative.
+inline ::testing::AssertionResult movesRigidly(const Warp& warp, const std::vector<Vec3>& points) {
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Mat3 j = warp.jacobian(points[i]);
+    const double orthogonality = relativeError(glm::transpose(j) * j, Mat3(1.0));
+    const double determinant = glm::determinant(j);
+    if (!(orthogonality < 1e-14) || !(std::abs(determinant - 1.0) <= 1e-14)) {
+      return ::testing::AssertionFailure()
+             << "point " << i << " " << toString(points[i]) << ": Jacobian " << toString(j)
+             << " is not a rotation (|JtJ - I| " << orthogonality << ", det " << determinant << ")";
+    }
+    if (i == 0) continue;
+    const double before = glm::length(points[i] - points[i - 1]);
+    const double after = glm::length(warp.apply(points[i]) - warp.apply(points[i - 1]));
+    if (!(std::abs(after - before) <= 1e-12 * before)) {
+      return ::testing::AssertionFailure() << "points " << i - 1 << " and " << i << ": distance "
+                                           << before << " became " << after;
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Axial warps (twist, bend, taper): parameters, limits, and the checks above run over a list of
+// test configurations.
+
+/// Builds the parameters of an axial warp (TwistParams, TaperParams, BendParams): the axis
+/// through `origin` along `axis`, the rate and the limits [lo, hi] on the axial coordinate (world
+/// units); other fields keep their defaults. A function object, so that a test file can name it
+/// and keep the default limits: `constexpr test::AxialParams<TwistParams> twistParams{};`.
+template <typename Params>
+struct AxialParams {
+  Params operator()(const Vec3& origin, const Vec3& axis, double rate,
+                    double lo = -std::numeric_limits<double>::infinity(),
+                    double hi = std::numeric_limits<double>::infinity()) const {
+    Params p;
+    p.origin = origin;
+    p.axis = axis;
+    p.rate = rate;
+    p.lo = lo;
+    p.hi = hi;
+    return p;
+  }
+};
+
+/// "rate 0.5 limits [-1, 2]": names a configuration of an axial warp in failure messages.
+template <typename Params>
+std::string describeAxial(const Params& params) {
+  std::ostringstream s;
+  s << "rate " << params.rate << " limits [" << params.lo << ", " << params.hi << "]";
+  return s.str();
+}
+
+/// n offsets perpendicular to the unit vector `axis`: points uniform in [-2, 2)^3 (drawn from
+/// `rng` one after the other) without their component along `axis`.
+inline std::vector<Vec3> perpendicularOffsets(std::mt19937& rng, std::size_t n, const Vec3& axis) {
+  std::vector<Vec3> offsets(n);
+  for (Vec3& p : offsets) {
+    const Vec3 offset = randomPoint(rng, -2.0, 2.0);
+    p = offset - glm::dot(offset, axis) * axis;
+  }
+  return offsets;
+}
+
+/// An axial warp is continuous across its limit plane s = `limit` on the axis through `origin`
+/// along the unit vector `axis`: for each offset p (perpendicular to the axis), the images of
+/// origin + (limit - 1e-10) axis + p and origin + (limit + 1e-10) axis + p differ by less than
+/// `tolerance`, relative to either of them.
+inline ::testing::AssertionResult continuousAcross(const Warp& warp, const Vec3& origin,
+                                                   const Vec3& axis, double limit,
+                                                   const std::vector<Vec3>& offsets,
+                                                   double tolerance = 1e-9) {
+  const double delta = 1e-10;
+  for (std::size_t i = 0; i < offsets.size(); ++i) {
+    const Vec3 below = warp.apply(origin + (limit - delta) * axis + offsets[i]);
+    const Vec3 above = warp.apply(origin + (limit + delta) * axis + offsets[i]);
+    const double err = std::max(relativeError(below, above), relativeError(above, below));
+    if (!(err < tolerance)) {
+      return ::testing::AssertionFailure()
+             << "limit " << limit << ", offset " << i << " " << toString(offsets[i])
+             << ": jumps from " << toString(below) << " to " << toString(above);
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+/// Draws `n` test points for `warp` from `rng` (where it is smooth, invertible, ...).
+template <typename W>
+using PointSampler =
+    std::function<std::vector<Vec3>(const W& warp, std::mt19937& rng, std::size_t n)>;
+
+/// A sampler of points uniform in [lo, hi)^3, whatever the warp.
+template <typename W>
+PointSampler<W> uniformPoints(double lo, double hi) {
+  return
+      [lo, hi](const W&, std::mt19937& rng, std::size_t n) { return randomPoints(rng, n, lo, hi); };
+}
+
+/// For each configuration in turn: builds W(params), draws 200 points for it with `sample` from
+/// `rng` and expects `check(warp, points)` to succeed, naming the configuration if it fails.
+template <typename W, typename Params, typename Check>
+void expectForEachConfiguration(const std::vector<Params>& configurations, std::mt19937& rng,
+                                const PointSampler<W>& sample, Check check) {
+  for (const Params& params : configurations) {
+    const W warp(params);
+    const std::vector<Vec3> points = sample(warp, rng, 200);
+    EXPECT_TRUE(check(warp, points)) << describeAxial(params);
+  }
+}
+
+/// jacobianMatchesFiniteDifferences for every configuration (see expectForEachConfiguration).
+template <typename W, typename Params>
+void expectJacobiansMatchFiniteDifferences(const std::vector<Params>& configurations,
+                                           std::mt19937& rng, const PointSampler<W>& sample) {
+  expectForEachConfiguration<W>(configurations, rng, sample,
+                                [](const Warp& warp, const std::vector<Vec3>& points) {
+                                  return jacobianMatchesFiniteDifferences(warp, points);
+                                });
+}
+
+/// inverseRecovers for every configuration (see expectForEachConfiguration).
+template <typename W, typename Params>
+void expectInversesRecover(const std::vector<Params>& configurations, std::mt19937& rng,
+                           const PointSampler<W>& sample) {
+  expectForEachConfiguration<W>(configurations, rng, sample,
+                                [](const Warp& warp, const std::vector<Vec3>& points) {
+                                  return inverseRecovers(warp, points);
+                                });
+}
+
+/// normalsStayPerpendicular for every configuration, the random normals drawn from `rng` after
+/// each configuration's points (see expectForEachConfiguration).
+template <typename W, typename Params>
+void expectNormalsStayPerpendicular(const std::vector<Params>& configurations, std::mt19937& rng,
+                                    const PointSampler<W>& sample) {
+  expectForEachConfiguration<W>(configurations, rng, sample,
+                                [&rng](const Warp& warp, const std::vector<Vec3>& points) {
+                                  return normalsStayPerpendicular(warp, points, rng);
+                                });
+}
+
+/// batchIsDeterministic for the warp W(params) of every configuration, at the same `points`.
+template <typename W, typename Params>
+void expectBatchesDeterministic(const std::vector<Params>& configurations,
+                                const std::vector<Vec3>& points) {
+  for (const Params& params : configurations)
+    EXPECT_TRUE(batchIsDeterministic(W(params), points)) << describeAxial(params);
 }
 
 }  // namespace spacewarp::test

@@ -1,19 +1,17 @@
 #include "core/io/obj.h"
 
-#include <charconv>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <limits>
-#include <new>
 #include <sstream>
+#include <string>
 #include <string_view>
-#include <system_error>
 #include <vector>
 
 #include <tiny_obj_loader.h>
 
 #include "core/errors.h"
+#include "core/io/text_format.h"
 
 namespace spacewarp {
 namespace {
@@ -28,43 +26,13 @@ class ObjError {
  public:
   ObjError(const std::string& name, std::size_t line) : name_(name), line_(line) {}
   [[noreturn]] void fail(const std::string& message) const {
-    throw IoError(name_ + ":" + std::to_string(line_) + ": " + message);
+    detail::failAt(name_, line_, message);
   }
 
  private:
   const std::string& name_;
   std::size_t line_;
 };
-
-enum class NumberStatus { Ok, NotANumber, OutOfRange };
-
-/// Parses a whole token as a double with correct rounding (std::from_chars). Accepts a leading
-/// '+'. Underflow gives the nearest representable value; overflow gives OutOfRange.
-NumberStatus parseDouble(std::string_view token, double& value) {
-  const bool plus = !token.empty() && token.front() == '+';
-  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
-  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-')))
-    return NumberStatus::NotANumber;
-  const char* end = token.data() + token.size();
-  const auto [ptr, ec] = std::from_chars(token.data(), end, value, std::chars_format::general);
-  if (ptr != end) return NumberStatus::NotANumber;
-  if (ec == std::errc::result_out_of_range) {
-    const std::string copy(token);
-    value = std::strtod(copy.c_str(), nullptr);
-    return std::isfinite(value) ? NumberStatus::Ok : NumberStatus::OutOfRange;
-  }
-  return ec == std::errc() ? NumberStatus::Ok : NumberStatus::NotANumber;
-}
-
-/// Parses a whole token as an integer with an optional sign.
-bool parseInteger(std::string_view token, std::int64_t& value) {
-  const bool plus = !token.empty() && token.front() == '+';
-  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
-  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-'))) return false;
-  const char* end = token.data() + token.size();
-  const auto [ptr, ec] = std::from_chars(token.data(), end, value);
-  return ec == std::errc() && ptr == end;
-}
 
 /// Splits a line into tokens separated by spaces and tabs (the separators tinyobjloader uses),
 /// stopping at a '#' that starts a token (a trailing comment).
@@ -102,11 +70,11 @@ Vec3 parseTriple(const std::vector<std::string_view>& tokens, const ObjError& er
   double xyz[3] = {0.0, 0.0, 0.0};
   for (std::size_t t = 1; t < tokens.size(); ++t) {
     double value = 0.0;
-    const NumberStatus status = parseDouble(tokens[t], value);
-    if (status == NumberStatus::NotANumber)
+    const detail::NumberStatus status = detail::parseDouble(tokens[t], value);
+    if (status == detail::NumberStatus::NotANumber)
       error.fail(std::string(what) + ": '" + std::string(tokens[t]) + "' is not a number");
     if (t <= 3) {
-      if (status == NumberStatus::OutOfRange || !std::isfinite(value))
+      if (status == detail::NumberStatus::OutOfRange || !std::isfinite(value))
         error.fail(std::string(what) + " has a non-finite coordinate");
       xyz[t - 1] = value;
     }
@@ -134,7 +102,7 @@ void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t
   for (int p = 0; p < partCount; ++p) {
     if (p == 1 && parts[p].empty() && partCount == 3) continue;  // "v//n"
     std::int64_t index = 0;
-    if (!parseInteger(parts[p], index))
+    if (!detail::parseInteger(parts[p], index))
       error.fail("malformed face corner '" + std::string(corner) + "'");
     std::int64_t resolved = 0;
     if (!resolveIndex(index, counts[p], resolved)) {
@@ -323,33 +291,13 @@ PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
 // ---------------------------------------------------------------------------------------------
 // Writing
 
-void appendNumber(std::string& out, double value) {
-  char buffer[32];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  out.append(buffer, result.ptr);
-}
-
-void appendIndex(std::string& out, std::uint64_t value) {
-  char buffer[24];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  out.append(buffer, result.ptr);
-}
-
 void appendVectorLine(std::string& out, const char* keyword, const Vec3& v) {
   out += keyword;
   for (int c = 0; c < 3; ++c) {
     out += ' ';
-    appendNumber(out, v[c]);
+    detail::appendNumber(out, v[c]);
   }
   out += '\n';
-}
-
-/// Flushes `buffer` to `out` once it is large.
-void drain(std::string& buffer, std::ostream& out, bool force = false) {
-  if (force || buffer.size() >= (1u << 16)) {
-    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    buffer.clear();
-  }
 }
 
 }  // namespace
@@ -357,12 +305,8 @@ void drain(std::string& buffer, std::ostream& out, bool force = false) {
 PolygonSoup readObj(std::istream& in, const std::string& name) {
   try {
     return readObjImpl(in, name);
-  } catch (const IoError&) {
-    throw;
-  } catch (const std::bad_alloc&) {
-    throw IoError(name + ": out of memory");
-  } catch (const std::exception& e) {
-    throw IoError(name + ": " + e.what());
+  } catch (...) {
+    detail::rethrowAsIoError(name);
   }
 }
 
@@ -372,27 +316,27 @@ void writeObj(const PolygonSoup& soup, std::ostream& out) {
   buffer.reserve(1u << 17);
   for (const Vec3& p : soup.positions) {
     appendVectorLine(buffer, "v", p);
-    drain(buffer, out);
+    detail::drain(buffer, out);
   }
   for (const Vec3& n : soup.normals) {
     appendVectorLine(buffer, "vn", n);
-    drain(buffer, out);
+    detail::drain(buffer, out);
   }
   const bool withNormals = soup.hasNormals();
   for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
     buffer += 'f';
     for (std::uint32_t v : soup.polygon(p)) {
       buffer += ' ';
-      appendIndex(buffer, std::uint64_t{v} + 1);
+      detail::appendInteger(buffer, std::uint64_t{v} + 1);
       if (withNormals) {
         buffer += "//";
-        appendIndex(buffer, std::uint64_t{v} + 1);
+        detail::appendInteger(buffer, std::uint64_t{v} + 1);
       }
     }
     buffer += '\n';
-    drain(buffer, out);
+    detail::drain(buffer, out);
   }
-  drain(buffer, out, true);
+  detail::drain(buffer, out, true);
 }
 
 }  // namespace spacewarp

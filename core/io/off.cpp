@@ -1,56 +1,19 @@
 #include "core/io/off.h"
 
-#include <charconv>
-#include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <limits>
-#include <new>
+#include <string>
 #include <string_view>
-#include <system_error>
 #include <vector>
 
 #include "core/errors.h"
+#include "core/io/text_format.h"
 
 namespace spacewarp {
 namespace {
 
 // ---------------------------------------------------------------------------------------------
 // Reading
-
-enum class NumberStatus { Ok, NotANumber, OutOfRange };
-
-/// Parses a whole token as a double with correct rounding (std::from_chars). Accepts a leading
-/// '+'. Underflow gives the nearest representable value; overflow gives OutOfRange.
-NumberStatus parseDouble(std::string_view token, double& value) {
-  const bool plus = !token.empty() && token.front() == '+';
-  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
-  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-')))
-    return NumberStatus::NotANumber;
-  const char* end = token.data() + token.size();
-  const auto [ptr, ec] = std::from_chars(token.data(), end, value, std::chars_format::general);
-  if (ptr != end) return NumberStatus::NotANumber;
-  if (ec == std::errc::result_out_of_range) {
-    const std::string copy(token);
-    value = std::strtod(copy.c_str(), nullptr);
-    return std::isfinite(value) ? NumberStatus::Ok : NumberStatus::OutOfRange;
-  }
-  return ec == std::errc() ? NumberStatus::Ok : NumberStatus::NotANumber;
-}
-
-/// Parses a whole token as an integer with an optional sign.
-bool parseInteger(std::string_view token, std::int64_t& value) {
-  const bool plus = !token.empty() && token.front() == '+';
-  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
-  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-'))) return false;
-  const char* end = token.data() + token.size();
-  const auto [ptr, ec] = std::from_chars(token.data(), end, value);
-  return ec == std::errc() && ptr == end;
-}
-
-bool isSpace(char c) {
-  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
-}
 
 /// Reads the content lines of an OFF file (comments removed, blank lines skipped) as tokens,
 /// and throws IoError messages that name the file and the current line.
@@ -66,10 +29,10 @@ class LineReader {
       const std::string_view text(line_);
       std::size_t i = 0;
       while (i < text.size()) {
-        while (i < text.size() && isSpace(text[i])) ++i;
+        while (i < text.size() && detail::isSpace(text[i])) ++i;
         if (i == text.size() || text[i] == '#') break;
         const std::size_t start = i;
-        while (i < text.size() && !isSpace(text[i]) && text[i] != '#') ++i;
+        while (i < text.size() && !detail::isSpace(text[i]) && text[i] != '#') ++i;
         tokens_.push_back(text.substr(start, i - start));
       }
       if (!tokens_.empty()) return true;
@@ -81,7 +44,7 @@ class LineReader {
   const std::vector<std::string_view>& tokens() const { return tokens_; }
 
   [[noreturn]] void fail(const std::string& message) const {
-    throw IoError(name_ + ":" + std::to_string(lineNumber_) + ": " + message);
+    detail::failAt(name_, lineNumber_, message);
   }
 
   /// "what index: 'token' problem" for token t (index < 0: no index).
@@ -95,16 +58,16 @@ class LineReader {
   /// element in the message ("vertex 3: 'abc' is not a number").
   double number(std::size_t t, const char* what, std::int64_t index) const {
     double value = 0.0;
-    const NumberStatus status = parseDouble(tokens_[t], value);
-    if (status == NumberStatus::NotANumber) fail(what, index, "is not a number", t);
-    if (status == NumberStatus::OutOfRange) value = std::numeric_limits<double>::infinity();
+    const detail::NumberStatus status = detail::parseDouble(tokens_[t], value);
+    if (status == detail::NumberStatus::NotANumber) fail(what, index, "is not a number", t);
+    if (status == detail::NumberStatus::OutOfRange) value = std::numeric_limits<double>::infinity();
     return value;
   }
 
   /// Token t as an integer.
   std::int64_t integer(std::size_t t, const char* what, std::int64_t index = -1) const {
     std::int64_t value = 0;
-    if (!parseInteger(tokens_[t], value)) fail(what, index, "is not an integer", t);
+    if (!detail::parseInteger(tokens_[t], value)) fail(what, index, "is not an integer", t);
     return value;
   }
 
@@ -222,35 +185,13 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
   return soup;
 }
 
-// ---------------------------------------------------------------------------------------------
-// Writing
-
-template <typename T>
-void appendNumber(std::string& out, T value) {
-  char buffer[32];
-  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
-  out.append(buffer, result.ptr);
-}
-
-/// Flushes `buffer` to `out` once it is large.
-void drain(std::string& buffer, std::ostream& out, bool force = false) {
-  if (force || buffer.size() >= (1u << 16)) {
-    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    buffer.clear();
-  }
-}
-
 }  // namespace
 
 PolygonSoup readOff(std::istream& in, const std::string& name) {
   try {
     return readOffImpl(in, name);
-  } catch (const IoError&) {
-    throw;
-  } catch (const std::bad_alloc&) {
-    throw IoError(name + ": out of memory");
-  } catch (const std::exception& e) {
-    throw IoError(name + ": " + e.what());
+  } catch (...) {
+    detail::rethrowAsIoError(name);
   }
 }
 
@@ -260,35 +201,35 @@ void writeOff(const PolygonSoup& soup, std::ostream& out) {
   std::string buffer;
   buffer.reserve(1u << 17);
   buffer += withNormals ? "NOFF\n" : "OFF\n";
-  appendNumber(buffer, soup.positions.size());
+  detail::appendInteger(buffer, std::uint64_t{soup.positions.size()});
   buffer += ' ';
-  appendNumber(buffer, soup.polygonCount());
+  detail::appendInteger(buffer, std::uint64_t{soup.polygonCount()});
   buffer += " 0\n";
   for (std::size_t v = 0; v < soup.positions.size(); ++v) {
     for (int c = 0; c < 3; ++c) {
       if (c > 0) buffer += ' ';
-      appendNumber(buffer, soup.positions[v][c]);
+      detail::appendNumber(buffer, soup.positions[v][c]);
     }
     if (withNormals) {
       for (int c = 0; c < 3; ++c) {
         buffer += ' ';
-        appendNumber(buffer, soup.normals[v][c]);
+        detail::appendNumber(buffer, soup.normals[v][c]);
       }
     }
     buffer += '\n';
-    drain(buffer, out);
+    detail::drain(buffer, out);
   }
   for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
     const auto polygon = soup.polygon(p);
-    appendNumber(buffer, polygon.size());
+    detail::appendInteger(buffer, std::uint64_t{polygon.size()});
     for (std::uint32_t v : polygon) {
       buffer += ' ';
-      appendNumber(buffer, v);
+      detail::appendInteger(buffer, std::uint64_t{v});
     }
     buffer += '\n';
-    drain(buffer, out);
+    detail::drain(buffer, out);
   }
-  drain(buffer, out, true);
+  detail::drain(buffer, out, true);
 }
 
 }  // namespace spacewarp

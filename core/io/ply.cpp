@@ -5,16 +5,15 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
 #include <cstring>
 #include <limits>
-#include <new>
 #include <optional>
 #include <string_view>
 #include <system_error>
 #include <vector>
 
 #include "core/errors.h"
+#include "core/io/text_format.h"
 
 namespace spacewarp {
 namespace {
@@ -227,18 +226,14 @@ void encode(double value, ScalarType type, unsigned char* bytes) {
 // ---------------------------------------------------------------------------------------------
 // Text
 
-bool isSpace(char c) {
-  return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
-}
-
 void tokenize(std::string_view line, std::vector<std::string_view>& tokens) {
   tokens.clear();
   std::size_t i = 0;
   while (i < line.size()) {
-    while (i < line.size() && isSpace(line[i])) ++i;
+    while (i < line.size() && detail::isSpace(line[i])) ++i;
     if (i == line.size()) break;
     const std::size_t start = i;
-    while (i < line.size() && !isSpace(line[i])) ++i;
+    while (i < line.size() && !detail::isSpace(line[i])) ++i;
     tokens.push_back(line.substr(start, i - start));
   }
 }
@@ -252,43 +247,28 @@ std::string quote(std::string_view token) {
 }
 
 /// Parses a whole token as a value of `type`: integers for integer types (an integral decimal
-/// like "3.0" is accepted too), correctly rounded floats for Float32 and doubles for Float64.
-/// Returns nullptr on success or the reason for failure.
+/// like "3.0" is accepted too), correctly rounded floats for Float32 and doubles for Float64
+/// (overflow gives +-infinity there). Returns nullptr on success or the reason for failure.
 const char* parseValue(std::string_view token, ScalarType type, double& value) {
-  const bool plus = !token.empty() && token.front() == '+';
-  if (plus) token.remove_prefix(1);  // "+1", but not "+-1" or "++1"
-  if (token.empty() || (plus && (token.front() == '+' || token.front() == '-')))
-    return "is not a number";
-  const char* begin = token.data();
-  const char* end = begin + token.size();
+  using detail::NumberStatus;
   if (isIntegral(type)) {
     std::int64_t integer = 0;
-    const auto [ptr, ec] = std::from_chars(begin, end, integer);
-    if (ec == std::errc() && ptr == end) {
+    if (detail::parseInteger(token, integer)) {
       value = static_cast<double>(integer);
     } else {
-      const auto [ptr2, ec2] = std::from_chars(begin, end, value, std::chars_format::general);
-      if (ptr2 != end || (ec2 != std::errc() && ec2 != std::errc::result_out_of_range))
-        return "is not a number";
-      if (ec2 == std::errc::result_out_of_range) return "is out of range";
+      const NumberStatus status = detail::parseDouble(token, value);
+      if (status == NumberStatus::NotANumber) return "is not a number";
+      if (status != NumberStatus::Ok) return "is out of range";
     }
     return unrepresentable(value, type);
   }
   if (type == ScalarType::Float32) {
     float single = 0.0f;
-    const auto [ptr, ec] = std::from_chars(begin, end, single, std::chars_format::general);
-    if (ptr != end || (ec != std::errc() && ec != std::errc::result_out_of_range))
-      return "is not a number";
-    if (ec == std::errc::result_out_of_range)
-      single = std::strtof(std::string(token).c_str(), nullptr);  // +-HUGE_VALF or underflow
+    if (detail::parseFloat(token, single) == NumberStatus::NotANumber) return "is not a number";
     value = static_cast<double>(single);
     return nullptr;
   }
-  const auto [ptr, ec] = std::from_chars(begin, end, value, std::chars_format::general);
-  if (ptr != end || (ec != std::errc() && ec != std::errc::result_out_of_range))
-    return "is not a number";
-  if (ec == std::errc::result_out_of_range)
-    value = std::strtod(std::string(token).c_str(), nullptr);  // +-HUGE_VAL or underflow
+  if (detail::parseDouble(token, value) == NumberStatus::NotANumber) return "is not a number";
   return nullptr;
 }
 
@@ -331,8 +311,7 @@ class Input {
       const char* begin = buffer_.data() + pos_;
       const auto* newline = static_cast<const char*>(std::memchr(begin, '\n', end_ - pos_));
       const std::size_t length = newline ? static_cast<std::size_t>(newline - begin) : end_ - pos_;
-      if (line.size() + length > maxLength)
-        throw IoError(name_ + ":" + std::to_string(line_ + 1) + ": line too long");
+      if (line.size() + length > maxLength) detail::failAt(name_, line_ + 1, "line too long");
       line.append(begin, length);
       pos_ += length;
       if (newline) {
@@ -421,8 +400,8 @@ struct Header {
 Header parseHeader(Input& input, const std::string& name) {
   std::string line;
   std::vector<std::string_view> tokens;
-  const auto fail = [&](const std::string& message) -> void {
-    throw IoError(name + ":" + std::to_string(input.line()) + ": " + message);
+  const auto fail = [&](const std::string& message) {
+    detail::failAt(name, input.line(), message);
   };
   if (!input.readLine(line, kMaxHeaderLine)) throw IoError(name + ": empty file, not a PLY file");
   tokenize(line, tokens);
@@ -432,8 +411,7 @@ Header parseHeader(Input& input, const std::string& name) {
   bool haveFormat = false;
   for (;;) {
     if (!input.readLine(line, kMaxHeaderLine))
-      throw IoError(name + ":" + std::to_string(input.line()) +
-                    ": unexpected end of file in the header (no end_header)");
+      fail("unexpected end of file in the header (no end_header)");
     tokenize(line, tokens);
     if (tokens.empty()) continue;
     const std::string_view keyword = tokens[0];
@@ -613,9 +591,7 @@ struct VertexLayout {
 };
 
 VertexLayout vertexLayout(const Element& vertex, PolygonSoup& soup, const std::string& name) {
-  const auto fail = [&](const std::string& message) -> void {
-    throw IoError(name + ":" + std::to_string(vertex.line) + ": " + message);
-  };
+  const auto fail = [&](const std::string& message) { detail::failAt(name, vertex.line, message); };
   VertexLayout layout;
   const char* axes[3] = {"x", "y", "z"};
   const char* normalAxes[3] = {"nx", "ny", "nz"};
@@ -687,9 +663,7 @@ void readFaces(const Element& face, std::uint64_t vertexCount, ValueReader& read
                const std::string& name) {
   std::optional<std::size_t> list = face.find("vertex_indices");
   if (!list) list = face.find("vertex_index");
-  const auto fail = [&](const std::string& message) -> void {
-    throw IoError(name + ":" + std::to_string(face.line) + ": " + message);
-  };
+  const auto fail = [&](const std::string& message) { detail::failAt(name, face.line, message); };
   if (!list) fail("the face element has no 'vertex_indices' list");
   const Property& indices = face.properties[*list];
   if (!indices.isList) fail("face property '" + indices.name + "' is not a list");
@@ -733,8 +707,7 @@ PolygonSoup readPlyImpl(std::istream& in, const std::string& name) {
     if (element.name == "vertex") {
       vertexCount = element.count;
       if (vertexCount > std::numeric_limits<std::uint32_t>::max())
-        throw IoError(name + ":" + std::to_string(element.line) +
-                      ": too many vertices for 32-bit indices");
+        detail::failAt(name, element.line, "too many vertices for 32-bit indices");
     }
   }
 
@@ -760,8 +733,7 @@ PolygonSoup readPlyImpl(std::istream& in, const std::string& name) {
     while (input.readLine(line, std::numeric_limits<std::size_t>::max())) {
       tokenize(line, tokens);
       if (!tokens.empty())
-        throw IoError(name + ":" + std::to_string(input.line()) +
-                      ": unexpected data after the last element");
+        detail::failAt(name, input.line(), "unexpected data after the last element");
     }
   }
   return soup;
@@ -790,24 +762,16 @@ class Output {
       buffer_.append(reinterpret_cast<const char*>(bytes), size);
       return;
     }
-    char chars[40];
-    std::to_chars_result result{};
     if (isIntegral(type))
-      result = std::to_chars(chars, chars + sizeof chars, static_cast<std::int64_t>(v));
+      detail::appendInteger(buffer_, static_cast<std::int64_t>(v));
     else if (type == ScalarType::Float32)
-      result = std::to_chars(chars, chars + sizeof chars, static_cast<float>(v));
+      detail::appendNumber(buffer_, static_cast<float>(v));
     else
-      result = std::to_chars(chars, chars + sizeof chars, v);
-    buffer_.append(chars, result.ptr);
+      detail::appendNumber(buffer_, v);
     buffer_ += separator;
   }
 
-  void drain(bool force = false) {
-    if (force || buffer_.size() >= (1u << 16)) {
-      out_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
-      buffer_.clear();
-    }
-  }
+  void drain(bool force = false) { detail::drain(buffer_, out_, force); }
 
  private:
   std::ostream& out_;
@@ -824,7 +788,7 @@ void checkAttributes(const PolygonSoup& soup) {
     if (attribute.name.empty())
       throw InvalidInput("attribute " + std::to_string(a) + " has no name");
     for (char c : attribute.name) {
-      if (isSpace(c))
+      if (detail::isSpace(c))
         throw InvalidInput(label + ": a PLY property name cannot contain white space");
     }
     for (const char* name : reserved) {
@@ -850,12 +814,8 @@ void checkAttributes(const PolygonSoup& soup) {
 PolygonSoup readPly(std::istream& in, const std::string& name) {
   try {
     return readPlyImpl(in, name);
-  } catch (const IoError&) {
-    throw;
-  } catch (const std::bad_alloc&) {
-    throw IoError(name + ": out of memory");
-  } catch (const std::exception& e) {
-    throw IoError(name + ": " + e.what());
+  } catch (...) {
+    detail::rethrowAsIoError(name);
   }
 }
 

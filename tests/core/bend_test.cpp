@@ -24,13 +24,8 @@ constexpr double kPi = std::numbers::pi;
 
 BendParams bendParams(Vec3 origin, Vec3 axis, Vec3 direction, double rate, double lo = -kInf,
                       double hi = kInf) {
-  BendParams p;
-  p.origin = origin;
-  p.axis = axis;
+  BendParams p = test::AxialParams<BendParams>{}(origin, axis, rate, lo, hi);
   p.direction = direction;
-  p.rate = rate;
-  p.lo = lo;
-  p.hi = hi;
   return p;
 }
 
@@ -54,21 +49,22 @@ double directionCoordinate(const BendWarp& warp, const Vec3& x) {
   return glm::dot(x - warp.params().origin, warp.direction());
 }
 
-// Random points in [lo, hi)^3 away from the limits (where the bend is not differentiable) and,
-// if `invertible`, with 0.25 <= 1 - k z <= 1.75 (locally invertible and well conditioned) and a
-// bend angle |k ŷ| <= 1 rad: the range in which inverse()'s Newton iteration, seeded by the
-// reflected displacement, reliably lands on this preimage rather than on another sheet of the
-// (periodic, folded) unlimited bend.
-std::vector<Vec3> pointsFor(const BendWarp& warp, std::mt19937& rng, std::size_t n, double lo,
-                            double hi, bool invertible = false) {
-  const BendParams& p = warp.params();
-  return test::randomPointsWhere(rng, n, lo, hi, [&](const Vec3& x) {
-    const double y = spineCoordinate(warp, x);
-    const double z = directionCoordinate(warp, x);
-    return std::abs(y - p.lo) > 0.02 && std::abs(y - p.hi) > 0.02 &&
-           (!invertible ||
-            (std::abs(p.rate * z) <= 0.75 && std::abs(p.rate * std::clamp(y, p.lo, p.hi)) <= 1.0));
-  });
+// Samples random points in [lo, hi)^3 away from the limits (where the bend is not
+// differentiable) and, if `invertible`, with 0.25 <= 1 - k z <= 1.75 (locally invertible and well
+// conditioned) and a bend angle |k ŷ| <= 1 rad: the range in which inverse()'s Newton iteration,
+// seeded by the reflected displacement, reliably lands on this preimage rather than on another
+// sheet of the (periodic, folded) unlimited bend.
+test::PointSampler<BendWarp> pointsIn(double lo, double hi, bool invertible = false) {
+  return [=](const BendWarp& warp, std::mt19937& rng, std::size_t n) {
+    const BendParams& p = warp.params();
+    return test::randomPointsWhere(rng, n, lo, hi, [&](const Vec3& x) {
+      const double y = spineCoordinate(warp, x);
+      const double z = directionCoordinate(warp, x);
+      return std::abs(y - p.lo) > 0.02 && std::abs(y - p.hi) > 0.02 &&
+             (!invertible || (std::abs(p.rate * z) <= 0.75 &&
+                              std::abs(p.rate * std::clamp(y, p.lo, p.hi)) <= 1.0));
+    });
+  };
 }
 
 TEST(BendWarp, RejectsInvalidParameters) {
@@ -83,11 +79,9 @@ TEST(BendWarp, RejectsInvalidParameters) {
   EXPECT_THROW(BendWarp(bendParams(Vec3(0.0), z, x, kNaN)), InvalidInput);
   EXPECT_THROW(BendWarp(bendParams(Vec3(0.0), z, x, 1.0, 2.0, 1.0)), InvalidInput);
   EXPECT_THROW(BendWarp(bendParams(Vec3(0.0), z, x, 1.0, 0.0, kNaN)), InvalidInput);
-  try {
-    BendWarp(bendParams(Vec3(0.0), z, Vec3(0, 0, 2), 1.0));
-  } catch (const InvalidInput& e) {
-    EXPECT_NE(std::string(e.what()).find("parallel"), std::string::npos) << e.what();
-  }
+  const std::string message = test::messageOf<InvalidInput>(
+      [&] { BendWarp(bendParams(Vec3(0.0), z, Vec3(0, 0, 2), 1.0)); });
+  EXPECT_NE(message.find("parallel"), std::string::npos) << message;
 }
 
 TEST(BendWarp, OrthogonalisesTheDirection) {
@@ -98,11 +92,7 @@ TEST(BendWarp, OrthogonalisesTheDirection) {
 
 TEST(BendWarp, JacobianMatchesFiniteDifferences) {
   std::mt19937 rng(201);
-  for (const BendParams& params : configurations()) {
-    const BendWarp warp(params);
-    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, pointsFor(warp, rng, 200, -3.0, 3.0)))
-        << "rate " << params.rate << " limits [" << params.lo << ", " << params.hi << "]";
-  }
+  test::expectJacobiansMatchFiniteDifferences<BendWarp>(configurations(), rng, pointsIn(-3.0, 3.0));
 }
 
 TEST(BendWarp, JacobianDeterminantIsTheRadialStretch) {
@@ -168,10 +158,9 @@ TEST(BendWarp, RateZeroIsExactlyTheIdentity) {
   const BendWarp plain(bendParams(Vec3(0.3, -0.2, 7.0), Vec3(1, 2, 3), Vec3(0, 0, 1), 0.0));
   const BendWarp limited(
       bendParams(Vec3(0.3, -0.2, 7.0), Vec3(1, 2, 3), Vec3(0, 0, 1), 0.0, -1.0, 0.5));
-  for (const Vec3& x : randomPoints(rng, 1000, -100.0, 100.0)) {
-    EXPECT_EQ(plain.apply(x), x);
-    EXPECT_EQ(limited.apply(x), x);
-  }
+  const std::vector<Vec3> points = randomPoints(rng, 1000, -100.0, 100.0);
+  EXPECT_TRUE(test::leavesPointsUnchanged(plain, points));
+  EXPECT_TRUE(test::leavesPointsUnchanged(limited, points));
   EXPECT_LT(relativeError(plain.jacobian(Vec3(1, 2, 3)), Mat3(1.0)), 1e-15);
 }
 
@@ -181,15 +170,10 @@ TEST(BendWarp, LimitsAreContinuousAndRigidBeyond) {
   const BendWarp unlimited(bendParams(params.origin, params.axis, params.direction, params.rate));
   const Vec3 a = warp.axis();
   std::mt19937 rng(204);
-  for (int i = 0; i < 200; ++i) {
-    const Vec3 offset = test::randomPoint(rng, -2.0, 2.0);
-    const Vec3 p = offset - glm::dot(offset, a) * a;  // perpendicular to the spine
-    for (double limit : {params.lo, params.hi}) {
-      const double delta = 1e-10;
-      const Vec3 below = warp.apply(params.origin + (limit - delta) * a + p);
-      const Vec3 above = warp.apply(params.origin + (limit + delta) * a + p);
-      EXPECT_LT(relativeError(below, above), 1e-9);
-    }
+  const std::vector<Vec3> offsets = test::perpendicularOffsets(rng, 200, a);
+  for (double limit : {params.lo, params.hi})
+    EXPECT_TRUE(test::continuousAcross(warp, params.origin, a, limit, offsets));
+  for (const Vec3& p : offsets) {
     const Vec3 mid = params.origin + 0.1 * a + p;
     EXPECT_LT(relativeError(warp.apply(mid), unlimited.apply(mid)), 1e-14);
   }
@@ -202,50 +186,35 @@ TEST(BendWarp, LimitsAreContinuousAndRigidBeyond) {
           return upper ? y > params.hi + 0.01 : y < params.lo - 0.01;
         });
     const double limit = upper ? params.hi : params.lo;
-    for (std::size_t i = 1; i < beyond.size(); ++i) {
-      const double before = glm::length(beyond[i] - beyond[i - 1]);
-      const double after = glm::length(warp.apply(beyond[i]) - warp.apply(beyond[i - 1]));
-      EXPECT_NEAR(after, before, 1e-12 * before);
-      const Mat3 j = warp.jacobian(beyond[i]);
-      EXPECT_LT(relativeError(glm::transpose(j) * j, Mat3(1.0)), 1e-14);
-      EXPECT_NEAR(glm::determinant(j), 1.0, 1e-14);
+    EXPECT_TRUE(test::movesRigidly(warp, beyond));
+    for (const Vec3& x : beyond) {
       // x = foot + t a with the foot on the limit plane: x' = foot' + t (J a).
-      const double t = spineCoordinate(warp, beyond[i]) - limit;
-      const Vec3 foot = beyond[i] - t * a;
-      EXPECT_LT(relativeError(warp.apply(beyond[i]), unlimited.apply(foot) + t * (j * a)), 1e-13);
+      const double t = spineCoordinate(warp, x) - limit;
+      const Vec3 foot = x - t * a;
+      EXPECT_LT(relativeError(warp.apply(x), unlimited.apply(foot) + t * (warp.jacobian(x) * a)),
+                1e-13);
     }
   }
 }
 
 TEST(BendWarp, InverseRecoversPoints) {
   std::mt19937 rng(205);
-  for (const BendParams& params : configurations()) {
-    const BendWarp warp(params);
-    EXPECT_TRUE(test::inverseRecovers(warp, pointsFor(warp, rng, 200, -2.0, 2.0, true)))
-        << "rate " << params.rate << " limits [" << params.lo << ", " << params.hi << "]";
-  }
+  test::expectInversesRecover<BendWarp>(configurations(), rng, pointsIn(-2.0, 2.0, true));
 }
 
 TEST(BendWarp, NormalsStayPerpendicularToTangents) {
   std::mt19937 rng(206);
-  for (const BendParams& params : configurations()) {
-    const BendWarp warp(params);
-    EXPECT_TRUE(
-        test::normalsStayPerpendicular(warp, pointsFor(warp, rng, 200, -2.0, 2.0, true), rng));
-  }
+  test::expectNormalsStayPerpendicular<BendWarp>(configurations(), rng, pointsIn(-2.0, 2.0, true));
 }
 
 TEST(BendWarp, BatchIsBitIdenticalToApplyForAnyThreadCount) {
   std::mt19937 rng(207);
-  const std::vector<Vec3> points = randomPoints(rng, 100'000, -3.0, 3.0);
-  for (const BendParams& params : configurations())
-    EXPECT_TRUE(test::batchIsDeterministic(BendWarp(params), points));
+  test::expectBatchesDeterministic<BendWarp>(configurations(),
+                                             randomPoints(rng, 100'000, -3.0, 3.0));
 }
 
 TEST(BendWarp, BatchRejectsMismatchedSizes) {
-  const BendWarp warp(configurations()[0]);
-  std::vector<Vec3> in(3), out(4);
-  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput);
+  test::expectBatchRejectsMismatchedSizes(BendWarp(configurations()[0]), 3, 4);
 }
 
 }  // namespace

@@ -58,13 +58,9 @@ TEST(IdentityWarp, IsTheIdentity) {
   const IdentityWarp warp;
   std::mt19937 rng(11);
   const std::vector<Vec3> points = randomPoints(rng, 200, -5.0, 5.0);
-  for (const Vec3& x : points) {
-    EXPECT_EQ(warp.apply(x), x);
-    EXPECT_EQ(warp.jacobian(x), Mat3(1.0));
-  }
-  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points));
-  EXPECT_TRUE(test::inverseRecovers(warp, points));
-  EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng));
+  EXPECT_TRUE(test::leavesPointsUnchanged(warp, points));
+  for (const Vec3& x : points) EXPECT_EQ(warp.jacobian(x), Mat3(1.0));
+  test::expectWarpProperties(warp, points, rng);
   EXPECT_TRUE(test::batchIsDeterministic(warp, randomPoints(rng, 100'000, -5.0, 5.0)));
 }
 
@@ -79,9 +75,7 @@ TEST(AffineWarp, AppliesTheMatrix) {
   }
   EXPECT_EQ(warp.translation(), Vec3(0.5, -1.0, 2.0));
   EXPECT_EQ(warp.linear(), Mat3(m));
-  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points));
-  EXPECT_TRUE(test::inverseRecovers(warp, points));
-  EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng));
+  test::expectWarpProperties(warp, points, rng);
   EXPECT_TRUE(test::batchIsDeterministic(warp, randomPoints(rng, 100'000, -5.0, 5.0)));
 }
 
@@ -103,14 +97,12 @@ TEST(AffineWarp, RejectsProjectiveAndNonFiniteMatrices) {
       EXPECT_THROW(AffineWarp{m}, InvalidInput) << "entry " << r << ", " << c;
     }
   }
-  try {
+  const std::string message = test::messageOf<InvalidInput>([] {
     Mat4 m = generalAffine();
     m[1][2] = std::numeric_limits<double>::quiet_NaN();
     AffineWarp{m};
-    FAIL() << "no exception";
-  } catch (const InvalidInput& e) {
-    EXPECT_NE(std::string(e.what()).find("(2, 1)"), std::string::npos) << e.what();
-  }
+  });
+  EXPECT_NE(message.find("(2, 1)"), std::string::npos) << message;
 }
 
 TEST(ComposedWarp, RejectsNullWarps) {
@@ -135,9 +127,7 @@ TEST(ComposedWarp, AppliesBothInOrderWithTheChainRule) {
       const Mat3 chain = second->jacobian(first->apply(x)) * first->jacobian(x);
       EXPECT_LT(relativeError(warp.jacobian(x), chain), 1e-15);
     }
-    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points));
-    EXPECT_TRUE(test::inverseRecovers(warp, points));
-    EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng));
+    test::expectWarpProperties(warp, points, rng);
   }
 }
 
@@ -157,9 +147,7 @@ TEST(ComposedWarp, BatchIsBitIdenticalToApplyForAnyThreadCount) {
 }
 
 TEST(ComposedWarp, BatchRejectsMismatchedSizes) {
-  const ComposedWarp warp(twist(), bend());
-  std::vector<Vec3> in(5), out(4);
-  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput);
+  test::expectBatchRejectsMismatchedSizes(ComposedWarp(twist(), bend()), 5, 4);
 }
 
 }  // namespace

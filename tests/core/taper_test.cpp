@@ -19,15 +19,7 @@ using test::relativeError;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-TaperParams taperParams(Vec3 origin, Vec3 axis, double rate, double lo = -kInf, double hi = kInf) {
-  TaperParams p;
-  p.origin = origin;
-  p.axis = axis;
-  p.rate = rate;
-  p.lo = lo;
-  p.hi = hi;
-  return p;
-}
+constexpr test::AxialParams<TaperParams> taperParams{};
 
 // In [-2, 2]^3 these keep r > 0 (|rate| * |s| < 1 for |s| <= 2 sqrt(3) + |origin|, or limits).
 std::vector<TaperParams> configurations() {
@@ -46,15 +38,16 @@ double axialCoordinate(const TaperWarp& warp, const Vec3& x) {
   return glm::dot(x - warp.params().origin, warp.axis());
 }
 
-// Random points in [lo, hi)^3 away from the limits and, if `invertible`, with r >= 0.2.
-std::vector<Vec3> pointsFor(const TaperWarp& warp, std::mt19937& rng, std::size_t n, double lo,
-                            double hi, bool invertible = false) {
-  const TaperParams& p = warp.params();
-  return test::randomPointsWhere(rng, n, lo, hi, [&](const Vec3& x) {
-    const double s = axialCoordinate(warp, x);
-    return std::abs(s - p.lo) > 0.02 && std::abs(s - p.hi) > 0.02 &&
-           (!invertible || warp.scaleAt(s) >= 0.2);
-  });
+// Samples random points in [lo, hi)^3 away from the limits and, if `invertible`, with r >= 0.2.
+test::PointSampler<TaperWarp> pointsIn(double lo, double hi, bool invertible = false) {
+  return [=](const TaperWarp& warp, std::mt19937& rng, std::size_t n) {
+    const TaperParams& p = warp.params();
+    return test::randomPointsWhere(rng, n, lo, hi, [&](const Vec3& x) {
+      const double s = axialCoordinate(warp, x);
+      return std::abs(s - p.lo) > 0.02 && std::abs(s - p.hi) > 0.02 &&
+             (!invertible || warp.scaleAt(s) >= 0.2);
+    });
+  };
 }
 
 TEST(TaperWarp, RejectsInvalidParameters) {
@@ -65,22 +58,17 @@ TEST(TaperWarp, RejectsInvalidParameters) {
   EXPECT_THROW(TaperWarp(taperParams(Vec3(0.0), z, kInf)), InvalidInput);
   EXPECT_THROW(TaperWarp(taperParams(Vec3(0.0), z, 1.0, 0.5, 0.25)), InvalidInput);
   EXPECT_THROW(TaperWarp(taperParams(Vec3(0.0), z, 1.0, kNaN, kNaN)), InvalidInput);
-  try {
-    TaperWarp(taperParams(Vec3(0.0), z, 1.0, 3.0, 2.0));
-  } catch (const InvalidInput& e) {
-    EXPECT_NE(std::string(e.what()).find("limit"), std::string::npos) << e.what();
-  }
+  const std::string message =
+      test::messageOf<InvalidInput>([&] { TaperWarp(taperParams(Vec3(0.0), z, 1.0, 3.0, 2.0)); });
+  EXPECT_NE(message.find("limit"), std::string::npos) << message;
   // r <= 0 somewhere is allowed (documented to fold space), not rejected.
   EXPECT_NO_THROW(TaperWarp(taperParams(Vec3(0.0), z, -3.0)));
 }
 
 TEST(TaperWarp, JacobianMatchesFiniteDifferences) {
   std::mt19937 rng(301);
-  for (const TaperParams& params : configurations()) {
-    const TaperWarp warp(params);
-    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, pointsFor(warp, rng, 200, -3.0, 3.0)))
-        << "rate " << params.rate << " limits [" << params.lo << ", " << params.hi << "]";
-  }
+  test::expectJacobiansMatchFiniteDifferences<TaperWarp>(configurations(), rng,
+                                                         pointsIn(-3.0, 3.0));
   // Also where r < 0, which the Jacobian covers too.
   const TaperWarp folding(taperParams(Vec3(0.0), Vec3(0, 1, 0), -1.0));
   EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(folding, randomPoints(rng, 200, -3.0, 3.0)));
@@ -119,10 +107,9 @@ TEST(TaperWarp, RateZeroIsExactlyTheIdentity) {
   std::mt19937 rng(304);
   const TaperWarp plain(taperParams(Vec3(0.3, -0.2, 7.0), Vec3(1, 2, 3), 0.0));
   const TaperWarp limited(taperParams(Vec3(0.3, -0.2, 7.0), Vec3(1, 2, 3), 0.0, -1.0, 0.5));
-  for (const Vec3& x : randomPoints(rng, 1000, -100.0, 100.0)) {
-    EXPECT_EQ(plain.apply(x), x);
-    EXPECT_EQ(limited.apply(x), x);
-  }
+  const std::vector<Vec3> points = randomPoints(rng, 1000, -100.0, 100.0);
+  EXPECT_TRUE(test::leavesPointsUnchanged(plain, points));
+  EXPECT_TRUE(test::leavesPointsUnchanged(limited, points));
   EXPECT_LT(relativeError(plain.jacobian(Vec3(1, 2, 3)), Mat3(1.0)), 1e-15);
 }
 
@@ -132,15 +119,10 @@ TEST(TaperWarp, LimitsAreContinuousAndKeepTheEndScaleBeyond) {
   const TaperWarp unlimited(taperParams(params.origin, params.axis, params.rate));
   const Vec3 a = warp.axis();
   std::mt19937 rng(305);
-  for (int i = 0; i < 200; ++i) {
-    const Vec3 offset = test::randomPoint(rng, -2.0, 2.0);
-    const Vec3 p = offset - glm::dot(offset, a) * a;
-    for (double limit : {params.lo, params.hi}) {
-      const double delta = 1e-10;
-      const Vec3 below = warp.apply(params.origin + (limit - delta) * a + p);
-      const Vec3 above = warp.apply(params.origin + (limit + delta) * a + p);
-      EXPECT_LT(relativeError(below, above), 1e-9);
-    }
+  const std::vector<Vec3> offsets = test::perpendicularOffsets(rng, 200, a);
+  for (double limit : {params.lo, params.hi})
+    EXPECT_TRUE(test::continuousAcross(warp, params.origin, a, limit, offsets));
+  for (const Vec3& p : offsets) {
     const Vec3 mid = params.origin + 0.1 * a + p;
     EXPECT_LT(relativeError(warp.apply(mid), unlimited.apply(mid)), 1e-15);
     // Beyond a limit the cross-section keeps the scale of the limit and slides along the axis.
@@ -155,11 +137,7 @@ TEST(TaperWarp, LimitsAreContinuousAndKeepTheEndScaleBeyond) {
 
 TEST(TaperWarp, InverseRecoversPoints) {
   std::mt19937 rng(306);
-  for (const TaperParams& params : configurations()) {
-    const TaperWarp warp(params);
-    EXPECT_TRUE(test::inverseRecovers(warp, pointsFor(warp, rng, 200, -2.0, 2.0, true)))
-        << "rate " << params.rate << " limits [" << params.lo << ", " << params.hi << "]";
-  }
+  test::expectInversesRecover<TaperWarp>(configurations(), rng, pointsIn(-2.0, 2.0, true));
 }
 
 TEST(TaperWarp, InverseOfAPointOffTheCollapsedAxisDoesNotConverge) {
@@ -174,24 +152,17 @@ TEST(TaperWarp, InverseOfAPointOffTheCollapsedAxisDoesNotConverge) {
 
 TEST(TaperWarp, NormalsStayPerpendicularToTangents) {
   std::mt19937 rng(307);
-  for (const TaperParams& params : configurations()) {
-    const TaperWarp warp(params);
-    EXPECT_TRUE(
-        test::normalsStayPerpendicular(warp, pointsFor(warp, rng, 200, -2.0, 2.0, true), rng));
-  }
+  test::expectNormalsStayPerpendicular<TaperWarp>(configurations(), rng, pointsIn(-2.0, 2.0, true));
 }
 
 TEST(TaperWarp, BatchIsBitIdenticalToApplyForAnyThreadCount) {
   std::mt19937 rng(308);
-  const std::vector<Vec3> points = randomPoints(rng, 100'000, -3.0, 3.0);
-  for (const TaperParams& params : configurations())
-    EXPECT_TRUE(test::batchIsDeterministic(TaperWarp(params), points));
+  test::expectBatchesDeterministic<TaperWarp>(configurations(),
+                                              randomPoints(rng, 100'000, -3.0, 3.0));
 }
 
 TEST(TaperWarp, BatchRejectsMismatchedSizes) {
-  const TaperWarp warp(configurations()[0]);
-  std::vector<Vec3> in(0), out(1);
-  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput);
+  test::expectBatchRejectsMismatchedSizes(TaperWarp(configurations()[0]), 0, 1);
 }
 
 }  // namespace

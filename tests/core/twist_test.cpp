@@ -21,15 +21,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kPi = std::numbers::pi;
 
-TwistParams twistParams(Vec3 origin, Vec3 axis, double rate, double lo = -kInf, double hi = kInf) {
-  TwistParams p;
-  p.origin = origin;
-  p.axis = axis;
-  p.rate = rate;
-  p.lo = lo;
-  p.hi = hi;
-  return p;
-}
+constexpr test::AxialParams<TwistParams> twistParams{};
 
 // A spread of configurations: axis-aligned and oblique axes, offset origins, both signs of the
 // rate, with and without limits (one-sided and two-sided).
@@ -45,14 +37,13 @@ std::vector<TwistParams> configurations() {
   };
 }
 
-// Random points in [-2, 2]^3 at least `margin` away (along the axis) from the limits, where the
+// n random points in [-2, 2]^3 more than 0.02 away (along the axis) from the limits, where the
 // warp is not differentiable.
-std::vector<Vec3> pointsAwayFromLimits(const TwistWarp& warp, std::mt19937& rng, std::size_t n,
-                                       double margin = 0.02) {
+std::vector<Vec3> pointsAwayFromLimits(const TwistWarp& warp, std::mt19937& rng, std::size_t n) {
   const TwistParams& p = warp.params();
   return test::randomPointsWhere(rng, n, -2.0, 2.0, [&](const Vec3& x) {
     const double s = glm::dot(x - p.origin, warp.axis());
-    return std::abs(s - p.lo) > margin && std::abs(s - p.hi) > margin;
+    return std::abs(s - p.lo) > 0.02 && std::abs(s - p.hi) > 0.02;
   });
 }
 
@@ -67,11 +58,9 @@ TEST(TwistWarp, RejectsInvalidParameters) {
   EXPECT_THROW(TwistWarp(twistParams(Vec3(0.0), Vec3(0, 0, 1), 1.0, kNaN, 1.0)), InvalidInput);
   EXPECT_THROW(TwistWarp(twistParams(Vec3(0.0), Vec3(0, 0, 1), 1.0, kInf, kInf)), InvalidInput);
   EXPECT_THROW(TwistWarp(twistParams(Vec3(0.0), Vec3(0, 0, 1), 1.0, -kInf, -kInf)), InvalidInput);
-  try {
-    TwistWarp(twistParams(Vec3(0.0), Vec3(0.0), 1.0));
-  } catch (const InvalidInput& e) {
-    EXPECT_NE(std::string(e.what()).find("axis"), std::string::npos) << e.what();
-  }
+  const std::string message =
+      test::messageOf<InvalidInput>([] { TwistWarp(twistParams(Vec3(0.0), Vec3(0.0), 1.0)); });
+  EXPECT_NE(message.find("axis"), std::string::npos) << message;
   // Equal limits are valid: the whole of space turns rigidly by rate * lo.
   EXPECT_NO_THROW(TwistWarp(twistParams(Vec3(0.0), Vec3(0, 0, 1), 1.0, 0.5, 0.5)));
 }
@@ -86,11 +75,8 @@ TEST(TwistWarp, NormalisesTheAxis) {
 
 TEST(TwistWarp, JacobianMatchesFiniteDifferences) {
   std::mt19937 rng(101);
-  for (const TwistParams& params : configurations()) {
-    const TwistWarp warp(params);
-    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, pointsAwayFromLimits(warp, rng, 200)))
-        << "rate " << params.rate << " limits [" << params.lo << ", " << params.hi << "]";
-  }
+  test::expectJacobiansMatchFiniteDifferences<TwistWarp>(configurations(), rng,
+                                                         pointsAwayFromLimits);
 }
 
 TEST(TwistWarp, QuarterTurnAtUnitDistanceMatchesHandComputedRotation) {
@@ -114,10 +100,9 @@ TEST(TwistWarp, RateZeroIsExactlyTheIdentity) {
   std::mt19937 rng(102);
   const TwistWarp plain(twistParams(Vec3(0.3, -0.2, 7.0), Vec3(1, 2, 3), 0.0));
   const TwistWarp limited(twistParams(Vec3(0.3, -0.2, 7.0), Vec3(1, 2, 3), 0.0, -1.0, 0.5));
-  for (const Vec3& x : randomPoints(rng, 1000, -100.0, 100.0)) {
-    EXPECT_EQ(plain.apply(x), x);
-    EXPECT_EQ(limited.apply(x), x);
-  }
+  const std::vector<Vec3> points = randomPoints(rng, 1000, -100.0, 100.0);
+  EXPECT_TRUE(test::leavesPointsUnchanged(plain, points));
+  EXPECT_TRUE(test::leavesPointsUnchanged(limited, points));
   EXPECT_EQ(plain.jacobian(Vec3(1, 2, 3)), Mat3(1.0));
 }
 
@@ -128,16 +113,11 @@ TEST(TwistWarp, LimitsAreContinuousAndRigidBeyond) {
   const TwistWarp warp(twistParams(origin, Vec3(1, -1, 2), rate, lo, hi));
   const TwistWarp fullTwist(twistParams(origin, Vec3(1, -1, 2), rate));
   std::mt19937 rng(103);
-  for (int i = 0; i < 200; ++i) {
-    const Vec3 offset = test::randomPoint(rng, -2.0, 2.0);
-    const Vec3 p = offset - glm::dot(offset, axis) * axis;  // perpendicular to the axis
-    for (double limit : {lo, hi}) {
-      const double delta = 1e-10;
-      const Vec3 inside = warp.apply(origin + (limit + (limit == lo ? delta : -delta)) * axis + p);
-      const Vec3 outside = warp.apply(origin + (limit + (limit == lo ? -delta : delta)) * axis + p);
-      EXPECT_LT(relativeError(inside, outside), 1e-9);
-    }
-    // Between the limits the limited twist is the plain twist.
+  const std::vector<Vec3> offsets = test::perpendicularOffsets(rng, 200, axis);
+  for (double limit : {lo, hi})
+    EXPECT_TRUE(test::continuousAcross(warp, origin, axis, limit, offsets));
+  // Between the limits the limited twist is the plain twist.
+  for (const Vec3& p : offsets) {
     const Vec3 mid = origin + 0.3 * axis + p;
     EXPECT_LT(relativeError(warp.apply(mid), fullTwist.apply(mid)), 1e-14);
   }
@@ -145,26 +125,18 @@ TEST(TwistWarp, LimitsAreContinuousAndRigidBeyond) {
   // plane s = hi, so distances are kept and it agrees with the full twist evaluated at s = hi.
   const std::vector<Vec3> beyond = test::randomPointsWhere(
       rng, 200, -3.0, 3.0, [&](const Vec3& x) { return glm::dot(x - origin, axis) > hi + 0.01; });
-  for (std::size_t i = 1; i < beyond.size(); ++i) {
-    const double before = glm::length(beyond[i] - beyond[i - 1]);
-    const double after = glm::length(warp.apply(beyond[i]) - warp.apply(beyond[i - 1]));
-    EXPECT_NEAR(after, before, 1e-12 * before);
-    const double s = glm::dot(beyond[i] - origin, axis);
-    const Vec3 atHi = beyond[i] - (s - hi) * axis;  // its foot on the plane s = hi
-    EXPECT_LT(relativeError(warp.apply(beyond[i]), fullTwist.apply(atHi) + (s - hi) * axis), 1e-13);
-    const Mat3 j = warp.jacobian(beyond[i]);
-    EXPECT_LT(relativeError(glm::transpose(j) * j, Mat3(1.0)), 1e-14);
-    EXPECT_NEAR(glm::determinant(j), 1.0, 1e-14);
+  EXPECT_TRUE(test::movesRigidly(warp, beyond));
+  for (const Vec3& x : beyond) {
+    const double s = glm::dot(x - origin, axis);
+    const Vec3 atHi = x - (s - hi) * axis;  // its foot on the plane s = hi
+    EXPECT_LT(relativeError(warp.apply(x), fullTwist.apply(atHi) + (s - hi) * axis), 1e-13);
   }
 }
 
 TEST(TwistWarp, InverseRecoversPoints) {
   std::mt19937 rng(104);
-  for (const TwistParams& params : configurations()) {
-    const TwistWarp warp(params);
-    EXPECT_TRUE(test::inverseRecovers(warp, randomPoints(rng, 200, -2.0, 2.0)))
-        << "rate " << params.rate << " limits [" << params.lo << ", " << params.hi << "]";
-  }
+  test::expectInversesRecover<TwistWarp>(configurations(), rng,
+                                         test::uniformPoints<TwistWarp>(-2.0, 2.0));
 }
 
 TEST(TwistWarp, InverseWithoutIterationsReportsNoConvergence) {
@@ -180,17 +152,14 @@ TEST(TwistWarp, InverseWithoutIterationsReportsNoConvergence) {
 
 TEST(TwistWarp, NormalsStayPerpendicularToTangents) {
   std::mt19937 rng(105);
-  for (const TwistParams& params : configurations()) {
-    const TwistWarp warp(params);
-    EXPECT_TRUE(test::normalsStayPerpendicular(warp, randomPoints(rng, 200, -2.0, 2.0), rng));
-  }
+  test::expectNormalsStayPerpendicular<TwistWarp>(configurations(), rng,
+                                                  test::uniformPoints<TwistWarp>(-2.0, 2.0));
 }
 
 TEST(TwistWarp, BatchIsBitIdenticalToApplyForAnyThreadCount) {
   std::mt19937 rng(106);
-  const std::vector<Vec3> points = randomPoints(rng, 100'000, -3.0, 3.0);
-  for (const TwistParams& params : configurations())
-    EXPECT_TRUE(test::batchIsDeterministic(TwistWarp(params), points));
+  test::expectBatchesDeterministic<TwistWarp>(configurations(),
+                                              randomPoints(rng, 100'000, -3.0, 3.0));
 }
 
 TEST(TwistWarp, BatchInPlaceMatchesApply) {
@@ -204,9 +173,7 @@ TEST(TwistWarp, BatchInPlaceMatchesApply) {
 }
 
 TEST(TwistWarp, BatchRejectsMismatchedSizes) {
-  const TwistWarp warp(configurations()[0]);
-  std::vector<Vec3> in(10), out(9);
-  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput);
+  test::expectBatchRejectsMismatchedSizes(TwistWarp(configurations()[0]), 10, 9);
 }
 
 }  // namespace

@@ -176,8 +176,8 @@ TEST(Warp, DefaultBatchIsBitIdenticalToApplyForAnyThreadCount) {
 
 TEST(Warp, DefaultBatchRejectsMismatchedSizesAndAcceptsEmpty) {
   const SinWarp warp;
-  std::vector<Vec3> in(5), out(6), none;
-  EXPECT_THROW(warp.applyBatch(in, out), InvalidInput);
+  test::expectBatchRejectsMismatchedSizes(warp, 5, 6);
+  std::vector<Vec3> none;
   EXPECT_NO_THROW(warp.applyBatch(none, none));
 }
 
@@ -209,10 +209,7 @@ TEST(Warp, AnalyticWarpsThroughTheInterface) {
   std::mt19937 rng(6);
   for (const auto& warp : warps) {
     // Inside (-0.98, 0.98)^3: away from the bend's limits at +-1.
-    const std::vector<Vec3> points = randomPoints(rng, 200, -0.98, 0.98);
-    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(*warp, points));
-    EXPECT_TRUE(test::inverseRecovers(*warp, points));
-    EXPECT_TRUE(test::normalsStayPerpendicular(*warp, points, rng));
+    test::expectWarpProperties(*warp, randomPoints(rng, 200, -0.98, 0.98), rng);
   }
 }
 

@@ -2,11 +2,7 @@
 
 #include <atomic>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
-#include <random>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -16,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "core/errors.h"
+#include "io_test_util.h"
 
 namespace spacewarp {
 namespace {
@@ -23,36 +20,9 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-/// A fresh directory under the system temp directory, removed with everything in it.
-class TempDir {
- public:
-  TempDir() {
-    std::random_device device;
-    path_ = fs::temp_directory_path() /
-            ("spacewarp_atomic_test_" + std::to_string(device()) + "_" + std::to_string(device()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-std::set<std::string> listDirectory(const fs::path& directory) {
-  std::set<std::string> names;
-  for (const auto& entry : fs::directory_iterator(directory))
-    names.insert(entry.path().filename().string());
-  return names;
-}
-
-std::string readFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using test::listDirectory;
+using test::readFile;
+using test::TempDir;
 
 TEST(AtomicFileTest, WritesTheFile) {
   TempDir dir;
@@ -103,15 +73,13 @@ TEST(AtomicFileTest, FailedStreamThrowsIoErrorNamingThePath) {
   TempDir dir;
   const fs::path path = dir.path() / "out.txt";
   writeFileAtomically(path, [](std::ostream& out) { out << "old"; });
-  try {
-    writeFileAtomically(path, [](std::ostream& out) {
-      out << "new";
-      out.setstate(std::ios::badbit);
-    });
-    FAIL() << "no exception";
-  } catch (const IoError& e) {
-    EXPECT_THAT(e.what(), HasSubstr(path.string()));
-  }
+  EXPECT_THAT(test::messageOf<IoError>([&] {
+                writeFileAtomically(path, [](std::ostream& out) {
+                  out << "new";
+                  out.setstate(std::ios::badbit);
+                });
+              }),
+              HasSubstr(path.string()));
   EXPECT_EQ(readFile(path), "old");
   EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out.txt"});
 }
@@ -119,12 +87,9 @@ TEST(AtomicFileTest, FailedStreamThrowsIoErrorNamingThePath) {
 TEST(AtomicFileTest, MissingDirectoryThrowsIoError) {
   TempDir dir;
   const fs::path path = dir.path() / "missing" / "out.txt";
-  try {
-    writeFileAtomically(path, [](std::ostream& out) { out << "x"; });
-    FAIL() << "no exception";
-  } catch (const IoError& e) {
-    EXPECT_THAT(e.what(), HasSubstr(path.string()));
-  }
+  EXPECT_THAT(test::messageOf<IoError>(
+                  [&] { writeFileAtomically(path, [](std::ostream& out) { out << "x"; }); }),
+              HasSubstr(path.string()));
   EXPECT_TRUE(listDirectory(dir.path()).empty());
 }
 

@@ -1,15 +1,18 @@
 #include "core/io/mesh_io.h"
 
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <set>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "core/errors.h"
+#include "io_test_util.h"
 
 namespace spacewarp {
 namespace {
@@ -17,36 +20,10 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-/// A fresh directory under the system temp directory, removed with everything in it.
-class TempDir {
- public:
-  TempDir() {
-    std::random_device device;
-    path_ = fs::temp_directory_path() /
-            ("spacewarp_mesh_io_test_" + std::to_string(device()) + "_" + std::to_string(device()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
-
-std::set<std::string> listDirectory(const fs::path& directory) {
-  std::set<std::string> names;
-  for (const auto& entry : fs::directory_iterator(directory))
-    names.insert(entry.path().filename().string());
-  return names;
-}
-
-void writeText(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  out << text;
-}
+using test::expectSameSoup;
+using test::listDirectory;
+using test::TempDir;
+using test::writeFile;
 
 PolygonSoup sampleSoup(bool withNormals, bool withFaces) {
   std::mt19937_64 rng(42);
@@ -68,21 +45,9 @@ PolygonSoup sampleSoup(bool withNormals, bool withFaces) {
   return soup;
 }
 
-void expectSameSoup(const PolygonSoup& a, const PolygonSoup& b) {
-  EXPECT_EQ(a.positions, b.positions);
-  EXPECT_EQ(a.normals, b.normals);
-  EXPECT_EQ(a.faceOffsets, b.faceOffsets);
-  EXPECT_EQ(a.faceIndices, b.faceIndices);
-}
-
 /// The message of the IoError that reading `path` throws ("" if none).
 std::string readError(const fs::path& path) {
-  try {
-    readSoup(path);
-  } catch (const IoError& e) {
-    return e.what();
-  }
-  return "";
+  return test::messageOf<IoError>([&] { readSoup(path); });
 }
 
 TEST(MeshIoTest, FormatFromPathIsCaseInsensitive) {
@@ -93,13 +58,9 @@ TEST(MeshIoTest, FormatFromPathIsCaseInsensitive) {
 }
 
 TEST(MeshIoTest, FormatFromPathRejectsUnknownExtensions) {
-  try {
-    formatFromPath("dir/model.stl");
-    FAIL() << "no exception";
-  } catch (const IoError& e) {
-    EXPECT_THAT(e.what(), HasSubstr("dir/model.stl"));
-    EXPECT_THAT(e.what(), HasSubstr("'.stl'"));
-  }
+  const std::string message = test::messageOf<IoError>([] { formatFromPath("dir/model.stl"); });
+  EXPECT_THAT(message, HasSubstr("dir/model.stl"));
+  EXPECT_THAT(message, HasSubstr("'.stl'"));
   EXPECT_THROW(formatFromPath("noextension"), IoError);
   EXPECT_THROW(formatFromPath("model.obj.bak"), IoError);
 }
@@ -160,19 +121,19 @@ TEST(MeshIoTest, DirectoryThrowsIoError) {
 
 TEST(MeshIoTest, UnknownExtensionOnReadNamesTheFile) {
   TempDir dir;
-  writeText(dir.path() / "model.stl", "solid\n");
+  writeFile(dir.path() / "model.stl", "solid\n");
   EXPECT_THAT(readError(dir.path() / "model.stl"), HasSubstr("model.stl"));
 }
 
 TEST(MeshIoTest, MalformedFilesNameTheFileAndLine) {
   TempDir dir;
-  writeText(dir.path() / "bad.obj", "v 0 0 0\nv nan 1 2\n");
+  writeFile(dir.path() / "bad.obj", "v 0 0 0\nv nan 1 2\n");
   EXPECT_THAT(readError(dir.path() / "bad.obj"),
               HasSubstr((dir.path() / "bad.obj").string() + ":2: vertex has a non-finite"));
-  writeText(dir.path() / "bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
+  writeFile(dir.path() / "bad.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
   EXPECT_THAT(readError(dir.path() / "bad.off"),
               HasSubstr((dir.path() / "bad.off").string() + ":6: face 0: vertex index 3"));
-  writeText(dir.path() / "bad.ply",
+  writeFile(dir.path() / "bad.ply",
             "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
             "property float y\nproperty float z\nend_header\n" +
                 std::string(20, '\0'));
@@ -183,18 +144,14 @@ TEST(MeshIoTest, MalformedFilesNameTheFileAndLine) {
 TEST(MeshIoTest, WriteToMissingDirectoryThrowsAndLeavesNothing) {
   TempDir dir;
   const fs::path path = dir.path() / "missing" / "out.ply";
-  try {
-    writeSoup(sampleSoup(false, true), path);
-    FAIL() << "no exception";
-  } catch (const IoError& e) {
-    EXPECT_THAT(e.what(), HasSubstr(path.string()));
-  }
+  EXPECT_THAT(test::messageOf<IoError>([&] { writeSoup(sampleSoup(false, true), path); }),
+              HasSubstr(path.string()));
   EXPECT_TRUE(listDirectory(dir.path()).empty());
 }
 
 TEST(MeshIoTest, WriteToUnwritableLocationThrowsAndLeavesNothing) {
   TempDir dir;
-  writeText(dir.path() / "plain_file", "x");
+  writeFile(dir.path() / "plain_file", "x");
   EXPECT_THROW(writeSoup(sampleSoup(false, true), dir.path() / "plain_file" / "out.obj"), IoError);
   EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"plain_file"});
 }

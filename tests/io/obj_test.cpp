@@ -1,135 +1,57 @@
 #include "core/io/obj.h"
 
-#include <bit>
 #include <cmath>
 #include <cstdint>
-#include <limits>
-#include <random>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "core/errors.h"
+#include "io_test_util.h"
 
 namespace spacewarp {
 namespace {
 
 using ::testing::HasSubstr;
 
-/// Doubles that stress decimal round trips: wide exponents, subnormals, extremes, -0.
-double randomCoordinate(std::mt19937_64& rng) {
-  std::uniform_int_distribution<int> kind(0, 9);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  switch (kind(rng)) {
-    case 0:
-      return std::ldexp(unit(rng), std::uniform_int_distribution<int>(-1070, 1020)(rng));
-    case 1:
-      return -0.0;
-    case 2:
-      return std::numeric_limits<double>::denorm_min() *
-             std::uniform_int_distribution<int>(1, 1000)(rng);
-    case 3:
-      return std::numeric_limits<double>::max() * unit(rng);
-    default:
-      return 1000.0 * unit(rng);
-  }
-}
-
-PolygonSoup randomSoup(std::uint64_t seed, std::size_t vertexCount, std::size_t polygonCount,
-                       bool withNormals) {
-  std::mt19937_64 rng(seed);
-  PolygonSoup soup;
-  for (std::size_t v = 0; v < vertexCount; ++v) {
-    soup.positions.emplace_back(randomCoordinate(rng), randomCoordinate(rng),
-                                randomCoordinate(rng));
-    if (withNormals) {
-      std::normal_distribution<double> gauss;
-      const Vec3 n(gauss(rng), gauss(rng), gauss(rng));
-      soup.normals.push_back(glm::normalize(n));
-    }
-  }
-  std::uniform_int_distribution<std::uint32_t> size(3, 7);
-  std::uniform_int_distribution<std::uint32_t> vertex(0,
-                                                      static_cast<std::uint32_t>(vertexCount - 1));
-  std::vector<std::uint32_t> polygon;
-  for (std::size_t p = 0; p < polygonCount; ++p) {
-    polygon.resize(size(rng));
-    for (std::uint32_t& v : polygon) v = vertex(rng);
-    soup.addPolygon(polygon);
-  }
-  return soup;
-}
-
-void expectBitEqual(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    for (int c = 0; c < 3; ++c) {
-      ASSERT_EQ(std::bit_cast<std::uint64_t>(a[i][c]), std::bit_cast<std::uint64_t>(b[i][c]))
-          << "element " << i << " component " << c << ": " << a[i][c] << " vs " << b[i][c];
-    }
-  }
-}
-
-void expectSameSoup(const PolygonSoup& a, const PolygonSoup& b) {
-  expectBitEqual(a.positions, b.positions);
-  expectBitEqual(a.normals, b.normals);
-  EXPECT_EQ(a.faceOffsets, b.faceOffsets);
-  EXPECT_EQ(a.faceIndices, b.faceIndices);
-}
+using test::expectSameSoup;
 
 PolygonSoup roundTrip(const PolygonSoup& soup) {
-  std::stringstream stream;
-  writeObj(soup, stream);
-  return readObj(stream, "roundtrip.obj");
+  return test::roundTrip(writeObj, readObj, soup, "roundtrip.obj");
 }
 
-PolygonSoup readText(const std::string& text, const std::string& name = "model.obj") {
-  std::istringstream in(text);
-  return readObj(in, name);
+PolygonSoup readText(const std::string& text) {
+  return test::readString(readObj, text, "model.obj");
 }
 
 /// The message of the IoError that reading `text` throws ("" if none).
-std::string errorOf(const std::string& text, const std::string& name = "model.obj") {
-  try {
-    readText(text, name);
-  } catch (const IoError& e) {
-    return e.what();
-  }
-  return "";
+std::string errorOf(const std::string& text) {
+  return test::messageOf<IoError>([&] { readText(text); });
 }
 
 TEST(ObjTest, RoundTripMixedPolygonsIsExact) {
-  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
-    const PolygonSoup soup = randomSoup(seed, 200, 150, false);
-    expectSameSoup(roundTrip(soup), soup);
-  }
+  test::expectExactRoundTrips(
+      roundTrip, {.firstSeed = 1, .lastSeed = 5, .vertexCount = 200, .polygonCount = 150});
 }
 
 TEST(ObjTest, RoundTripWithNormalsIsExact) {
-  for (std::uint64_t seed = 10; seed <= 14; ++seed) {
-    const PolygonSoup soup = randomSoup(seed, 100, 80, true);
-    const PolygonSoup back = roundTrip(soup);
-    ASSERT_TRUE(back.hasNormals());
-    expectSameSoup(back, soup);
-  }
+  test::expectExactRoundTrips(roundTrip, {.firstSeed = 10,
+                                          .lastSeed = 14,
+                                          .vertexCount = 100,
+                                          .polygonCount = 80,
+                                          .withNormals = true});
 }
 
 TEST(ObjTest, RoundTripPointCloud) {
-  const PolygonSoup plain = randomSoup(20, 64, 0, false);
-  expectSameSoup(roundTrip(plain), plain);
-  const PolygonSoup withNormals = randomSoup(21, 64, 0, true);
-  const PolygonSoup back = roundTrip(withNormals);
-  EXPECT_EQ(back.polygonCount(), 0u);
-  expectSameSoup(back, withNormals);
+  test::expectExactRoundTrips(roundTrip, {.firstSeed = 20, .lastSeed = 20, .vertexCount = 64});
+  test::expectExactRoundTrips(
+      roundTrip, {.firstSeed = 21, .lastSeed = 21, .vertexCount = 64, .withNormals = true});
 }
 
-TEST(ObjTest, RoundTripEmptySoup) {
-  const PolygonSoup back = roundTrip(PolygonSoup{});
-  EXPECT_EQ(back.size(), 0u);
-  EXPECT_EQ(back.polygonCount(), 0u);
-}
+TEST(ObjTest, RoundTripEmptySoup) { test::expectEmptyRoundTrip(roundTrip); }
 
 TEST(ObjTest, RoundTripPolygonWithMoreThan255Vertices) {
   PolygonSoup soup;

@@ -1,10 +1,6 @@
 #include "core/io/off.h"
 
-#include <bit>
-#include <cmath>
 #include <cstdint>
-#include <limits>
-#include <random>
 #include <sstream>
 #include <string>
 
@@ -12,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/errors.h"
+#include "io_test_util.h"
 
 namespace spacewarp {
 namespace {
@@ -19,86 +16,17 @@ namespace {
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-/// Doubles that stress decimal round trips: wide exponents, subnormals, extremes, -0.
-double randomCoordinate(std::mt19937_64& rng) {
-  std::uniform_int_distribution<int> kind(0, 9);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  switch (kind(rng)) {
-    case 0:
-      return std::ldexp(unit(rng), std::uniform_int_distribution<int>(-1070, 1020)(rng));
-    case 1:
-      return -0.0;
-    case 2:
-      return std::numeric_limits<double>::denorm_min() *
-             std::uniform_int_distribution<int>(1, 1000)(rng);
-    case 3:
-      return std::numeric_limits<double>::max() * unit(rng);
-    default:
-      return 1000.0 * unit(rng);
-  }
-}
-
-PolygonSoup randomSoup(std::uint64_t seed, std::size_t vertexCount, std::size_t polygonCount,
-                       bool withNormals) {
-  std::mt19937_64 rng(seed);
-  PolygonSoup soup;
-  for (std::size_t v = 0; v < vertexCount; ++v) {
-    soup.positions.emplace_back(randomCoordinate(rng), randomCoordinate(rng),
-                                randomCoordinate(rng));
-    if (withNormals) {
-      std::normal_distribution<double> gauss;
-      const Vec3 n(gauss(rng), gauss(rng), gauss(rng));
-      soup.normals.push_back(glm::normalize(n));
-    }
-  }
-  std::uniform_int_distribution<std::uint32_t> size(3, 7);
-  std::uniform_int_distribution<std::uint32_t> vertex(0,
-                                                      static_cast<std::uint32_t>(vertexCount - 1));
-  std::vector<std::uint32_t> polygon;
-  for (std::size_t p = 0; p < polygonCount; ++p) {
-    polygon.resize(size(rng));
-    for (std::uint32_t& v : polygon) v = vertex(rng);
-    soup.addPolygon(polygon);
-  }
-  return soup;
-}
-
-void expectBitEqual(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    for (int c = 0; c < 3; ++c) {
-      ASSERT_EQ(std::bit_cast<std::uint64_t>(a[i][c]), std::bit_cast<std::uint64_t>(b[i][c]))
-          << "element " << i << " component " << c << ": " << a[i][c] << " vs " << b[i][c];
-    }
-  }
-}
-
-void expectSameSoup(const PolygonSoup& a, const PolygonSoup& b) {
-  expectBitEqual(a.positions, b.positions);
-  expectBitEqual(a.normals, b.normals);
-  EXPECT_EQ(a.faceOffsets, b.faceOffsets);
-  EXPECT_EQ(a.faceIndices, b.faceIndices);
-}
-
 PolygonSoup roundTrip(const PolygonSoup& soup) {
-  std::stringstream stream;
-  writeOff(soup, stream);
-  return readOff(stream, "roundtrip.off");
+  return test::roundTrip(writeOff, readOff, soup, "roundtrip.off");
 }
 
-PolygonSoup readText(const std::string& text, const std::string& name = "mesh.off") {
-  std::istringstream in(text);
-  return readOff(in, name);
+PolygonSoup readText(const std::string& text) {
+  return test::readString(readOff, text, "mesh.off");
 }
 
 /// The message of the IoError that reading `text` throws ("" if none).
-std::string errorOf(const std::string& text, const std::string& name = "mesh.off") {
-  try {
-    readText(text, name);
-  } catch (const IoError& e) {
-    return e.what();
-  }
-  return "";
+std::string errorOf(const std::string& text) {
+  return test::messageOf<IoError>([&] { readText(text); });
 }
 
 const std::string kCube =
@@ -111,35 +39,27 @@ const std::string kCube =
     "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 1 2 6 5\n4 2 3 7 6\n4 3 0 4 7\n";
 
 TEST(OffTest, RoundTripMixedPolygonsIsExact) {
-  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
-    const PolygonSoup soup = randomSoup(seed, 200, 150, false);
-    expectSameSoup(roundTrip(soup), soup);
-  }
+  test::expectExactRoundTrips(
+      roundTrip, {.firstSeed = 1, .lastSeed = 5, .vertexCount = 200, .polygonCount = 150});
 }
 
 TEST(OffTest, RoundTripWithNormalsIsExact) {
-  for (std::uint64_t seed = 10; seed <= 14; ++seed) {
-    const PolygonSoup soup = randomSoup(seed, 100, 80, true);
-    const PolygonSoup back = roundTrip(soup);
-    ASSERT_TRUE(back.hasNormals());
-    expectSameSoup(back, soup);
-  }
+  test::expectExactRoundTrips(roundTrip, {.firstSeed = 10,
+                                          .lastSeed = 14,
+                                          .vertexCount = 100,
+                                          .polygonCount = 80,
+                                          .withNormals = true});
 }
 
 TEST(OffTest, RoundTripPointCloud) {
   for (bool withNormals : {false, true}) {
-    const PolygonSoup cloud = randomSoup(20, 64, 0, withNormals);
-    const PolygonSoup back = roundTrip(cloud);
-    EXPECT_EQ(back.polygonCount(), 0u);
-    expectSameSoup(back, cloud);
+    test::expectExactRoundTrips(
+        roundTrip,
+        {.firstSeed = 20, .lastSeed = 20, .vertexCount = 64, .withNormals = withNormals});
   }
 }
 
-TEST(OffTest, RoundTripEmptySoup) {
-  const PolygonSoup back = roundTrip(PolygonSoup{});
-  EXPECT_EQ(back.size(), 0u);
-  EXPECT_EQ(back.polygonCount(), 0u);
-}
+TEST(OffTest, RoundTripEmptySoup) { test::expectEmptyRoundTrip(roundTrip); }
 
 TEST(OffTest, ReadsCube) {
   const PolygonSoup cube = readText(kCube);

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "core/errors.h"
+#include "io_test_util.h"
 
 namespace spacewarp {
 namespace {
@@ -21,66 +22,9 @@ namespace {
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-/// Doubles that stress decimal round trips: wide exponents, subnormals, extremes, -0.
-double randomCoordinate(std::mt19937_64& rng) {
-  std::uniform_int_distribution<int> kind(0, 9);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  switch (kind(rng)) {
-    case 0:
-      return std::ldexp(unit(rng), std::uniform_int_distribution<int>(-1070, 1020)(rng));
-    case 1:
-      return -0.0;
-    case 2:
-      return std::numeric_limits<double>::denorm_min() *
-             std::uniform_int_distribution<int>(1, 1000)(rng);
-    case 3:
-      return std::numeric_limits<double>::max() * unit(rng);
-    default:
-      return 1000.0 * unit(rng);
-  }
-}
-
-PolygonSoup randomSoup(std::uint64_t seed, std::size_t vertexCount, std::size_t polygonCount,
-                       bool withNormals) {
-  std::mt19937_64 rng(seed);
-  PolygonSoup soup;
-  for (std::size_t v = 0; v < vertexCount; ++v) {
-    soup.positions.emplace_back(randomCoordinate(rng), randomCoordinate(rng),
-                                randomCoordinate(rng));
-    if (withNormals) {
-      std::normal_distribution<double> gauss;
-      const Vec3 n(gauss(rng), gauss(rng), gauss(rng));
-      soup.normals.push_back(glm::normalize(n));
-    }
-  }
-  std::uniform_int_distribution<std::uint32_t> size(3, 7);
-  std::uniform_int_distribution<std::uint32_t> vertex(0,
-                                                      static_cast<std::uint32_t>(vertexCount - 1));
-  std::vector<std::uint32_t> polygon;
-  for (std::size_t p = 0; p < polygonCount; ++p) {
-    polygon.resize(size(rng));
-    for (std::uint32_t& v : polygon) v = vertex(rng);
-    soup.addPolygon(polygon);
-  }
-  return soup;
-}
-
-void expectBitEqual(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    for (int c = 0; c < 3; ++c) {
-      ASSERT_EQ(std::bit_cast<std::uint64_t>(a[i][c]), std::bit_cast<std::uint64_t>(b[i][c]))
-          << "element " << i << " component " << c << ": " << a[i][c] << " vs " << b[i][c];
-    }
-  }
-}
-
-void expectSameSoup(const PolygonSoup& a, const PolygonSoup& b) {
-  expectBitEqual(a.positions, b.positions);
-  expectBitEqual(a.normals, b.normals);
-  EXPECT_EQ(a.faceOffsets, b.faceOffsets);
-  EXPECT_EQ(a.faceIndices, b.faceIndices);
-}
+using test::expectSameSoup;
+using test::randomCoordinate;
+using test::randomSoup;
 
 const PlyEncoding kEncodings[] = {PlyEncoding::Ascii, PlyEncoding::BinaryLittleEndian,
                                   PlyEncoding::BinaryBigEndian};
@@ -151,8 +95,7 @@ std::string write(const PolygonSoup& soup, PlyEncoding encoding) {
 }
 
 PolygonSoup readBytes(const std::string& bytes, const std::string& name = "cloud.ply") {
-  std::istringstream in(bytes);
-  return readPly(in, name);
+  return test::readString(readPly, bytes, name);
 }
 
 PolygonSoup roundTrip(const PolygonSoup& soup, PlyEncoding encoding) {
@@ -160,13 +103,8 @@ PolygonSoup roundTrip(const PolygonSoup& soup, PlyEncoding encoding) {
 }
 
 /// The message of the IoError that reading `bytes` throws ("" if none).
-std::string errorOf(const std::string& bytes, const std::string& name = "cloud.ply") {
-  try {
-    readBytes(bytes, name);
-  } catch (const IoError& e) {
-    return e.what();
-  }
-  return "";
+std::string errorOf(const std::string& bytes) {
+  return test::messageOf<IoError>([&] { readBytes(bytes); });
 }
 
 /// Appends `value` in big-endian byte order.
@@ -188,11 +126,10 @@ void appendLittleEndian(std::string& out, T value) {
 
 TEST(PlyTest, RoundTripIsExactInEveryEncoding) {
   for (PlyEncoding encoding : kEncodings) {
-    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      SCOPED_TRACE(static_cast<int>(encoding));
-      const PolygonSoup soup = randomSoup(seed, 150, 120, false);
-      expectSameSoup(roundTrip(soup, encoding), soup);
-    }
+    SCOPED_TRACE(static_cast<int>(encoding));
+    test::expectExactRoundTrips(
+        [encoding](const PolygonSoup& soup) { return roundTrip(soup, encoding); },
+        {.firstSeed = 1, .lastSeed = 3, .vertexCount = 150, .polygonCount = 120});
   }
 }
 
@@ -226,9 +163,9 @@ TEST(PlyTest, RoundTripPointCloudHasNoFaceElement) {
 
 TEST(PlyTest, RoundTripEmptySoup) {
   for (PlyEncoding encoding : kEncodings) {
-    const PolygonSoup back = roundTrip(PolygonSoup{}, encoding);
-    EXPECT_EQ(back.size(), 0u);
-    EXPECT_EQ(back.polygonCount(), 0u);
+    SCOPED_TRACE(static_cast<int>(encoding));
+    test::expectEmptyRoundTrip(
+        [encoding](const PolygonSoup& soup) { return roundTrip(soup, encoding); });
   }
 }
 
