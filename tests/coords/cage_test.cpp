@@ -5,9 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "coords_test_shapes.h"
 #include "core/errors.h"
 #include "core/primitives.h"
-#include "coords_test_shapes.h"
 
 namespace spacewarp {
 namespace {
@@ -90,6 +90,19 @@ TEST(Cage, RejectsDoubleCoveredSurface) {
   for (std::size_t f = 0; f < soup.polygonCount(); ++f) twice.addPolygon(soup.polygon(f));
   for (std::size_t f = 0; f < soup.polygonCount(); ++f) twice.addPolygon(soup.polygon(f));
   expectInvalid([&] { Cage c(twice); }, "non-manifold edge");
+}
+
+TEST(Cage, RejectsNonOrientableSurface) {
+  // The six-vertex triangulation of the real projective plane (the hemi-icosahedron): closed,
+  // every edge shared by exactly two triangles, and non-orientable (Euler characteristic 1).
+  PolygonSoup rp2;
+  rp2.positions = {Vec3(1, 0, 0),     Vec3(0, 1, 0),    Vec3(0, 0, 1),
+                   Vec3(-1, -1, 0.3), Vec3(0.5, -1, 1), Vec3(-0.7, 0.4, -1)};
+  const std::uint32_t faces[10][3] = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 5}, {0, 5, 1},
+                                      {1, 2, 4}, {2, 3, 5}, {3, 4, 1}, {4, 5, 2}, {5, 1, 3}};
+  for (const auto& f : faces) rp2.addPolygon({f[0], f[1], f[2]});
+  expectInvalid([&] { Cage c(rp2, "rp2.off"); }, "not orientable");
+  expectInvalid([&] { Cage c(rp2, "rp2.off"); }, "rp2.off");
 }
 
 TEST(Cage, RejectsDegenerateInput) {
