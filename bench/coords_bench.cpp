@@ -1,0 +1,270 @@
+// Benchmarks of coords. Binding cost of mean-value coordinates is reported per (point × cage
+// triangle) pair, on a procedural box cage (always) and on the Ju et al. armadillo (when the shared
+// data is present: the model's 15k vertices and a 1M-point cloud inside its cage, the latter both
+// through Binding and through weightsBatch into an allocated matrix). Deforming the
+// 1M-point dense binding is measured against a baseline that reads the same weight bytes (a plain
+// parallel sum over the matrix) in the same run, both reported as bytes per second, and their
+// ratio is printed at the end.
+//
+// The data directory is $SPACEWARP_SHARED_DATA_DIR, or ../shared/data next to the source tree.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include "coords/cage.h"
+#include "coords/mean_value.h"
+#include "core/binding.h"
+#include "core/io/mesh_io.h"
+#include "core/primitives.h"
+
+namespace {
+
+using namespace spacewarp;
+
+constexpr std::size_t kCloudPoints = 1'000'000;
+
+std::filesystem::path armadilloDir() {
+  const char* env = std::getenv("SPACEWARP_SHARED_DATA_DIR");
+  const std::filesystem::path data =
+      env != nullptr ? std::filesystem::path(env)
+                     : std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() /
+                           "shared" / "data";
+  return data / "ju2005-armadillo";
+}
+
+// Reports seconds per (point × triangle) pair as "pair_time" (shown with SI prefixes, e.g. 7n).
+void reportPairs(benchmark::State& state, std::size_t points, std::size_t triangles) {
+  state.counters["pair_time"] = benchmark::Counter(
+      static_cast<double>(points * triangles),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * points));
+}
+
+// Points uniformly distributed inside a closed cage: rejection sampling in its bounding box with
+// an even-odd ray cast along +z, accelerated by a grid of triangle lists over (x, y).
+std::vector<Vec3> pointsInside(const Cage& cage, std::size_t n, std::uint64_t seed) {
+  BoundingBox box;
+  for (const Vec3& p : cage.vertices()) {
+    box.min = glm::min(box.min, p);
+    box.max = glm::max(box.max, p);
+  }
+  constexpr int kGrid = 48;
+  const Vec3 cell = box.extent() / static_cast<double>(kGrid);
+  std::vector<std::vector<std::size_t>> grid(kGrid * kGrid);
+  auto cellOf = [&](double v, double lo, double size) {
+    return std::clamp(static_cast<int>((v - lo) / size), 0, kGrid - 1);
+  };
+  for (std::size_t t = 0; t < cage.triangleCount(); ++t) {
+    const Triangle tri = cage.triangles()[t];
+    const Vec3 a = cage.vertices()[tri.x], b = cage.vertices()[tri.y], c = cage.vertices()[tri.z];
+    const Vec3 lo = glm::min(a, glm::min(b, c)), hi = glm::max(a, glm::max(b, c));
+    for (int i = cellOf(lo.x, box.min.x, cell.x); i <= cellOf(hi.x, box.min.x, cell.x); ++i)
+      for (int j = cellOf(lo.y, box.min.y, cell.y); j <= cellOf(hi.y, box.min.y, cell.y); ++j)
+        grid[static_cast<std::size_t>(i * kGrid + j)].push_back(t);
+  }
+  auto inside = [&](const Vec3& x) {
+    const auto& list = grid[static_cast<std::size_t>(cellOf(x.x, box.min.x, cell.x) * kGrid +
+                                                     cellOf(x.y, box.min.y, cell.y))];
+    int crossings = 0;
+    for (std::size_t t : list) {
+      const Triangle tri = cage.triangles()[t];
+      const Vec3 a = cage.vertices()[tri.x], b = cage.vertices()[tri.y], c = cage.vertices()[tri.z];
+      const double d = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+      if (d == 0.0) continue;
+      const double u = ((x.x - a.x) * (c.y - a.y) - (x.y - a.y) * (c.x - a.x)) / d;
+      const double v = ((b.x - a.x) * (x.y - a.y) - (b.y - a.y) * (x.x - a.x)) / d;
+      if (u < 0.0 || v < 0.0 || u + v > 1.0) continue;
+      if (a.z + u * (b.z - a.z) + v * (c.z - a.z) > x.z) ++crossings;
+    }
+    return crossings % 2 == 1;
+  };
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> ux(box.min.x, box.max.x), uy(box.min.y, box.max.y),
+      uz(box.min.z, box.max.z);
+  std::vector<Vec3> points;
+  points.reserve(n);
+  while (points.size() < n) {
+    const Vec3 x(ux(rng), uy(rng), uz(rng));
+    if (inside(x)) points.push_back(x);
+  }
+  return points;
+}
+
+struct Armadillo {
+  std::shared_ptr<const Cage> cage;
+  std::shared_ptr<const MeanValueCoordinates> mvc;
+  std::vector<Vec3> model;
+  std::vector<Vec3> cloud;
+  std::vector<Vec3> posed;
+  std::unique_ptr<Binding> cloudBinding;
+};
+
+Armadillo& armadillo() {
+  static Armadillo data = [] {
+    const auto dir = armadilloDir();
+    Armadillo a;
+    a.cage = std::make_shared<const Cage>(Cage::fromFile(dir / "bounding_mesh.obj"));
+    a.mvc = std::make_shared<const MeanValueCoordinates>(a.cage);
+    a.model = readSoup(dir / "armadilloman.obj").positions;
+    a.cloud = pointsInside(*a.cage, kCloudPoints, 42);
+    a.posed = a.cage->posedVerticesFromFile(dir / "deformed_fixed_1.obj");
+    return a;
+  }();
+  return data;
+}
+
+const Binding& cloudBinding() {
+  Armadillo& a = armadillo();
+  if (!a.cloudBinding) a.cloudBinding = std::make_unique<Binding>(a.mvc, a.cloud);
+  return *a.cloudBinding;
+}
+
+// Procedural: a box cage with 4 x 4 quads per face (98 vertices, 192 triangles), 100k points
+// inside it.
+void BM_MvcBindBox(benchmark::State& state) {
+  const auto cage =
+      std::make_shared<const Cage>(makeBoxSurface(Vec3(-1.0), Vec3(1.0), {4, 4, 4}), "box");
+  const auto mvc = std::make_shared<const MeanValueCoordinates>(cage);
+  const std::vector<Vec3> points = makeRandomPoints(Vec3(-0.99), Vec3(0.99), 100'000, 7).positions;
+  for (auto _ : state) {
+    Binding binding(mvc, points);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, points.size(), cage->triangleCount());
+}
+
+void BM_MvcBindArmadilloModel(benchmark::State& state) {
+  Armadillo& a = armadillo();
+  for (auto _ : state) {
+    Binding binding(a.mvc, a.model);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, a.model.size(), a.cage->triangleCount());
+}
+
+void BM_MvcBindArmadilloCloud1M(benchmark::State& state) {
+  Armadillo& a = armadillo();
+  for (auto _ : state) {
+    Binding binding(a.mvc, a.cloud);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, a.cloud.size(), a.cage->triangleCount());
+}
+
+// The same 1M points through weightsBatch into an already allocated matrix: the kernel alone,
+// without the Binding's allocation and first touch of its pointCount() × vertexCount() doubles.
+void BM_MvcWeightsArmadilloCloud1M(benchmark::State& state) {
+  Armadillo& a = armadillo();
+  std::vector<double> rows(a.cloud.size() * a.cage->vertexCount(), 0.0);
+  for (auto _ : state) {
+    a.mvc->weightsBatch(a.cloud, rows);
+    benchmark::DoNotOptimize(rows.data());
+  }
+  reportPairs(state, a.cloud.size(), a.cage->triangleCount());
+}
+
+// Bytes per second of the two memory-bound passes over the 1M-point weight matrix, for the
+// ratio printed at the end.
+double gDeformRate = 0.0, gReadRate = 0.0;
+
+std::int64_t weightBytes(const Binding& b) {
+  return static_cast<std::int64_t>(b.pointCount() * b.columnCount() * sizeof(double));
+}
+
+void BM_DeformArmadilloCloud1M(benchmark::State& state) {
+  const Binding& binding = cloudBinding();
+  const Armadillo& a = armadillo();
+  std::vector<Vec3> out(binding.pointCount());
+  double seconds = 0.0;
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    binding.deform(a.posed, out);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  state.SetBytesProcessed(state.iterations() * weightBytes(binding));
+  gDeformRate = static_cast<double>(state.iterations() * weightBytes(binding)) / seconds;
+}
+
+// Baseline: read the same weight bytes, a plain parallel sum over the matrix.
+void BM_ReadBaselineArmadilloCloud1M(benchmark::State& state) {
+  const Binding& binding = cloudBinding();
+  const double* w = binding.dense().data();
+  const std::size_t n = binding.pointCount() * binding.columnCount();
+  double seconds = 0.0;
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    const double sum = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, n, 1 << 16), 0.0,
+        [&](const tbb::blocked_range<std::size_t>& r, double s) {
+          double acc[4] = {0.0, 0.0, 0.0, 0.0};
+          std::size_t i = r.begin();
+          for (; i + 4 <= r.end(); i += 4)
+            for (int k = 0; k < 4; ++k) acc[k] += w[i + static_cast<std::size_t>(k)];
+          for (; i < r.end(); ++i) acc[0] += w[i];
+          return s + (acc[0] + acc[1]) + (acc[2] + acc[3]);
+        },
+        [](double a, double b) { return a + b; });
+    benchmark::DoNotOptimize(sum);
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  state.SetBytesProcessed(state.iterations() * weightBytes(binding));
+  gReadRate = static_cast<double>(state.iterations() * weightBytes(binding)) / seconds;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RegisterBenchmark("BM_MvcBindBox", BM_MvcBindBox)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  const auto dir = armadilloDir();
+  const bool haveData = std::filesystem::exists(dir / "bounding_mesh.obj") &&
+                        std::filesystem::exists(dir / "armadilloman.obj") &&
+                        std::filesystem::exists(dir / "deformed_fixed_1.obj");
+  if (haveData) {
+    benchmark::RegisterBenchmark("BM_MvcBindArmadilloModel", BM_MvcBindArmadilloModel)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+    benchmark::RegisterBenchmark("BM_MvcBindArmadilloCloud1M", BM_MvcBindArmadilloCloud1M)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime()
+        ->Iterations(3);
+    benchmark::RegisterBenchmark("BM_MvcWeightsArmadilloCloud1M", BM_MvcWeightsArmadilloCloud1M)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime()
+        ->Iterations(3);
+    benchmark::RegisterBenchmark("BM_DeformArmadilloCloud1M", BM_DeformArmadilloCloud1M)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+    benchmark::RegisterBenchmark("BM_ReadBaselineArmadilloCloud1M", BM_ReadBaselineArmadilloCloud1M)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  } else {
+    std::printf("skipping the armadillo benchmarks: %s not found (set SPACEWARP_SHARED_DATA_DIR)\n",
+                dir.string().c_str());
+  }
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  if (gDeformRate > 0.0 && gReadRate > 0.0) {
+    std::printf("deform %.2f GB/s, read baseline %.2f GB/s, deform/read = %.2f\n",
+                gDeformRate * 1e-9, gReadRate * 1e-9, gDeformRate / gReadRate);
+  }
+  return 0;
+}
