@@ -41,11 +41,12 @@ std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
   return it->second(std::move(cage));
 }
 
-std::shared_ptr<const Warp> cageWarp(const std::string& method, const std::filesystem::path& cage,
-                                     const std::filesystem::path& pose) {
+Rig cageRig(const std::string& method, const std::filesystem::path& cage,
+            const std::filesystem::path& pose) {
   auto rest = std::make_shared<const Cage>(Cage::fromFile(cage));
   const std::vector<Vec3> posed = rest->posedVerticesFromFile(pose);
-  return std::make_shared<CoordinateWarp>(cageCoordinates(method, rest), posed);
+  auto coordinates = cageCoordinates(method, rest);
+  return {std::make_shared<CoordinateWarp>(coordinates, posed), coordinates};
 }
 
 }  // namespace spacewarp::cli

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "apps/rig.h"
 #include "coords/cage.h"
 #include "core/coordinates.h"
 #include "core/warp.h"
@@ -20,8 +21,9 @@ std::vector<std::string> cageMethods();
 std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
                                                    std::shared_ptr<const Cage> cage);
 
-/// The warp of `method` with the rest cage and posed cage read from files.
-std::shared_ptr<const Warp> cageWarp(const std::string& method, const std::filesystem::path& cage,
-                                     const std::filesystem::path& pose);
+/// The rig of `method` with the rest cage and posed cage read from files: a CoordinateWarp
+/// and its coordinates.
+Rig cageRig(const std::string& method, const std::filesystem::path& cage,
+            const std::filesystem::path& pose);
 
 }  // namespace spacewarp::cli

@@ -2,12 +2,12 @@
 // 4 numerical failure, 1 anything else. Outputs are written atomically, so a failure never
 // leaves a partial file behind.
 
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <charconv>
 #include <numbers>
 #include <string>
 
@@ -68,16 +68,15 @@ void deformFile(const Warp& warp, const fs::path& input, const fs::path& output,
 
 // The coordinate matrix of every point of POINTS as CSV: a header naming the columns, then
 // one row per input point in input order, shortest round-trip (full) double precision.
-void writeWeights(const std::string& method, const fs::path& cagePath, const fs::path& pointsPath,
+void writeWeights(const Coordinates& coordinates, const fs::path& pointsPath,
                   const fs::path& output) {
-  auto cage = std::make_shared<const Cage>(Cage::fromFile(cagePath));
-  const auto coordinates = cli::cageCoordinates(method, cage);
+  formatFromPath(pointsPath);
   const PolygonSoup points = readSoup(pointsPath);
-  const std::size_t m = coordinates->columnCount();
+  const std::size_t m = coordinates.columnCount();
   std::vector<double> rows(points.size() * m);
-  coordinates->weightsBatch(points.positions, rows);
+  coordinates.weightsBatch(points.positions, rows);
   writeFileAtomically(output, [&](std::ostream& out) {
-    for (std::size_t c = 0; c < m; ++c) out << (c ? "," : "") << coordinates->columnName(c);
+    for (std::size_t c = 0; c < m; ++c) out << (c ? "," : "") << coordinates.columnName(c);
     out << '\n';
     std::string line;
     char buffer[32];
@@ -113,7 +112,8 @@ void runDemo(const fs::path& dir) {
 
   const double pi = std::numbers::pi;
   std::map<std::string, nlohmann::json> rigs = {
-      {"twist", {{"method", "twist"}, {"origin", {0, 0, 0}}, {"axis", {0, 0, 1}}, {"rate", pi / 4}}},
+      {"twist",
+       {{"method", "twist"}, {"origin", {0, 0, 0}}, {"axis", {0, 0, 1}}, {"rate", pi / 4}}},
       {"bend",
        {{"method", "bend"},
         {"origin", {0, 0, -2}},
@@ -144,7 +144,7 @@ void runDemo(const fs::path& dir) {
   for (const auto& [name, rig] : rigs) {
     const fs::path rigPath = dir / (name + ".json");
     writeJson(rig, rigPath);
-    const auto warp = cli::loadRig(rigPath);
+    const auto warp = cli::loadRig(rigPath).warp;
     for (const char* input : {"bar.obj", "cloud.ply"}) {
       const fs::path in = dir / input;
       const fs::path out = dir / (in.stem().string() + "_" + name + in.extension().string());
@@ -172,11 +172,13 @@ int run(int argc, char** argv) {
   bool ascii = false;
   CLI::App* deformCmd = app.add_subcommand(
       "deform", "Warp a polygon soup or point cloud (OBJ, OFF, PLY) with the warp a rig describes");
-  auto* rigOption =
-      deformCmd->add_option("--rig", rigPath, "JSON rig file (see README.md for every method's keys)");
-  auto* methodOption = deformCmd->add_option("--method", method,
-                                             "cage coordinates (" + methodList + "), with --cage and --pose")
-                          ->check(CLI::IsMember(cli::cageMethods()));
+  auto* rigOption = deformCmd->add_option("--rig", rigPath,
+                                          "JSON rig file (see README.md for every method's keys)");
+  auto* methodOption =
+      deformCmd
+          ->add_option("--method", method,
+                       "cage coordinates (" + methodList + "), with --cage and --pose")
+          ->check(CLI::IsMember(cli::cageMethods()));
   auto* cageOption = deformCmd->add_option("--cage", cagePath, "rest cage (closed mesh)");
   auto* poseOption = deformCmd->add_option("--pose", posePath, "posed cage, same vertex order");
   rigOption->excludes(methodOption);
@@ -186,25 +188,33 @@ int run(int argc, char** argv) {
   deformCmd->callback([&] {
     if (rigPath.empty() && method.empty()) throw CLI::RequiredError("--rig or --method");
   });
-  deformCmd->add_option("INPUT", input, "input file; its format follows its extension")
-      ->required();
+  deformCmd->add_option("INPUT", input, "input file; its format follows its extension")->required();
   deformCmd->add_option("-o,--output", output, "output file; its format follows its extension")
       ->required();
   deformCmd->add_flag("--ascii", ascii, "write PLY as ASCII rather than binary little-endian");
 
-  std::string weightsMethod, weightsCage, weightsPoints, weightsOutput;
+  std::string weightsRig, weightsMethod, weightsCage, weightsPoints, weightsOutput;
   CLI::App* weightsCmd = app.add_subcommand(
-      "weights", "Write the coordinate matrix of points with respect to a cage as CSV");
-  weightsCmd->add_option("--method", weightsMethod, methodList)
-      ->required()
-      ->check(CLI::IsMember(cli::cageMethods()));
-  weightsCmd->add_option("--cage", weightsCage, "rest cage (closed mesh)")->required();
+      "weights", "Write the coordinate matrix of points (cage, lattice or RBF coordinates) as CSV");
+  auto* weightsRigOption = weightsCmd->add_option(
+      "--rig", weightsRig, "a rig whose method has coordinates (mvc, green, ...)");
+  auto* weightsMethodOption = weightsCmd->add_option("--method", weightsMethod, methodList)
+                                  ->check(CLI::IsMember(cli::cageMethods()));
+  auto* weightsCageOption =
+      weightsCmd->add_option("--cage", weightsCage, "rest cage (closed mesh)");
+  weightsRigOption->excludes(weightsMethodOption);
+  weightsMethodOption->needs(weightsCageOption);
+  weightsCageOption->needs(weightsMethodOption);
+  weightsCmd->callback([&] {
+    if (weightsRig.empty() && weightsMethod.empty()) throw CLI::RequiredError("--rig or --method");
+  });
   weightsCmd->add_option("POINTS", weightsPoints, "points (any supported file; faces ignored)")
       ->required();
   weightsCmd->add_option("-o,--output", weightsOutput, "CSV file")->required();
 
   std::string demoDir = "out/demo";
-  CLI::App* demo = app.add_subcommand("demo", "Twist, bend, taper and cage-deform built-in example geometry");
+  CLI::App* demo =
+      app.add_subcommand("demo", "Twist, bend, taper and cage-deform built-in example geometry");
   demo->add_option("DIR", demoDir, "output folder")->capture_default_str();
 
   try {
@@ -216,10 +226,22 @@ int run(int argc, char** argv) {
 
   if (info->parsed()) printInfo(infoPath);
   if (deformCmd->parsed()) {
-    const auto warp = rigPath.empty() ? cli::cageWarp(method, cagePath, posePath) : cli::loadRig(rigPath);
-    deformFile(*warp, input, output, ascii);
+    const cli::Rig rig =
+        rigPath.empty() ? cli::cageRig(method, cagePath, posePath) : cli::loadRig(rigPath);
+    deformFile(*rig.warp, input, output, ascii);
   }
-  if (weightsCmd->parsed()) writeWeights(weightsMethod, weightsCage, weightsPoints, weightsOutput);
+  if (weightsCmd->parsed()) {
+    std::shared_ptr<const Coordinates> coordinates;
+    if (weightsRig.empty()) {
+      coordinates = cli::cageCoordinates(weightsMethod,
+                                         std::make_shared<const Cage>(Cage::fromFile(weightsCage)));
+    } else {
+      coordinates = cli::loadRig(weightsRig).coordinates;
+      if (!coordinates)
+        throw InvalidInput(weightsRig + ": this rig's method has no coordinates to export");
+    }
+    writeWeights(*coordinates, weightsPoints, weightsOutput);
+  }
   if (demo->parsed()) runDemo(demoDir);
   return kOk;
 }

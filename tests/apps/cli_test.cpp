@@ -309,6 +309,30 @@ TEST_F(CliTest, WeightsCsvHasHeaderAndOneRowPerPoint) {
   }
 }
 
+TEST_F(CliTest, WeightsThroughARigMatchTheCageShortcut) {
+  const CageFiles cage = writeBoxCage(dir_);
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-2), Vec3(2), 30, 13);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("green.json", R"({"method": "green", "cage": "cage.obj", "pose": "pose.obj"})");
+  write("twist.json", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1], "rate": 1})");
+  const std::string points = (dir_ / "cloud.ply").string();
+  ASSERT_EQ(run("weights --rig " + (dir_ / "green.json").string() + " " + points + " -o " +
+                (dir_ / "rig.csv").string())
+                .exitCode,
+            0);
+  ASSERT_EQ(run("weights --method green --cage " + cage.rest.string() + " " + points + " -o " +
+                (dir_ / "shortcut.csv").string())
+                .exitCode,
+            0);
+  EXPECT_EQ(slurp(dir_ / "rig.csv"), slurp(dir_ / "shortcut.csv"));
+  const CliResult twist = run("weights --rig " + (dir_ / "twist.json").string() + " " + points +
+                              " -o " + (dir_ / "twist.csv").string());
+  EXPECT_EQ(twist.exitCode, 3);
+  EXPECT_THAT(twist.err, HasSubstr("no coordinates"));
+  expectNoOutput(dir_ / "twist.csv");
+}
+
 TEST_F(CliTest, InvalidCagesExitWith3) {
   const CageFiles cage = writeBoxCage(dir_);
   write("open.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\n");
