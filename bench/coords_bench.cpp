@@ -1,7 +1,7 @@
-// Benchmarks of coords. Binding cost of mean-value coordinates is reported per (point × cage
-// triangle) pair, on a procedural box cage (always) and on the Ju et al. armadillo (when the shared
-// data is present: the model's 15k vertices and a 1M-point cloud inside its cage, the latter both
-// through Binding and through weightsBatch into an allocated matrix). Deforming the
+// Benchmarks of coords. Binding cost of mean-value and Green coordinates is reported per
+// (point × cage triangle) pair, on a procedural box cage (always) and on the Ju et al. armadillo
+// (when the shared data is present: the model's 15k vertices and a 1M-point cloud inside its cage,
+// the latter both through Binding and through weightsBatch into an allocated matrix). Deforming the
 // 1M-point dense binding is measured against a baseline that reads the same weight bytes (a plain
 // parallel sum over the matrix) in the same run, both reported as bytes per second, and their
 // ratio is printed at the end.
@@ -25,6 +25,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "coords/cage.h"
+#include "coords/green.h"
 #include "coords/mean_value.h"
 #include "core/binding.h"
 #include "core/io/mesh_io.h"
@@ -56,11 +57,7 @@ void reportPairs(benchmark::State& state, std::size_t points, std::size_t triang
 // Points uniformly distributed inside a closed cage: rejection sampling in its bounding box with
 // an even-odd ray cast along +z, accelerated by a grid of triangle lists over (x, y).
 std::vector<Vec3> pointsInside(const Cage& cage, std::size_t n, std::uint64_t seed) {
-  BoundingBox box;
-  for (const Vec3& p : cage.vertices()) {
-    box.min = glm::min(box.min, p);
-    box.max = glm::max(box.max, p);
-  }
+  const BoundingBox box = boundingBox(cage.vertices());
   constexpr int kGrid = 48;
   const Vec3 cell = box.extent() / static_cast<double>(kGrid);
   std::vector<std::vector<std::size_t>> grid(kGrid * kGrid);
@@ -106,6 +103,7 @@ std::vector<Vec3> pointsInside(const Cage& cage, std::size_t n, std::uint64_t se
 struct Armadillo {
   std::shared_ptr<const Cage> cage;
   std::shared_ptr<const MeanValueCoordinates> mvc;
+  std::shared_ptr<const GreenCoordinates> green;
   std::vector<Vec3> model;
   std::vector<Vec3> cloud;
   std::vector<Vec3> posed;
@@ -118,6 +116,7 @@ Armadillo& armadillo() {
     Armadillo a;
     a.cage = std::make_shared<const Cage>(Cage::fromFile(dir / "bounding_mesh.obj"));
     a.mvc = std::make_shared<const MeanValueCoordinates>(a.cage);
+    a.green = std::make_shared<const GreenCoordinates>(a.cage);
     a.model = readSoup(dir / "armadilloman.obj").positions;
     a.cloud = pointsInside(*a.cage, kCloudPoints, 42);
     a.posed = a.cage->posedVerticesFromFile(dir / "deformed_fixed_1.obj");
@@ -146,22 +145,18 @@ void BM_MvcBindBox(benchmark::State& state) {
   reportPairs(state, points.size(), cage->triangleCount());
 }
 
-void BM_MvcBindArmadilloModel(benchmark::State& state) {
+// Binding the armadillo model or the 1M-point cloud with the coordinates `method` picks.
+template <bool green, bool cloud>
+void BM_BindArmadillo(benchmark::State& state) {
   Armadillo& a = armadillo();
+  const std::shared_ptr<const Coordinates> coordinates =
+      green ? std::shared_ptr<const Coordinates>(a.green) : a.mvc;
+  const std::vector<Vec3>& points = cloud ? a.cloud : a.model;
   for (auto _ : state) {
-    Binding binding(a.mvc, a.model);
+    Binding binding(coordinates, points);
     benchmark::DoNotOptimize(binding.dense().data());
   }
-  reportPairs(state, a.model.size(), a.cage->triangleCount());
-}
-
-void BM_MvcBindArmadilloCloud1M(benchmark::State& state) {
-  Armadillo& a = armadillo();
-  for (auto _ : state) {
-    Binding binding(a.mvc, a.cloud);
-    benchmark::DoNotOptimize(binding.dense().data());
-  }
-  reportPairs(state, a.cloud.size(), a.cage->triangleCount());
+  reportPairs(state, points.size(), a.cage->triangleCount());
 }
 
 // The same 1M points through weightsBatch into an already allocated matrix: the kernel alone,
@@ -239,13 +234,20 @@ int main(int argc, char** argv) {
                         std::filesystem::exists(dir / "armadilloman.obj") &&
                         std::filesystem::exists(dir / "deformed_fixed_1.obj");
   if (haveData) {
-    benchmark::RegisterBenchmark("BM_MvcBindArmadilloModel", BM_MvcBindArmadilloModel)
+    benchmark::RegisterBenchmark("BM_MvcBindArmadilloModel", BM_BindArmadillo<false, false>)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
-    benchmark::RegisterBenchmark("BM_MvcBindArmadilloCloud1M", BM_MvcBindArmadilloCloud1M)
+    benchmark::RegisterBenchmark("BM_MvcBindArmadilloCloud1M", BM_BindArmadillo<false, true>)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
         ->Iterations(3);
+    benchmark::RegisterBenchmark("BM_GreenBindArmadilloModel", BM_BindArmadillo<true, false>)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+    benchmark::RegisterBenchmark("BM_GreenBindArmadilloCloud1M", BM_BindArmadillo<true, true>)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime()
+        ->Iterations(2);
     benchmark::RegisterBenchmark("BM_MvcWeightsArmadilloCloud1M", BM_MvcWeightsArmadilloCloud1M)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
