@@ -4,6 +4,8 @@
 #include <map>
 
 #include "apps/cage_methods.h"
+#include "apps/ffd_rig.h"
+#include "apps/rbf_rig.h"
 #include "core/bend.h"
 #include "core/combinators.h"
 #include "core/errors.h"
@@ -55,6 +57,8 @@ const std::map<std::string, RigFactory>& factories() {
        [](RigReader& r) { return warpOnly(std::make_shared<AffineWarp>(r.matrix4("matrix"))); }},
       {"mvc", [](RigReader& r) { return cageRig("mvc", r.path("cage"), r.path("pose")); }},
       {"green", [](RigReader& r) { return cageRig("green", r.path("cage"), r.path("pose")); }},
+      {"ffd", ffdRig},
+      {"rbf", rbfRig},
       {"compose",
        [](RigReader& r) {
          std::shared_ptr<const Warp> result;

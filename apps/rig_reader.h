@@ -102,6 +102,13 @@ class RigReader {
     return v;
   }
 
+  /// A JSON object (e.g. a nested group of keys, read with a RigReader of its own).
+  const json& object(const std::string& key) {
+    const json& v = get(key);
+    if (!v.is_object()) fail(key, "must be a JSON object");
+    return v;
+  }
+
   const std::filesystem::path& baseDir() const { return baseDir_; }
   const std::string& where() const { return where_; }
 

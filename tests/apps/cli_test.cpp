@@ -14,6 +14,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "apps/cli_test_util.h"
 #include "core/io/mesh_io.h"
 #include "core/primitives.h"
 #include "core/twist.h"
@@ -24,46 +25,12 @@ using ::testing::HasSubstr;
 
 namespace {
 
-struct CliResult {
-  int exitCode = -1;
-  std::string out, err;
-};
+using test::CliResult;
+using test::slurp;
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-class CliTest : public ::testing::Test {
+class CliTest : public test::CliFixture {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("spacewarp_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  CliResult run(const std::string& args) {
-    const std::string cmd = std::string(SPACEWARP_CLI) + " " + args + " >" +
-                            (dir_ / "stdout.txt").string() + " 2>" + (dir_ / "stderr.txt").string();
-    const int status = std::system(cmd.c_str());
-    CliResult r;
-    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = slurp(dir_ / "stdout.txt");
-    r.err = slurp(dir_ / "stderr.txt");
-    fs::remove(dir_ / "stdout.txt");
-    fs::remove(dir_ / "stderr.txt");
-    return r;
-  }
-
-  fs::path write(const std::string& name, const std::string& content) {
-    std::ofstream(dir_ / name, std::ios::binary) << content;
-    return dir_ / name;
-  }
+  CliTest() : CliFixture("spacewarp_cli_") {}
 
   // Nothing but the inputs the test wrote may be in the folder after a failed run.
   void expectNoOutput(const fs::path& output) {
@@ -71,8 +38,6 @@ class CliTest : public ::testing::Test {
     for (const auto& entry : fs::directory_iterator(dir_))
       EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp")));
   }
-
-  fs::path dir_;
 };
 
 TEST_F(CliTest, TwistRigMatchesTheClosedForm) {

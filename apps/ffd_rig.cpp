@@ -1,0 +1,93 @@
+#include "apps/ffd_rig.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "ffd/lattice_coordinates.h"
+#include "ffd/lattice_fit.h"
+#include "ffd/lattice_warp.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+LatticeBasis basisOf(RigReader& r) {
+  const std::string name = r.string("basis");
+  if (name == "trilinear") return LatticeBasis::Trilinear;
+  if (name == "bernstein") return LatticeBasis::Bernstein;
+  if (name == "bspline") return LatticeBasis::BSpline;
+  r.fail("basis", "'" + name + "' is not one of: trilinear, bernstein, bspline");
+}
+
+LatticeOutside outsideOf(RigReader& r) {
+  if (!r.has("outside")) return LatticeOutside::Identity;
+  const std::string name = r.string("outside");
+  if (name == "identity") return LatticeOutside::Identity;
+  if (name == "clamp") return LatticeOutside::Clamp;
+  if (name == "falloff") return LatticeOutside::Falloff;
+  r.fail("outside", "'" + name + "' is not one of: identity, clamp, falloff");
+}
+
+std::array<int, 3> resolutionOf(RigReader& r) {
+  const nlohmann::json& v = r.array("resolution");
+  if (v.size() != 3) r.fail("resolution", "must be an array of 3 integers [l, m, n]");
+  std::array<int, 3> n{};
+  for (int a = 0; a < 3; ++a) {
+    if (!v[a].is_number_integer() || v[a].get<long long>() < 1 || v[a].get<long long>() > 1 << 20)
+      r.fail("resolution", "must contain integers between 1 and 1048576");
+    n[a] = v[a].get<int>();
+  }
+  return n;
+}
+
+}  // namespace
+
+Rig ffdRig(RigReader& r) {
+  LatticeParams p;
+  p.basis = basisOf(r);
+  p.origin = r.vec3("origin");
+  p.extents = r.vec3("size");
+  p.resolution = resolutionOf(r);
+  if (r.has("axes")) {
+    const std::vector<Vec3> axes = r.points("axes", 3);
+    if (axes.size() != 3) r.fail("axes", "must be an array of 3 [x, y, z] directions");
+    for (int a = 0; a < 3; ++a) {
+      const double length = glm::length(axes[a]);
+      if (!(length > 0.0)) r.fail("axes", "must not contain a zero direction");
+      p.axes[a] = axes[a] / length;
+    }
+  }
+  p.outside = outsideOf(r);
+  p.falloff = r.number("falloff", p.falloff);
+  const Lattice lattice(p);
+
+  std::vector<Vec3> posed;
+  const bool hasControls = r.has("controlPoints");
+  if (hasControls == r.has("constraints"))
+    r.fail(hasControls ? "constraints" : "controlPoints",
+           hasControls ? "cannot be combined with 'controlPoints'"
+                       : "is missing (or give 'constraints')");
+  if (hasControls) {
+    posed = r.points("controlPoints");
+    if (posed.size() != lattice.controlPointCount())
+      r.fail("controlPoints", "has " + std::to_string(posed.size()) + " points, the resolution " +
+                                  std::to_string(p.resolution[0]) + " x " +
+                                  std::to_string(p.resolution[1]) + " x " +
+                                  std::to_string(p.resolution[2]) + " needs " +
+                                  std::to_string(lattice.controlPointCount()));
+  } else {
+    RigReader constraints(r.object("constraints"), r.baseDir(), r.where() + ": constraints");
+    const std::vector<Vec3> from = constraints.points("from");
+    const std::vector<Vec3> to = constraints.points("to");
+    constraints.finish();
+    LatticeFitOptions options;
+    options.smoothness = r.number("smoothness", options.smoothness);
+    posed = fitControlPoints(lattice, from, to, options).controlPoints;
+  }
+  auto warp = std::make_shared<LatticeWarp>(lattice, posed);
+  auto coordinates = std::make_shared<LatticeCoordinates>(lattice);
+  return {std::move(warp), std::move(coordinates)};
+}
+
+}  // namespace spacewarp::cli

@@ -1,0 +1,92 @@
+#include "apps/rbf_rig.h"
+
+#include <memory>
+#include <mutex>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "core/errors.h"
+#include "rbf/rbf_coordinates.h"
+#include "rbf/rbf_warp.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+// RbfCoordinates built on first use: their construction (O(n³), n right-hand sides) is only
+// paid by `spacewarp weights`, not by every `deform` with an RBF rig.
+class LazyRbfCoordinates final : public Coordinates {
+ public:
+  LazyRbfCoordinates(std::vector<Vec3> centres, std::vector<Vec3> fixed, const RbfOptions& options)
+      : centres_(std::move(centres)), fixed_(std::move(fixed)), options_(options) {}
+
+  std::size_t controlPointCount() const override { return centres_.size(); }
+  std::span<const Vec3> restControlPoints() const override { return centres_; }
+  void weights(const Vec3& x, std::span<double> row) const override { get().weights(x, row); }
+  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override {
+    get().weightsBatch(points, rows);
+  }
+  bool weightGradients(const Vec3& x, std::span<Vec3> out) const override {
+    return get().weightGradients(x, out);
+  }
+
+ private:
+  const RbfCoordinates& get() const {
+    std::call_once(once_, [this] {
+      coordinates_ = std::make_unique<const RbfCoordinates>(centres_, fixed_, options_);
+    });
+    return *coordinates_;
+  }
+
+  std::vector<Vec3> centres_, fixed_;
+  RbfOptions options_;
+  mutable std::once_flag once_;
+  mutable std::unique_ptr<const RbfCoordinates> coordinates_;
+};
+
+}  // namespace
+
+Rig rbfRig(RigReader& r) {
+  RbfOptions options;
+  if (r.has("kernel")) {
+    try {
+      options.kernel = rbfKernelFromName(r.string("kernel"));
+    } catch (const InvalidInput& e) {
+      r.fail("kernel", e.what());
+    }
+  }
+  const std::vector<Vec3> centres = r.points("centers");
+  const std::vector<Vec3> targets = r.points("targets");
+  if (targets.size() != centres.size()) {
+    r.fail("targets", "must have as many points as 'centers' (" + std::to_string(centres.size()) +
+                          "), not " + std::to_string(targets.size()));
+  }
+  std::vector<Vec3> fixed;
+  if (r.has("fixed")) {
+    fixed = r.points("fixed", 0);
+  }
+  options.smoothing = r.number("smoothing", options.smoothing);
+  if (options.smoothing < 0.0) r.fail("smoothing", "must be >= 0");
+  const bool scaled =
+      options.kernel == RbfKernel::Gaussian || options.kernel == RbfKernel::InverseMultiquadric;
+  if (r.has("scale") && !scaled)
+    r.fail("scale", "applies to the gaussian and inverse-multiquadric kernels only");
+  if (r.has("radius") && options.kernel != RbfKernel::WendlandC2)
+    r.fail("radius", "applies to the wendland kernel only");
+  options.scale = r.number("scale", options.scale);
+  options.radius = r.number("radius", options.radius);
+  if (!(options.scale > 0.0)) r.fail("scale", "must be > 0");
+  if (!(options.radius > 0.0)) r.fail("radius", "must be > 0");
+  Rig rig;
+  try {
+    rig.warp = std::make_shared<RbfWarp>(centres, targets, fixed, options);
+    rig.coordinates = std::make_shared<LazyRbfCoordinates>(centres, fixed, options);
+  } catch (const SolverError& e) {
+    // Name the rig, as rigFromJson does for InvalidInput.
+    throw SolverError(r.where() + ": " + e.what());
+  }
+  return rig;
+}
+
+}  // namespace spacewarp::cli

@@ -1,0 +1,16 @@
+#pragma once
+// The "rbf" rig method: an RBF warp fitted to handle centres and targets (rbf/rbf_warp.h),
+// with its RbfCoordinates for `spacewarp weights`. Keys are documented in README.md.
+
+#include "apps/rig.h"
+#include "apps/rig_reader.h"
+
+namespace spacewarp::cli {
+
+/// Reads "kernel" (optional, default "triharmonic"), "centers" and "targets" (arrays of
+/// [x, y, z], the same length), optional "fixed" (centres that stay put), "smoothing" (λ ≥ 0,
+/// default 0), "scale" (gaussian, inverse-multiquadric; default 1) and "radius" (wendland;
+/// default 1). Returns the RbfWarp and the RbfCoordinates of the centres (built on first use).
+Rig rbfRig(RigReader& reader);
+
+}  // namespace spacewarp::cli

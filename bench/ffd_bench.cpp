@@ -1,0 +1,85 @@
+// Benchmarks of ffd: LatticeWarp::applyBatch on 10M random points inside the box, per basis,
+// with the copy-the-same-bytes baseline measured in the same run (see core_bench.cpp).
+
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+#include "core/primitives.h"
+#include "ffd/lattice_warp.h"
+
+namespace {
+
+using namespace spacewarp;
+
+constexpr std::size_t kPoints = 10'000'000;
+
+const std::vector<Vec3>& cloud() {
+  static const std::vector<Vec3> points =
+      makeRandomPoints(Vec3(-1.0), Vec3(1.0), kPoints, 42).positions;
+  return points;
+}
+
+void reportPoints(benchmark::State& state, std::size_t n) {
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * n * 2 * sizeof(Vec3)));
+}
+
+void BM_CopyBaseline(benchmark::State& state) {
+  const auto& in = cloud();
+  std::vector<Vec3> out(in.size());
+  for (auto _ : state) {
+    std::memcpy(out.data(), in.data(), in.size() * sizeof(Vec3));
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+  }
+  reportPoints(state, in.size());
+}
+BENCHMARK(BM_CopyBaseline)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// A lattice on [-1, 1]³ (every point inside) with randomly displaced controls.
+LatticeWarp posedLattice(LatticeBasis basis, int resolution) {
+  LatticeParams p;
+  p.origin = Vec3(-1.0);
+  p.extents = Vec3(2.0);
+  p.resolution = {resolution, resolution, resolution};
+  p.basis = basis;
+  const Lattice lattice(p);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-0.1, 0.1);
+  std::vector<Vec3> posed(lattice.restControlPoints().begin(), lattice.restControlPoints().end());
+  for (Vec3& c : posed) {
+    const double x = u(rng);
+    const double y = u(rng);
+    const double z = u(rng);
+    c += Vec3(x, y, z);
+  }
+  return LatticeWarp(lattice, posed);
+}
+
+void runLattice(benchmark::State& state, LatticeBasis basis) {
+  const auto& in = cloud();
+  std::vector<Vec3> out(in.size());
+  const LatticeWarp warp = posedLattice(basis, static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    warp.applyBatch(in, out);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+  }
+  reportPoints(state, in.size());
+}
+
+void BM_LatticeTrilinear(benchmark::State& state) { runLattice(state, LatticeBasis::Trilinear); }
+BENCHMARK(BM_LatticeTrilinear)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_LatticeBSpline(benchmark::State& state) { runLattice(state, LatticeBasis::BSpline); }
+BENCHMARK(BM_LatticeBSpline)->Arg(8)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_LatticeBernstein(benchmark::State& state) { runLattice(state, LatticeBasis::Bernstein); }
+BENCHMARK(BM_LatticeBernstein)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();

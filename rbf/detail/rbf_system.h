@@ -1,0 +1,73 @@
+#pragma once
+// Internals shared by RbfWarp and RbfCoordinates: validation and merging of the centres, and
+// the one factorisation of the RBF saddle-point system. Not a user-facing API (namespace detail).
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Householder>
+#include <Eigen/QR>
+
+#include "core/math.h"
+#include "rbf/kernels.h"
+
+namespace spacewarp::detail {
+
+/// The centres of an RBF fit after validation and merging of duplicates.
+struct RbfCentres {
+  /// Distinct centres: one per group of coinciding handles (in the order of each group's first
+  /// handle), then the fixed centres that coincide with no handle.
+  std::vector<Vec3> unique;
+  /// How many of `unique` come from handles (the first ones).
+  std::size_t handleCentres = 0;
+  /// Per input handle: its index in `unique`.
+  std::vector<std::size_t> handleColumn;
+  /// Per unique handle centre: how many input handles it merges.
+  std::vector<std::size_t> multiplicity;
+  /// Per unique centre: target − centre (zero for fixed centres); empty without targets.
+  std::vector<Vec3> displacement;
+};
+
+/// Validates and merges the centres (n handles, their targets if `targets` is not null, and
+/// the fixed centres; world units). Throws InvalidInput, prefixed with `who`, for an empty
+/// handle list, mismatched sizes, non-finite points (naming the index) and coinciding centres
+/// whose targets differ (naming both). Without targets (coordinates), coinciding handles are
+/// merged and a fixed centre that coincides with a handle is dropped.
+RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handles,
+                             const std::span<const Vec3>* targets, std::span<const Vec3> fixed,
+                             const RbfOptions& options);
+
+/// The factorisation of [[Φ + σλI, P], [Pᵀ, 0]] (see RbfOptions::smoothing) by null-space
+/// reduction: with P = Q [R; 0] (Householder QR of the n × 4 polynomial block), the kernel
+/// weights are w = Q [0; u] with (σ Q₂ᵀ Φ Q₂ + λ I) u = σ Q₂ᵀ D, an SPD system (the kernels are
+/// conditionally definite of order ≤ 2 with sign σ) factorised once by Cholesky (LLT), and the
+/// polynomial coefficients follow from R a = Q₁ᵀ (D − Φ w). The polynomial basis is
+/// q(x) = [1, (x − origin) / length], centred and scaled for conditioning.
+class RbfSystem {
+ public:
+  /// Throws InvalidInput (fewer than 4 affinely independent centres) or SolverError (a system
+  /// that is numerically singular after all).
+  RbfSystem(const std::string& who, std::span<const Vec3> centres, const RbfOptions& options);
+
+  std::size_t size() const { return n_; }
+  const Vec3& origin() const { return origin_; }
+  double length() const { return length_; }
+
+  /// Solves for the right-hand sides D (n × m): kernel weights W (n × m) and polynomial
+  /// coefficients A (4 × m) in the basis q.
+  void solve(const Eigen::MatrixXd& d, Eigen::MatrixXd& w, Eigen::MatrixXd& a) const;
+
+ private:
+  std::size_t n_ = 0;
+  Vec3 origin_{0.0};
+  double length_ = 1.0;
+  double sigma_ = 1.0;
+  Eigen::HouseholderQR<Eigen::MatrixXd> qr_;  // of P
+  Eigen::MatrixXd b12_;                       // 4 × (n − 4): the top-right block of QᵀΦQ
+  Eigen::LLT<Eigen::MatrixXd> llt_;           // of σ Q₂ᵀ Φ Q₂ + λ I
+};
+
+}  // namespace spacewarp::detail

@@ -1,0 +1,80 @@
+#include "rbf/rbf_coordinates.h"
+
+#include <string>
+
+#include "core/errors.h"
+#include "rbf/detail/rbf_system.h"
+
+namespace spacewarp {
+
+RbfCoordinates::RbfCoordinates(std::span<const Vec3> centres, const RbfOptions& options)
+    : RbfCoordinates(centres, {}, options) {}
+
+RbfCoordinates::RbfCoordinates(std::span<const Vec3> centres, std::span<const Vec3> fixed,
+                               const RbfOptions& options)
+    : options_(options),
+      handles_(centres.begin(), centres.end()),
+      fixed_(fixed.begin(), fixed.end()) {
+  const std::string who = "RbfCoordinates";
+  const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, nullptr, fixed, options);
+  const detail::RbfSystem system(who, c.unique, options);
+  centres_ = c.unique;
+  const Eigen::Index n = static_cast<Eigen::Index>(c.unique.size());
+  const Eigen::Index u = static_cast<Eigen::Index>(c.handleCentres);
+  // One right-hand side per distinct handle centre: its unit displacement.
+  Eigen::MatrixXd d = Eigen::MatrixXd::Zero(n, u);
+  for (Eigen::Index i = 0; i < u; ++i) d(i, i) = 1.0;
+  Eigen::MatrixXd w, a;
+  system.solve(d, w, a);
+  const std::size_t handles = handles_.size();
+  g_.resize(static_cast<std::size_t>(n) * handles);
+  h_.resize(4 * handles);
+  const Vec3& o = system.origin();
+  const double len = system.length();
+  for (std::size_t h = 0; h < handles; ++h) {
+    const Eigen::Index col = static_cast<Eigen::Index>(c.handleColumn[h]);
+    const double share = 1.0 / static_cast<double>(c.multiplicity[c.handleColumn[h]]);
+    for (Eigen::Index j = 0; j < n; ++j)
+      g_[static_cast<std::size_t>(j) * handles + h] = share * w(j, col);
+    // a in the basis [1, (x − origin) / length] → coefficients of 1, x, y, z.
+    double constant = a(0, col);
+    for (int k = 0; k < 3; ++k) {
+      const double lin = a(k + 1, col) / len;
+      h_[(1 + k) * handles + h] = share * lin;
+      constant -= lin * o[k];
+    }
+    h_[h] = share * constant;
+  }
+}
+
+void RbfCoordinates::weights(const Vec3& x, std::span<double> row) const {
+  checkWeightsArguments(x, row.size());
+  const std::size_t m = handles_.size();
+  const double* h = h_.data();
+  for (std::size_t c = 0; c < m; ++c)
+    row[c] = h[c] + x.x * h[m + c] + x.y * h[2 * m + c] + x.z * h[3 * m + c];
+  for (std::size_t j = 0; j < centres_.size(); ++j) {
+    const double phi = rbfKernelValue(options_, glm::length(x - centres_[j]));
+    const double* g = g_.data() + j * m;
+    for (std::size_t c = 0; c < m; ++c) row[c] += phi * g[c];
+  }
+}
+
+bool RbfCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
+  const std::size_t m = handles_.size();
+  if (out.size() != m) {
+    throw InvalidInput("RbfCoordinates: the gradient output has " + std::to_string(out.size()) +
+                       " entries but there are " + std::to_string(m) + " columns");
+  }
+  const double* h = h_.data();
+  for (std::size_t c = 0; c < m; ++c) out[c] = Vec3(h[m + c], h[2 * m + c], h[3 * m + c]);
+  for (std::size_t j = 0; j < centres_.size(); ++j) {
+    const Vec3 v = x - centres_[j];
+    const Vec3 grad = rbfKernelSlopeOverR(options_, glm::length(v)) * v;
+    const double* g = g_.data() + j * m;
+    for (std::size_t c = 0; c < m; ++c) out[c] += g[c] * grad;
+  }
+  return true;
+}
+
+}  // namespace spacewarp

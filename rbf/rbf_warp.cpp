@@ -1,0 +1,313 @@
+#include "rbf/rbf_warp.h"
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <string>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/errors.h"
+#include "rbf/detail/rbf_system.h"
+
+// The batch kernel works on generic vectors of four doubles inside one target_clones function;
+// -Wpsabi only notes the ABI of such vectors, which never cross a function boundary by value.
+#if defined(__clang__)
+#pragma clang diagnostic ignored "-Wpsabi"
+#elif defined(__GNUC__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+
+namespace spacewarp {
+
+namespace {
+
+constexpr int kLanes = 4;                    // points per SIMD pass
+constexpr std::size_t kPointsPerTask = 256;  // a multiple of kLanes
+
+typedef double VD __attribute__((vector_size(kLanes * sizeof(double))));
+typedef std::uint64_t VU __attribute__((vector_size(kLanes * sizeof(double))));
+
+// What the batch kernel reads: the centres and weights in structure-of-arrays form, the kernel
+// and its parameter, and the polynomial.
+struct EvalData {
+  const double* cx;
+  const double* cy;
+  const double* cz;
+  const double* wx;
+  const double* wy;
+  const double* wz;
+  std::size_t n;
+  RbfKernel kernel;
+  double param;  // ε² (inverse multiquadric), 1/ε² (Gaussian), 1/ρ (Wendland)
+  Mat3 linear;
+  Vec3 translation;
+};
+
+// y = 1/√x for x ≥ 0 by Newton's iteration from the bit-level estimate: no libm, no errno, so
+// the loop vectorises; accurate to about one ulp, finite (and r = x y = 0) at x = 0.
+[[gnu::always_inline]] inline void rsqrt(const VD& x, VD& y) {
+  y = reinterpret_cast<VD>(std::uint64_t{0x5FE6EB50C7B537A9} - (reinterpret_cast<VU>(x) >> 1));
+  const VD h = 0.5 * x;
+  y = y * (1.5 - h * y * y);
+  y = y * (1.5 - h * y * y);
+  y = y * (1.5 - h * y * y);
+  y = y + y * (0.5 - h * y * y);
+}
+
+// e^x for x ≤ 0 (0 below −708): x = k ln 2 + f with |f| ≤ ln 2 / 2 (Cody–Waite), e^f by its
+// Taylor polynomial of degree 13 (truncation below 5e-18), 2^k built in the exponent bits.
+// No libm, no branches on lane values; within a few ulp of std::exp.
+[[gnu::always_inline]] inline void expNonPositive(const VD& x, VD& y) {
+  const VD zero{};
+  const VD floor = zero - 708.0;
+  const VD xc = x < floor ? floor : x;
+  constexpr double kMagic = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
+  const VD t = xc * 1.4426950408889634 + kMagic;
+  const VD k = t - kMagic;
+  const VD f = (xc - k * 6.93147180369123816490e-01) - k * 1.90821492927058770002e-10;
+  VD p = zero + 1.0 / 6227020800.0;  // 1/13!
+  constexpr double kInvFactorial[13] = {1.0,
+                                        1.0,
+                                        1.0 / 2,
+                                        1.0 / 6,
+                                        1.0 / 24,
+                                        1.0 / 120,
+                                        1.0 / 720,
+                                        1.0 / 5040,
+                                        1.0 / 40320,
+                                        1.0 / 362880,
+                                        1.0 / 3628800,
+                                        1.0 / 39916800,
+                                        1.0 / 479001600};
+  for (int i = 12; i >= 0; --i) p = p * f + kInvFactorial[i];
+  // k is in [−1021, 0]: the low bits of t hold it in two's complement.
+  const VU kBits = reinterpret_cast<VU>(t) - std::uint64_t{0x4338000000000000};
+  const VD scale = reinterpret_cast<VD>((kBits + std::uint64_t{1023}) << 52);
+  y = x < floor ? zero : p * scale;
+}
+
+// ½ x log x for x ≥ 0 (0 for x below the smallest normal double): x = m 2^e with
+// m ∈ [√½, √2), log m = 2 atanh(s), s = (m − 1) / (m + 1), |s| ≤ 0.172, by its series to s²¹
+// (truncation below 1e-18). No libm; within a few ulp of x log(x) / 2.
+[[gnu::always_inline]] inline void halfXLogX(const VD& x, VD& y) {
+  const VD zero{}, one = zero + 1.0;
+  const VU bits = reinterpret_cast<VU>(x);
+  VD m = reinterpret_cast<VD>((bits & std::uint64_t{0x000FFFFFFFFFFFFF}) |
+                              std::uint64_t{0x3FF0000000000000});
+  // The biased exponent (0..2047) as a double, through the bits of 2^52 + e.
+  const VD biased =
+      reinterpret_cast<VD>((bits >> 52) | std::uint64_t{0x4330000000000000}) - 4503599627370496.0;
+  const auto big = m > 1.4142135623730951;
+  m = big ? 0.5 * m : m;
+  const VD e = biased - 1023.0 + (big ? one : zero);
+  const VD s = (m - 1.0) / (m + 1.0);
+  const VD z = s * s;
+  VD p = zero + 1.0 / 21;
+  for (int k = 9; k >= 0; --k) p = p * z + 1.0 / (2 * k + 1);
+  const VD logX = e * 6.93147180369123816490e-01 + (2.0 * s * p + e * 1.90821492927058770002e-10);
+  y = x < 2.2250738585072014e-308 ? zero : (0.5 * x) * logX;
+}
+
+// Σ_j w_j φ(|c_j − x|) for the kLanes points (X, Y, Z), added to (ax, ay, az) in centre order.
+template <RbfKernel K>
+[[gnu::always_inline]] inline void sumKernel(const EvalData& d, const VD& X, const VD& Y,
+                                             const VD& Z, VD& ax, VD& ay, VD& az) {
+  const VD zero{};
+  for (std::size_t j = 0; j < d.n; ++j) {
+    const VD dx = d.cx[j] - X, dy = d.cy[j] - Y, dz = d.cz[j] - Z;
+    const VD r2 = dx * dx + dy * dy + dz * dz;
+    VD phi;
+    if constexpr (K == RbfKernel::Triharmonic) {
+      VD y;
+      rsqrt(r2, y);
+      phi = r2 * (r2 * y);
+    } else if constexpr (K == RbfKernel::Biharmonic) {
+      VD y;
+      rsqrt(r2, y);
+      phi = r2 * y;
+    } else if constexpr (K == RbfKernel::InverseMultiquadric) {
+      rsqrt(r2 + d.param, phi);
+    } else if constexpr (K == RbfKernel::WendlandC2) {
+      VD y;
+      rsqrt(r2, y);
+      const VD s = (r2 * y) * d.param;
+      VD t = 1.0 - s;
+      t = t > zero ? t : zero;
+      const VD t2 = t * t;
+      phi = (t2 * t2) * (4.0 * s + 1.0);
+    } else if constexpr (K == RbfKernel::Gaussian) {
+      expNonPositive(-(r2 * d.param), phi);
+    } else {
+      halfXLogX(r2, phi);  // r² log r = ½ r² log r²
+    }
+    ax += d.wx[j] * phi;
+    ay += d.wy[j] * phi;
+    az += d.wz[j] * phi;
+  }
+}
+
+// x' for kLanes points: in = x[4], y[4], z[4]; out likewise. Every lane runs the same
+// instructions, so a point's result does not depend on its lane or on the other lanes.
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void evalLanes(const EvalData& d,
+                                                                           const double* in,
+                                                                           double* out) {
+  VD X, Y, Z;
+  std::memcpy(&X, in, sizeof X);
+  std::memcpy(&Y, in + kLanes, sizeof Y);
+  std::memcpy(&Z, in + 2 * kLanes, sizeof Z);
+  VD ax{}, ay{}, az{};
+  switch (d.kernel) {
+    case RbfKernel::Triharmonic:
+      sumKernel<RbfKernel::Triharmonic>(d, X, Y, Z, ax, ay, az);
+      break;
+    case RbfKernel::Biharmonic:
+      sumKernel<RbfKernel::Biharmonic>(d, X, Y, Z, ax, ay, az);
+      break;
+    case RbfKernel::ThinPlate:
+      sumKernel<RbfKernel::ThinPlate>(d, X, Y, Z, ax, ay, az);
+      break;
+    case RbfKernel::Gaussian:
+      sumKernel<RbfKernel::Gaussian>(d, X, Y, Z, ax, ay, az);
+      break;
+    case RbfKernel::InverseMultiquadric:
+      sumKernel<RbfKernel::InverseMultiquadric>(d, X, Y, Z, ax, ay, az);
+      break;
+    case RbfKernel::WendlandC2:
+      sumKernel<RbfKernel::WendlandC2>(d, X, Y, Z, ax, ay, az);
+      break;
+  }
+  const Mat3& m = d.linear;
+  const Vec3& b = d.translation;
+  const VD ox = X + (ax + (((m[0][0] * X + m[1][0] * Y) + m[2][0] * Z) + b.x));
+  const VD oy = Y + (ay + (((m[0][1] * X + m[1][1] * Y) + m[2][1] * Z) + b.y));
+  const VD oz = Z + (az + (((m[0][2] * X + m[1][2] * Y) + m[2][2] * Z) + b.z));
+  std::memcpy(out, &ox, sizeof ox);
+  std::memcpy(out + kLanes, &oy, sizeof oy);
+  std::memcpy(out + 2 * kLanes, &oz, sizeof oz);
+}
+
+double kernelParam(const RbfOptions& o) {
+  switch (o.kernel) {
+    case RbfKernel::Gaussian:
+      return 1.0 / (o.scale * o.scale);
+    case RbfKernel::InverseMultiquadric:
+      return o.scale * o.scale;
+    case RbfKernel::WendlandC2:
+      return 1.0 / o.radius;
+    default:
+      return 0.0;
+  }
+}
+
+}  // namespace
+
+RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
+                 const RbfOptions& options)
+    : RbfWarp(centres, targets, {}, options) {}
+
+RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
+                 std::span<const Vec3> fixed, const RbfOptions& options)
+    : options_(options) {
+  const std::string who = "RbfWarp";
+  const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, &targets, fixed, options);
+  const detail::RbfSystem system(who, c.unique, options);
+  const Eigen::Index n = static_cast<Eigen::Index>(c.unique.size());
+  Eigen::MatrixXd d(n, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vec3& v = c.displacement[static_cast<std::size_t>(i)];
+    d.row(i) << v.x, v.y, v.z;
+  }
+  Eigen::MatrixXd w, a;
+  system.solve(d, w, a);
+  centres_ = c.unique;
+  weights_.resize(c.unique.size());
+  for (Eigen::Index i = 0; i < n; ++i)
+    weights_[static_cast<std::size_t>(i)] = Vec3(w(i, 0), w(i, 1), w(i, 2));
+  // a in the basis [1, (x − origin) / length] → L x + b in world coordinates.
+  for (int i = 0; i < 3; ++i) {
+    double b = a(0, i);
+    for (int k = 0; k < 3; ++k) {
+      linear_[k][i] = a(k + 1, i) / system.length();
+      b -= linear_[k][i] * system.origin()[k];
+    }
+    translation_[i] = b;
+  }
+  const std::size_t count = centres_.size();
+  soa_.resize(6 * count);
+  for (std::size_t j = 0; j < count; ++j) {
+    for (int k = 0; k < 3; ++k) {
+      soa_[k * count + j] = centres_[j][k];
+      soa_[(3 + k) * count + j] = weights_[j][k];
+    }
+  }
+}
+
+namespace {
+
+EvalData evalDataOf(const std::vector<double>& soa, std::size_t n, const RbfOptions& options,
+                    const Mat3& linear, const Vec3& translation) {
+  const double* p = soa.data();
+  return {p,         p + n,          p + 2 * n,
+          p + 3 * n, p + 4 * n,      p + 5 * n,
+          n,         options.kernel, kernelParam(options),
+          linear,    translation};
+}
+
+}  // namespace
+
+Vec3 RbfWarp::apply(const Vec3& x) const {
+  const EvalData d = evalDataOf(soa_, centres_.size(), options_, linear_, translation_);
+  double in[3 * kLanes], out[3 * kLanes];
+  for (int l = 0; l < kLanes; ++l) {
+    in[l] = x.x;
+    in[kLanes + l] = x.y;
+    in[2 * kLanes + l] = x.z;
+  }
+  evalLanes(d, in, out);
+  return {out[0], out[kLanes], out[2 * kLanes]};
+}
+
+Mat3 RbfWarp::jacobian(const Vec3& x) const {
+  Mat3 j = Mat3(1.0) + linear_;
+  for (std::size_t i = 0; i < centres_.size(); ++i) {
+    const Vec3 v = x - centres_[i];
+    const double s = rbfKernelSlopeOverR(options_, glm::length(v));
+    j += glm::outerProduct(weights_[i], s * v);
+  }
+  return j;
+}
+
+void RbfWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
+  if (in.size() != out.size()) {
+    throw InvalidInput("RbfWarp::applyBatch: input has " + std::to_string(in.size()) +
+                       " points but output has " + std::to_string(out.size()));
+  }
+  const EvalData d = evalDataOf(soa_, centres_.size(), options_, linear_, translation_);
+  const Vec3* src = in.data();
+  Vec3* dst = out.data();
+  const std::size_t total = in.size();
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, (total + kPointsPerTask - 1) / kPointsPerTask),
+      [&d, src, dst, total](const tbb::blocked_range<std::size_t>& r) {
+        double lanesIn[3 * kLanes], lanesOut[3 * kLanes];
+        for (std::size_t task = r.begin(); task != r.end(); ++task) {
+          const std::size_t end = std::min(total, (task + 1) * kPointsPerTask);
+          for (std::size_t i = task * kPointsPerTask; i < end; i += kLanes) {
+            const std::size_t count = std::min<std::size_t>(kLanes, end - i);
+            for (std::size_t l = 0; l < kLanes; ++l) {
+              const Vec3& p = src[i + std::min(l, count - 1)];
+              lanesIn[l] = p.x;
+              lanesIn[kLanes + l] = p.y;
+              lanesIn[2 * kLanes + l] = p.z;
+            }
+            evalLanes(d, lanesIn, lanesOut);
+            for (std::size_t l = 0; l < count; ++l)
+              dst[i + l] = Vec3(lanesOut[l], lanesOut[kLanes + l], lanesOut[2 * kLanes + l]);
+          }
+        }
+      });
+}
+
+}  // namespace spacewarp

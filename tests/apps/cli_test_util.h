@@ -1,0 +1,74 @@
+#pragma once
+// Shared helpers of the end-to-end tests of the spacewarp executable: a fixture with a fresh
+// folder per test that runs the binary (SPACEWARP_CLI, defined by tests/CMakeLists.txt) with
+// stdout and stderr captured, and small file helpers.
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <utility>
+
+#include <gtest/gtest.h>
+
+namespace spacewarp::test {
+
+/// What one run of the executable did.
+struct CliResult {
+  int exitCode = -1;  ///< -1 if it did not exit normally
+  std::string out, err;
+};
+
+/// The whole content of a file ("" if it cannot be read).
+inline std::string slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// A fresh folder per test, temp/<prefix><pid>_<test name>, removed afterwards; run() runs
+/// the executable with the given arguments from the shell, capturing stdout and stderr.
+class CliFixture : public ::testing::Test {
+ protected:
+  explicit CliFixture(std::string prefix) : prefix_(std::move(prefix)) {}
+
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           (prefix_ + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  CliResult run(const std::string& args) {
+    const std::string cmd = std::string(SPACEWARP_CLI) + " " + args + " >" +
+                            (dir_ / "stdout.txt").string() + " 2>" + (dir_ / "stderr.txt").string();
+    const int status = std::system(cmd.c_str());
+    CliResult r;
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(dir_ / "stdout.txt");
+    r.err = slurp(dir_ / "stderr.txt");
+    std::filesystem::remove(dir_ / "stdout.txt");
+    std::filesystem::remove(dir_ / "stderr.txt");
+    return r;
+  }
+
+  /// Writes `content` to dir_/name and returns that path.
+  std::filesystem::path write(const std::string& name, const std::string& content) {
+    std::ofstream(dir_ / name, std::ios::binary) << content;
+    return dir_ / name;
+  }
+
+  std::filesystem::path dir_;
+
+ private:
+  std::string prefix_;
+};
+
+}  // namespace spacewarp::test

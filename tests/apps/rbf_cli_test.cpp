@@ -1,0 +1,181 @@
+// End-to-end tests of the "rbf" rig method of the spacewarp executable: deform and weights
+// agree with the library, and bad rigs exit with the documented codes and messages.
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "apps/cli_test_util.h"
+#include "core/io/mesh_io.h"
+#include "core/primitives.h"
+#include "rbf/rbf_coordinates.h"
+#include "rbf/rbf_warp.h"
+
+namespace fs = std::filesystem;
+using namespace spacewarp;
+using ::testing::HasSubstr;
+
+namespace {
+
+// A fresh folder per test (see cli_test_util.h).
+class RbfCliTest : public test::CliFixture {
+ protected:
+  RbfCliTest() : test::CliFixture("spacewarp_rbf_cli_") {}
+};
+
+std::string jsonPoints(const std::vector<Vec3>& points) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "[";
+  for (std::size_t i = 0; i < points.size(); ++i)
+    s << (i ? ", " : "") << "[" << points[i].x << ", " << points[i].y << ", " << points[i].z << "]";
+  s << "]";
+  return s.str();
+}
+
+struct RbfSetup {
+  std::vector<Vec3> centres, targets, fixed;
+};
+
+RbfSetup setup() {
+  RbfSetup s;
+  s.centres = makeRandomPoints(Vec3(-1.0), Vec3(1.0), 20, 5).positions;
+  const std::vector<Vec3> offsets = makeRandomPoints(Vec3(-0.2), Vec3(0.2), 20, 6).positions;
+  for (std::size_t i = 0; i < s.centres.size(); ++i) s.targets.push_back(s.centres[i] + offsets[i]);
+  s.fixed = {Vec3(2.0, 2.0, 2.0), Vec3(-2.0, -2.0, 2.0)};
+  return s;
+}
+
+TEST_F(RbfCliTest, DeformMatchesTheLibraryWarp) {
+  const RbfSetup s = setup();
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1.5), Vec3(1.5), 300, 9);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("rbf.json", R"({"method": "rbf", "centers": )" + jsonPoints(s.centres) +
+                        R"(, "targets": )" + jsonPoints(s.targets) + "}");
+  write("smooth.json", R"({"method": "rbf", "kernel": "gaussian", "scale": 0.8, "smoothing": 0.01,
+                           "centers": )" +
+                           jsonPoints(s.centres) + R"(, "targets": )" + jsonPoints(s.targets) +
+                           R"(, "fixed": )" + jsonPoints(s.fixed) + "}");
+  RbfOptions smooth;
+  smooth.kernel = RbfKernel::Gaussian;
+  smooth.scale = 0.8;
+  smooth.smoothing = 0.01;
+  const RbfWarp plain(s.centres, s.targets);
+  const RbfWarp smoothed(s.centres, s.targets, s.fixed, smooth);
+  for (const auto& [rig, warp] :
+       {std::pair<std::string, const RbfWarp*>{"rbf.json", &plain}, {"smooth.json", &smoothed}}) {
+    const test::CliResult r =
+        run("deform --rig " + (dir_ / rig).string() + " " + (dir_ / "cloud.ply").string() + " -o " +
+            (dir_ / "out.ply").string());
+    ASSERT_EQ(r.exitCode, 0) << rig << ": " << r.err;
+    const PolygonSoup out = readSoup(dir_ / "out.ply");
+    ASSERT_EQ(out.size(), cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      ASSERT_LE(glm::length(out.positions[i] - warp->apply(cloud.positions[i])), 1e-12)
+          << rig << " point " << i;
+  }
+}
+
+TEST_F(RbfCliTest, WeightsWriteTheRbfCoordinates) {
+  const RbfSetup s = setup();
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1.5), Vec3(1.5), 40, 10);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("rbf.json", R"({"method": "rbf", "kernel": "triharmonic", "centers": )" +
+                        jsonPoints(s.centres) + R"(, "targets": )" + jsonPoints(s.targets) + "}");
+  const fs::path csv = dir_ / "w.csv";
+  const test::CliResult r = run("weights --rig " + (dir_ / "rbf.json").string() + " " +
+                                (dir_ / "cloud.ply").string() + " -o " + csv.string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const RbfCoordinates coords(s.centres);
+  std::vector<double> expected(coords.columnCount());
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_TRUE(line.starts_with("v0,v1,"));
+  EXPECT_EQ(std::count(line.begin(), line.end(), ','), 19);
+  std::size_t row = 0;
+  while (std::getline(in, line)) {
+    ASSERT_LT(row, cloud.size());
+    coords.weights(cloud.positions[row], expected);
+    std::stringstream cells(line);
+    std::string cell;
+    double sum = 0.0;
+    for (std::size_t c = 0; std::getline(cells, cell, ','); ++c) {
+      EXPECT_EQ(std::stod(cell), expected[c]) << "row " << row << " column " << c;
+      sum += std::stod(cell);
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-10) << "row " << row;
+    ++row;
+  }
+  EXPECT_EQ(row, cloud.size());
+}
+
+struct BadRbfRig {
+  const char* name;
+  std::string json;
+  int exitCode;
+  const char* message;
+};
+
+class RbfCliBadRigTest : public RbfCliTest, public ::testing::WithParamInterface<BadRbfRig> {};
+
+TEST_P(RbfCliBadRigTest, FailsWithItsCodeAndMessage) {
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1), Vec3(1), 10, 11);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("rig.json", GetParam().json);
+  const test::CliResult r =
+      run("deform --rig " + (dir_ / "rig.json").string() + " " + (dir_ / "cloud.ply").string() +
+          " -o " + (dir_ / "out.ply").string());
+  EXPECT_EQ(r.exitCode, GetParam().exitCode) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("rig.json"));
+  EXPECT_THAT(r.err, HasSubstr(GetParam().message));
+  EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
+}
+
+const std::string kTet = "[[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,1,1]]";
+const std::string kPlane = "[[0,0,0],[1,0,0],[0,1,0],[1,1,0],[2,1,0]]";
+
+INSTANTIATE_TEST_SUITE_P(
+    Rigs, RbfCliBadRigTest,
+    ::testing::Values(
+        BadRbfRig{"UnknownKernel",
+                  R"({"method": "rbf", "kernel": "cubic", "centers": )" + kTet +
+                      R"(, "targets": )" + kTet + "}",
+                  3, "'kernel' unknown RBF kernel 'cubic'"},
+        BadRbfRig{"MissingTargets", R"({"method": "rbf", "centers": )" + kTet + "}", 3,
+                  "'targets' is missing"},
+        BadRbfRig{"SizeMismatch",
+                  R"({"method": "rbf", "centers": )" + kTet + R"(, "targets": [[0,0,0]]})", 3,
+                  "as many points as 'centers'"},
+        BadRbfRig{
+            "ScaleOnTriharmonic",
+            R"({"method": "rbf", "scale": 2, "centers": )" + kTet + R"(, "targets": )" + kTet + "}",
+            3, "'scale' applies to the gaussian"},
+        BadRbfRig{"NegativeSmoothing",
+                  R"({"method": "rbf", "smoothing": -1, "centers": )" + kTet + R"(, "targets": )" +
+                      kTet + "}",
+                  3, "'smoothing' must be >= 0"},
+        BadRbfRig{"Coplanar",
+                  R"({"method": "rbf", "centers": )" + kPlane + R"(, "targets": )" + kPlane + "}",
+                  3, "4 affinely independent centres"},
+        BadRbfRig{"Conflict",
+                  R"({"method": "rbf", "centers": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[0,0,0]],
+                      "targets": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,0,0]]})",
+                  3, "centre 0 and centre 4 coincide"},
+        BadRbfRig{"Singular",
+                  R"({"method": "rbf", "kernel": "gaussian", "scale": 1e6, "centers": )" + kTet +
+                      R"(, "targets": )" + kTet + "}",
+                  4, "singular"}),
+    [](const ::testing::TestParamInfo<BadRbfRig>& info) { return std::string(info.param.name); });
+
+}  // namespace

@@ -1,0 +1,141 @@
+// Tests of rbf/rbf_coordinates.h: partition of unity and linear precision, bindings that equal
+// the RBF warp, weight gradients, duplicates and fixed centres.
+
+#include "rbf/rbf_coordinates.h"
+
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/binding.h"
+#include "core/coordinate_warp.h"
+#include "core/errors.h"
+#include "rbf/rbf_warp.h"
+#include "rbf_test_data.h"
+#include "test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using test::everyKernel;
+using test::Handles;
+using test::randomHandles;
+using test::relativeError;
+using ::testing::HasSubstr;
+
+TEST(RbfCoordinates, PartitionOfUnityAndLinearPrecision) {
+  std::mt19937 rng(21);
+  const std::vector<Vec3> centres = test::randomPoints(rng, 45, -1.0, 1.0);
+  const std::vector<Vec3> points = test::randomPoints(rng, 100, -2.0, 2.0);
+  for (const double smoothing : {0.0, 0.1}) {
+    for (const RbfOptions& o : everyKernel(smoothing)) {
+      const RbfCoordinates coords(centres, o);
+      ASSERT_EQ(coords.controlPointCount(), centres.size());
+      std::vector<double> row(coords.columnCount());
+      for (const Vec3& x : points) {
+        coords.weights(x, row);
+        double sum = 0.0;
+        Vec3 combination(0.0);
+        for (std::size_t c = 0; c < row.size(); ++c) {
+          sum += row[c];
+          combination += row[c] * centres[c];
+        }
+        ASSERT_NEAR(sum, 1.0, 1e-10) << rbfKernelName(o.kernel) << " at " << test::toString(x);
+        ASSERT_LE(relativeError(combination, x), 1e-10) << rbfKernelName(o.kernel);
+      }
+    }
+  }
+}
+
+TEST(RbfCoordinates, WeightsAreLagrangeAtTheCentres) {
+  std::mt19937 rng(22);
+  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
+  const RbfCoordinates coords(centres);
+  std::vector<double> row(coords.columnCount());
+  for (std::size_t i = 0; i < centres.size(); ++i) {
+    coords.weights(centres[i], row);
+    for (std::size_t c = 0; c < row.size(); ++c)
+      ASSERT_NEAR(row[c], c == i ? 1.0 : 0.0, 1e-10) << i << ", " << c;
+  }
+}
+
+TEST(RbfCoordinates, BindingDeformEqualsTheWarp) {
+  std::mt19937 rng(23);
+  const Handles h = randomHandles(rng, 40, 0.3);
+  const std::vector<Vec3> fixed = test::randomPoints(rng, 6, -1.5, 1.5);
+  const std::vector<Vec3> points = test::randomPoints(rng, 500, -1.5, 1.5);
+  for (const double smoothing : {0.0, 0.02}) {
+    for (const RbfOptions& o : everyKernel(smoothing)) {
+      for (const bool withFixed : {false, true}) {
+        const std::vector<Vec3> f = withFixed ? fixed : std::vector<Vec3>{};
+        auto coords = std::make_shared<const RbfCoordinates>(h.centres, f, o);
+        EXPECT_EQ(coords->controlPointCount(), h.centres.size());
+        const Binding binding(coords, points);
+        const std::vector<Vec3> deformed = binding.deform(h.targets);
+        const RbfWarp warp(h.centres, h.targets, f, o);
+        std::vector<Vec3> expected(points.size());
+        warp.applyBatch(points, expected);
+        double worst = 0.0;
+        for (std::size_t i = 0; i < points.size(); ++i)
+          worst = std::max(worst, relativeError(deformed[i], expected[i]));
+        EXPECT_LE(worst, 1e-10) << rbfKernelName(o.kernel) << " λ = " << smoothing
+                                << (withFixed ? " with fixed centres" : "");
+      }
+    }
+  }
+}
+
+TEST(RbfCoordinates, GradientsMatchTheWarpJacobian) {
+  std::mt19937 rng(24);
+  const Handles h = randomHandles(rng, 25, 0.3);
+  const std::vector<Vec3> fixed = {Vec3(1.5, 1.5, 1.5), Vec3(-1.5, 0.0, 1.5)};
+  const std::vector<Vec3> points = test::randomPoints(rng, 30, -1.2, 1.2);
+  for (const RbfOptions& o : everyKernel()) {
+    auto coords = std::make_shared<const RbfCoordinates>(h.centres, fixed, o);
+    const CoordinateWarp view(coords, h.targets);
+    const RbfWarp warp(h.centres, h.targets, fixed, o);
+    for (const Vec3& x : points) {
+      EXPECT_LE(relativeError(view.jacobian(x), warp.jacobian(x)), 1e-9) << rbfKernelName(o.kernel);
+    }
+    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(view, points)) << rbfKernelName(o.kernel);
+  }
+}
+
+TEST(RbfCoordinates, CoincidingHandlesShareTheirWeight) {
+  std::mt19937 rng(25);
+  std::vector<Vec3> centres = test::randomPoints(rng, 10, -1.0, 1.0);
+  centres.push_back(centres[3]);
+  const std::vector<Vec3> fixed = {centres[5]};  // dropped: handle 5 controls that spot
+  const RbfCoordinates coords(centres, fixed);
+  EXPECT_EQ(coords.controlPointCount(), 11u);
+  std::vector<double> row(coords.columnCount());
+  coords.weights(centres[3], row);
+  EXPECT_NEAR(row[3], 0.5, 1e-10);
+  EXPECT_NEAR(row[10], 0.5, 1e-10);
+  coords.weights(Vec3(0.1, 0.2, 0.3), row);
+  EXPECT_EQ(row[3], row[10]);
+  coords.weights(centres[5], row);
+  EXPECT_NEAR(row[5], 1.0, 1e-10);
+}
+
+TEST(RbfCoordinates, RejectsDegenerateInput) {
+  const std::vector<Vec3> none;
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(none); }),
+              HasSubstr("RbfCoordinates: no centres"));
+  std::vector<Vec3> centres = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0)};
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(centres); }),
+              HasSubstr("coplanar"));
+  centres.push_back(Vec3(0, 0, std::nan("")));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(centres); }),
+              HasSubstr("centre 4 is not finite"));
+  const std::vector<Vec3> tet = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
+  const RbfCoordinates ok(tet);
+  std::vector<double> shortRow(3);
+  EXPECT_THROW(ok.weights(Vec3(0.0), shortRow), InvalidInput);
+}
+
+}  // namespace
+}  // namespace spacewarp

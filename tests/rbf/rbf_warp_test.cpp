@@ -1,0 +1,322 @@
+// Tests of rbf/rbf_warp.h: interpolation, affine reproduction, the analytic Jacobian, the fit
+// against a dense reference solve, smoothing, deterministic batches and degenerate input.
+
+#include "rbf/rbf_warp.h"
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <Eigen/LU>
+
+#include "core/errors.h"
+#include "rbf_test_data.h"
+#include "test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using test::everyKernel;
+using test::Handles;
+using test::messageOf;
+using test::randomHandles;
+using test::relativeError;
+using ::testing::HasSubstr;
+
+// max_i |warp(c_i) − t_i| / max(1, |t_i|).
+double interpolationError(const RbfWarp& warp, const Handles& h) {
+  double worst = 0.0;
+  for (std::size_t i = 0; i < h.centres.size(); ++i)
+    worst = std::max(worst, relativeError(warp.apply(h.centres[i]), h.targets[i]));
+  return worst;
+}
+
+TEST(RbfWarp, InterpolatesTheTargetsForEveryKernel) {
+  std::mt19937 rng(1);
+  const Handles h = randomHandles(rng, 60);
+  const std::vector<Vec3> fixed = test::randomPoints(rng, 10, -1.5, 1.5);
+  for (const RbfOptions& o : everyKernel()) {
+    const RbfWarp warp(h.centres, h.targets, o);
+    EXPECT_LE(interpolationError(warp, h), 1e-10) << rbfKernelName(o.kernel);
+    const RbfWarp pinned(h.centres, h.targets, fixed, o);
+    EXPECT_LE(interpolationError(pinned, h), 1e-10) << rbfKernelName(o.kernel);
+    for (std::size_t k = 0; k < fixed.size(); ++k)
+      EXPECT_LE(relativeError(pinned.apply(fixed[k]), fixed[k]), 1e-10)
+          << rbfKernelName(o.kernel) << " fixed " << k;
+  }
+}
+
+TEST(RbfWarp, ReproducesAffineMotionsEverywhere) {
+  std::mt19937 rng(2);
+  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
+  Mat3 a;
+  a[0] = Vec3(1.2, 0.1, -0.3);
+  a[1] = Vec3(-0.2, 0.9, 0.4);
+  a[2] = Vec3(0.3, 0.05, 1.1);
+  const Vec3 b(0.5, -2.0, 3.0);
+  std::vector<Vec3> targets;
+  for (const Vec3& c : centres) targets.push_back(a * c + b);
+  const std::vector<Vec3> points = test::randomPoints(rng, 200, -3.0, 3.0);
+  for (const double smoothing : {0.0, 0.1}) {
+    for (const RbfOptions& o : everyKernel(smoothing)) {
+      const RbfWarp warp(centres, targets, o);
+      for (const Vec3& x : points)
+        ASSERT_LE(relativeError(warp.apply(x), a * x + b), 1e-10)
+            << rbfKernelName(o.kernel) << " λ = " << smoothing << " at " << test::toString(x);
+      EXPECT_LE(test::relativeError(warp.jacobian(points[0]), a), 1e-10);
+    }
+  }
+}
+
+TEST(RbfWarp, JacobianMatchesFiniteDifferencesForEveryKernel) {
+  std::mt19937 rng(3);
+  const Handles h = randomHandles(rng, 40, 0.3);
+  const std::vector<Vec3> points = test::randomPoints(rng, 100, -1.5, 1.5);
+  for (const RbfOptions& o : everyKernel()) {
+    const RbfWarp warp(h.centres, h.targets, o);
+    EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points)) << rbfKernelName(o.kernel);
+  }
+}
+
+TEST(RbfWarp, JacobianAtACentreIsFinite) {
+  std::mt19937 rng(4);
+  const Handles h = randomHandles(rng, 20);
+  for (const RbfOptions& o : everyKernel()) {
+    const RbfWarp warp(h.centres, h.targets, o);
+    const Mat3 j = warp.jacobian(h.centres[3]);
+    for (int c = 0; c < 3; ++c) EXPECT_TRUE(isFinite(j[c])) << rbfKernelName(o.kernel);
+  }
+  // The triharmonic kernel is C²: the Jacobian at a centre is the limit of its neighbours'.
+  const RbfWarp warp(h.centres, h.targets);
+  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, {h.centres[3]}));
+}
+
+// The full (n + 4) system in world coordinates, solved by FullPivLU.
+void referenceFit(const std::vector<Vec3>& centres, const std::vector<Vec3>& displacement,
+                  const RbfOptions& o, Eigen::MatrixXd& w, Eigen::MatrixXd& a) {
+  const Eigen::Index n = static_cast<Eigen::Index>(centres.size());
+  const double sigma = o.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n + 4, n + 4);
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(n + 4, 3);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vec3& ci = centres[static_cast<std::size_t>(i)];
+    for (Eigen::Index j = 0; j < n; ++j)
+      m(i, j) = rbfKernelValue(o, glm::length(ci - centres[static_cast<std::size_t>(j)]));
+    m(i, i) += sigma * o.smoothing;
+    const double p[4] = {1.0, ci.x, ci.y, ci.z};
+    for (int k = 0; k < 4; ++k) m(i, n + k) = m(n + k, i) = p[k];
+    for (int k = 0; k < 3; ++k) rhs(i, k) = displacement[static_cast<std::size_t>(i)][k];
+  }
+  const Eigen::MatrixXd x = m.fullPivLu().solve(rhs);
+  w = x.topRows(n);
+  a = x.bottomRows(4);
+}
+
+TEST(RbfWarp, FitAgreesWithADenseReferenceSolve) {
+  std::mt19937 rng(5);
+  const Handles h = randomHandles(rng, 50);
+  const std::vector<Vec3> fixed = test::randomPoints(rng, 8, -1.2, 1.2);
+  std::vector<Vec3> all = h.centres;
+  all.insert(all.end(), fixed.begin(), fixed.end());
+  std::vector<Vec3> displacement;
+  for (std::size_t i = 0; i < h.centres.size(); ++i)
+    displacement.push_back(h.targets[i] - h.centres[i]);
+  displacement.resize(all.size(), Vec3(0.0));
+  for (const double smoothing : {0.0, 0.05}) {
+    for (const RbfOptions& o : everyKernel(smoothing)) {
+      const RbfWarp warp(h.centres, h.targets, fixed, o);
+      ASSERT_EQ(warp.centres().size(), all.size());
+      Eigen::MatrixXd w, a;
+      referenceFit(all, displacement, o, w, a);
+      const double scale = w.cwiseAbs().maxCoeff();
+      double err = 0.0;
+      for (std::size_t j = 0; j < all.size(); ++j) {
+        EXPECT_EQ(warp.centres()[j], all[j]);
+        for (int k = 0; k < 3; ++k)
+          err = std::max(err, std::abs(warp.weights()[j][k] - w(static_cast<Eigen::Index>(j), k)));
+      }
+      EXPECT_LE(err, 1e-10 * scale) << rbfKernelName(o.kernel) << " λ = " << smoothing;
+      for (int i = 0; i < 3; ++i) {
+        EXPECT_NEAR(warp.translation()[i], a(0, i), 1e-10 * std::max(1.0, std::abs(a(0, i))));
+        for (int k = 0; k < 3; ++k)
+          EXPECT_NEAR(warp.linearPart()[k][i], a(k + 1, i),
+                      1e-10 * std::max(1.0, a.cwiseAbs().maxCoeff()))
+              << rbfKernelName(o.kernel);
+      }
+    }
+  }
+}
+
+TEST(RbfWarp, SmoothingApproximatesMoreAsItGrows) {
+  std::mt19937 rng(6);
+  const Handles h = randomHandles(rng, 40, 0.3);
+  for (RbfOptions o : everyKernel()) {
+    double previous = interpolationError(RbfWarp(h.centres, h.targets, o), h);
+    EXPECT_LE(previous, 1e-10);
+    for (const double lambda : {1e-4, 1e-3, 1e-2, 1e-1, 1.0}) {
+      o.smoothing = lambda;
+      const double residual = interpolationError(RbfWarp(h.centres, h.targets, o), h);
+      EXPECT_GT(residual, previous) << rbfKernelName(o.kernel) << " λ = " << lambda;
+      EXPECT_GT(residual, 1e-8) << rbfKernelName(o.kernel) << " λ = " << lambda;
+      previous = residual;
+    }
+  }
+}
+
+TEST(RbfWarp, BatchIsDeterministicAndEqualsApply) {
+  std::mt19937 rng(7);
+  const Handles h = randomHandles(rng, 37);
+  const std::vector<Vec3> points = test::randomPoints(rng, 1003, -2.0, 2.0);
+  for (const RbfOptions& o : everyKernel()) {
+    const RbfWarp warp(h.centres, h.targets, o);
+    EXPECT_TRUE(test::batchIsDeterministic(warp, points)) << rbfKernelName(o.kernel);
+  }
+  const RbfWarp warp(h.centres, h.targets);
+  test::expectBatchRejectsMismatchedSizes(warp, 3, 4);
+  // In place.
+  std::vector<Vec3> inPlace = points;
+  warp.applyBatch(inPlace, inPlace);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    ASSERT_TRUE(test::bitEqual(inPlace[i], warp.apply(points[i]))) << i;
+}
+
+// The SIMD kernel (no libm: Newton square roots, polynomial exp and log) against the formula
+// evaluated with std::sqrt, std::exp and std::log, near and far from the centres.
+TEST(RbfWarp, ApplyMatchesTheScalarFormula) {
+  std::mt19937 rng(16);
+  const Handles h = randomHandles(rng, 30);
+  std::vector<Vec3> points = test::randomPoints(rng, 300, -1.5, 1.5);
+  for (const Vec3& p : test::randomPoints(rng, 50, -40.0, 40.0)) points.push_back(p);
+  points.push_back(h.centres[0]);
+  points.push_back(h.centres[1] + Vec3(1e-9, 0.0, 0.0));
+  for (const RbfOptions& o : everyKernel()) {
+    const RbfWarp warp(h.centres, h.targets, o);
+    for (const Vec3& x : points) {
+      Vec3 sum = warp.linearPart() * x + warp.translation();
+      double magnitude = glm::length(sum) + glm::length(x);
+      for (std::size_t j = 0; j < warp.centres().size(); ++j) {
+        const Vec3 term = rbfKernelValue(o, glm::length(warp.centres()[j] - x)) * warp.weights()[j];
+        sum += term;
+        magnitude += glm::length(term);
+      }
+      ASSERT_LE(glm::length(warp.apply(x) - (x + sum)), 1e-14 * magnitude)
+          << rbfKernelName(o.kernel) << " at " << test::toString(x);
+    }
+  }
+}
+
+TEST(RbfWarp, PassesTheWarpChecks) {
+  std::mt19937 rng(8);
+  const Handles h = randomHandles(rng, 30, 0.1);
+  const RbfWarp warp(h.centres, h.targets);
+  test::expectWarpProperties(warp, test::randomPoints(rng, 50, -1.0, 1.0), rng);
+}
+
+// ---- degenerate input ----
+
+TEST(RbfWarp, RejectsEmptyInputAndMismatchedSizes) {
+  const std::vector<Vec3> none;
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(none, none); }), HasSubstr("no centres"));
+  std::mt19937 rng(9);
+  Handles h = randomHandles(rng, 10);
+  h.targets.pop_back();
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
+              HasSubstr("10 centres but 9 targets"));
+}
+
+TEST(RbfWarp, RejectsNonFiniteInputNamingTheIndex) {
+  std::mt19937 rng(10);
+  const Handles good = randomHandles(rng, 10);
+  Handles h = good;
+  h.centres[3].y = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
+              HasSubstr("centre 3 is not finite"));
+  h = good;
+  h.targets[7].z = std::numeric_limits<double>::infinity();
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
+              HasSubstr("target 7 is not finite"));
+  std::vector<Vec3> fixed = {Vec3(2.0), Vec3(-std::numeric_limits<double>::infinity())};
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(good.centres, good.targets, fixed); }),
+              HasSubstr("fixed centre 1 is not finite"));
+}
+
+TEST(RbfWarp, MergesDuplicatesWithAgreeingTargets) {
+  std::mt19937 rng(11);
+  Handles h = randomHandles(rng, 12);
+  const double diagonal = 2.0 * std::sqrt(3.0);
+  h.centres.push_back(h.centres[4]);
+  h.targets.push_back(h.targets[4]);
+  h.centres.push_back(h.centres[6] + Vec3(1e-12 * diagonal, 0.0, 0.0));  // within tolerance
+  h.targets.push_back(h.targets[6]);
+  const std::vector<Vec3> fixed = {h.centres[2], Vec3(3.0, 0.0, 0.0)};
+  h.targets[2] = h.centres[2];  // handle 2 stays put where a fixed centre is
+  const RbfWarp warp(h.centres, h.targets, fixed);
+  EXPECT_EQ(warp.centres().size(), 13u);  // 14 handles − 2 duplicates + 1 fixed kept
+  EXPECT_LE(interpolationError(warp, h), 1e-10);
+}
+
+TEST(RbfWarp, RejectsDuplicatesWithConflictingTargetsNamingBoth) {
+  std::mt19937 rng(12);
+  Handles h = randomHandles(rng, 12);
+  h.centres.push_back(h.centres[5]);
+  h.targets.push_back(h.targets[5] + Vec3(0.1, 0.0, 0.0));
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
+              HasSubstr("centre 5 and centre 12 coincide but their targets differ"));
+  h = randomHandles(rng, 12);
+  const std::vector<Vec3> fixed = {Vec3(5.0), h.centres[8]};
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets, fixed); }),
+              HasSubstr("centre 8 and fixed centre 1 coincide but their targets differ"));
+}
+
+TEST(RbfWarp, NeedsFourAffinelyIndependentCentres) {
+  const std::vector<Vec3> three = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
+  const std::string message = messageOf<InvalidInput>([&] { RbfWarp(three, three); });
+  EXPECT_THAT(message,
+              HasSubstr("linear polynomial needs at least 4 affinely independent centres"));
+  EXPECT_THAT(message, HasSubstr("not all coplanar"));
+  EXPECT_THAT(message, HasSubstr("only 3 distinct"));
+  // Five handles, three distinct.
+  const std::vector<Vec3> repeated = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 0, 0),
+                                      Vec3(0, 0, 0)};
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(repeated, repeated); }),
+              HasSubstr("only 3 distinct"));
+  // Many coplanar centres (the plane x + y + z = 1).
+  std::mt19937 rng(13);
+  std::vector<Vec3> plane;
+  for (int i = 0; i < 20; ++i) {
+    const Vec3 p = test::randomPoint(rng, -1.0, 1.0);
+    plane.emplace_back(p.x, p.y, 1.0 - p.x - p.y);
+  }
+  const std::string coplanar = messageOf<InvalidInput>([&] { RbfWarp(plane, plane); });
+  EXPECT_THAT(coplanar, HasSubstr("4 affinely independent"));
+  EXPECT_THAT(coplanar, HasSubstr("20 distinct centres are all coplanar"));
+  // A fixed centre off the plane makes it well posed.
+  const std::vector<Vec3> off = {Vec3(0.0, 0.0, 0.0)};
+  EXPECT_NO_THROW(RbfWarp(plane, plane, off));
+}
+
+TEST(RbfWarp, SingularSystemIsASolverError) {
+  std::mt19937 rng(14);
+  const Handles h = randomHandles(rng, 40);
+  RbfOptions o;
+  o.kernel = RbfKernel::Gaussian;
+  o.scale = 1e6;  // Φ is all ones to machine precision
+  EXPECT_THAT(messageOf<SolverError>([&] { RbfWarp(h.centres, h.targets, o); }),
+              HasSubstr("singular"));
+}
+
+TEST(RbfWarp, RejectsInvalidOptions) {
+  std::mt19937 rng(15);
+  const Handles h = randomHandles(rng, 10);
+  RbfOptions o;
+  o.kernel = RbfKernel::WendlandC2;
+  o.radius = 0.0;
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets, o); }),
+              HasSubstr("RbfWarp: the support radius"));
+}
+
+}  // namespace
+}  // namespace spacewarp
