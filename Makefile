@@ -39,7 +39,7 @@ sanitize: deps
 	  ctest --test-dir $(ASAN_BUILD) --output-on-failure -j $(JOBS)
 
 bench: build
-	$(BUILD)/bench/spacewarp_bench --benchmark_repetitions=5 \
+	$(BUILD)/bench/spacewarp_bench --benchmark_repetitions=3 \
 	  --benchmark_report_aggregates_only=true --benchmark_counters_tabular=true
 
 # Runs each file-reader fuzzer for FUZZ_SECONDS (default 60).

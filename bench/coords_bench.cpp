@@ -20,9 +20,11 @@
 #include <vector>
 
 #include <benchmark/benchmark.h>
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include "bench/bench.h"
 
 #include "coords/cage.h"
 #include "coords/green.h"
@@ -223,9 +225,7 @@ void BM_ReadBaselineArmadilloCloud1M(benchmark::State& state) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+void registerCoordsBenchmarks() {
   benchmark::RegisterBenchmark("BM_MvcBindBox", BM_MvcBindBox)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
@@ -262,11 +262,11 @@ int main(int argc, char** argv) {
     std::printf("skipping the armadillo benchmarks: %s not found (set SPACEWARP_SHARED_DATA_DIR)\n",
                 dir.string().c_str());
   }
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
+}
+
+void printCoordsSummary() {
   if (gDeformRate > 0.0 && gReadRate > 0.0) {
     std::printf("deform %.2f GB/s, read baseline %.2f GB/s, deform/read = %.2f\n",
                 gDeformRate * 1e-9, gReadRate * 1e-9, gDeformRate / gReadRate);
   }
-  return 0;
 }

@@ -58,5 +58,3 @@ void BM_TwistApplyBatch(benchmark::State& state) {
 BENCHMARK(BM_TwistApplyBatch)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();

@@ -27,17 +27,8 @@ void reportPoints(benchmark::State& state, std::size_t n) {
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * n * 2 * sizeof(Vec3)));
 }
 
-void BM_CopyBaseline(benchmark::State& state) {
-  const auto& in = cloud();
-  std::vector<Vec3> out(in.size());
-  for (auto _ : state) {
-    std::memcpy(out.data(), in.data(), in.size() * sizeof(Vec3));
-    benchmark::DoNotOptimize(out.data());
-    benchmark::ClobberMemory();
-  }
-  reportPoints(state, in.size());
-}
-BENCHMARK(BM_CopyBaseline)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The baseline, a copy of the same 10M points, is core_bench.cpp's BM_CopyBaseline in the
+// same run.
 
 // A lattice on [-1, 1]³ (every point inside) with randomly displaced controls.
 LatticeWarp posedLattice(LatticeBasis basis, int resolution) {
@@ -81,5 +72,3 @@ void BM_LatticeBernstein(benchmark::State& state) { runLattice(state, LatticeBas
 BENCHMARK(BM_LatticeBernstein)->Arg(4)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();

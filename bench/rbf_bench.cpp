@@ -152,5 +152,3 @@ BENCHMARK(BM_RbfCoordinatesBuild)
     ->UseRealTime();
 
 }  // namespace
-
-BENCHMARK_MAIN();
