@@ -1,10 +1,14 @@
 #include "coords/green.h"
 
+#include <emmintrin.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <map>
+#include <new>
 #include <numbers>
 #include <string>
 #include <utility>
@@ -81,12 +85,189 @@ namespace {
 constexpr double kInv4Pi = 0.25 * std::numbers::inv_pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-struct VertexTerm {
-  Vec3 r{0.0};  // v − x
-  double length = 0.0;
+// ---- lanes ----
+// The evaluation runs kLanes points at once on VD, a generic vector of doubles (GCC/Clang vector
+// extension), which each target_clones clone lowers to its own registers (x86-64-v3: one ymm per
+// operation, with FMA; baseline x86-64: two xmm), as in mean_value.cpp. The passes have no libm
+// calls, a lane's values never depend on another lane's (the only branches skip work that no lane
+// of the group needs, see anyLane()), and a single point (weights(), locate()) runs through the
+// same code with every lane set to it, so a row is bit-identical whichever call, lane, group of
+// points or thread computes it. Helpers take vectors by reference (by value, wide vectors have a
+// different ABI in the two clones) and are always inlined, so that each clone compiles them for
+// its own target.
+constexpr int kLanes = 4;
+typedef double VD __attribute__((vector_size(kLanes * sizeof(double))));
+typedef std::int64_t VI __attribute__((vector_size(kLanes * sizeof(double))));
+typedef std::uint64_t VU __attribute__((vector_size(kLanes * sizeof(double))));
+
+// Points per parallel task in weightsBatch (a multiple of kLanes).
+constexpr std::size_t kPointsPerTask = 64;
+
+[[gnu::always_inline]] inline void absLanes(const VD& x, VD& y) {
+  y = reinterpret_cast<VD>(reinterpret_cast<VU>(x) & std::uint64_t{0x7fffffffffffffff});
+}
+
+// The correctly rounded square root (sqrtpd on both halves: exact like std::sqrt, without its
+// errno check, which keeps the loop from vectorising).
+[[gnu::always_inline]] inline void sqrtLanes(const VD& x, VD& y) {
+  __m128d half[2];
+  std::memcpy(half, &x, sizeof x);
+  half[0] = _mm_sqrt_pd(half[0]);
+  half[1] = _mm_sqrt_pd(half[1]);
+  std::memcpy(&y, half, sizeof y);
+}
+
+// Whether some lane of a mask is set. The passes branch on it only to skip work that no lane
+// needs: every lane's values are computed by the same instructions whichever way they go.
+[[gnu::always_inline]] inline bool anyLane(const VI& mask) {
+  __m128d half[2];
+  std::memcpy(half, &mask, sizeof mask);
+  return _mm_movemask_pd(_mm_or_pd(half[0], half[1])) != 0;
+}
+
+// x = 2^e m with m ∈ [1, 2), for finite x > 0 (normal or subnormal): mant = m, expo = e + 1023.
+[[gnu::always_inline]] inline void splitLanes(const VD& x, VD& mant, VI& expo) {
+  const VI subnormal = x < 0x1p-1022;
+  const VU bits = reinterpret_cast<VU>(subnormal ? x * 0x1p54 : x);
+  mant = reinterpret_cast<VD>((bits & std::uint64_t{0x000fffffffffffff}) |
+                              std::uint64_t{0x3ff0000000000000});
+  expo = reinterpret_cast<VI>(bits >> 52) - (subnormal & 54);
+}
+
+// ln(num / den) for finite num, den > 0 (normal or subnormal), within about one ulp of the exact
+// quotient's logarithm; the per-edge logarithm was a fifth of the scalar evaluation's time in
+// glibc's log. With num / den = 2^k a / b, a / b ∈ [√½, √2] (a and b the mantissas, a halved or
+// doubled), q = a − b is exact (Sterbenz), and with f = q / b and s = q / (a + b) = f / (2 + f),
+//     ln(a / b) = ln(1 + f) = 2 atanh s = f − f²/2 + s (f²/2 + R),
+//     R = Σ_{i≥1} 2 s^{2i} / (2i + 1),
+// fdlibm's arrangement, where only f's rounding reaches the leading term and s only enters the
+// correction, which is at most a quarter of the result. The two divisions are independent (no
+// rounded quotient num / den first, whose rounding alone would cost 2 ulp of the logarithm near
+// √2 and any number of ulps near 1). For |s| ≤ 3 − 2√2 < 0.1716, R is fdlibm's (e_log.c) minimax
+// polynomial of degree 7 in s², within 2^-58.45 of it (checked in exact arithmetic), in two
+// chains of even and odd powers as there. k ln 2 is added in two parts; kLn2Hi has 32
+// significant bits, so k kLn2Hi is exact.
+constexpr double kLn2Hi = 0x1.62e42feep-1;
+constexpr double kLn2Lo = 0x1.a39ef35793c76p-33;
+constexpr double kLg[7] = {0x1.5555555555593p-1, 0x1.999999997fa04p-2, 0x1.2492494229359p-2,
+                           0x1.c71c51d8e78afp-3, 0x1.7466496cb03dep-3, 0x1.39a09d078c69fp-3,
+                           0x1.2f112df3e5244p-3};
+[[gnu::always_inline]] inline void logRatioLanes(const VD& num, const VD& den, VD& y) {
+  VD a, b;
+  VI ea, eb;
+  splitLanes(num, a, ea);
+  splitLanes(den, b, eb);
+  const VI high = a > std::numbers::sqrt2 * b;
+  const VI low = std::numbers::sqrt2 * a < b;
+  a = high ? 0.5 * a : (low ? 2.0 * a : a);
+  const VI k = ea - eb + (high & 1) - (low & 1);
+  // k as a double: 1.5 · 2^52 + k has k in its low mantissa bits.
+  const VD kd = reinterpret_cast<VD>(k + std::int64_t{0x4338000000000000}) - 0x1.8p52;
+  const VD q = a - b;
+  const VD f = q / b;
+  const VD s = q / (a + b);
+  const VD z = s * s, w = z * z;
+  const VD r = z * (kLg[0] + w * (kLg[2] + w * (kLg[4] + w * kLg[6]))) +
+               w * (kLg[1] + w * (kLg[3] + w * kLg[5]));
+  const VD hfsq = 0.5 * f * f;
+  y = kd * kLn2Hi - ((hfsq - (s * (hfsq + r) + kd * kLn2Lo)) - f);
+}
+
+// atan2(y, x) within about one ulp (0 for x = y = 0, where the solid angle is not defined); the
+// per-triangle arctangent was the largest single cost of the scalar evaluation in glibc's atan2.
+// With lo, hi the smaller and the larger of |x| and |y|, t = lo / hi ∈ [0, 1] and τ ∈ {0, 1/8,
+// 1/4, 1/2, 1} the nearest in angle, atan(t) = atan(τ) + atan(u), u = (lo − τ hi) / (hi + τ lo).
+// τ is a power of two so that τ hi is exact, and so is lo − τ hi (Sterbenz: in its sector, lo is
+// within a factor 2 of τ hi): u carries one rounding of the denominator and one of the quotient
+// (with tan(kπ/16) as τ, the rounding of τ hi cost up to 3 ulp without FMA). |u| ≤
+// tan((π/4 − atan ½) / 2) < 0.1623, where the Taylor series u (1 − u²/3 + u⁴/5 − …) truncated
+// after u²¹/21 is exact to 8e-18 relative. The sector and the quadrant are chosen by selects;
+// atan(τ), π/2 and π are added in two parts. Within 1.5 ulp of atan2 over all finite inputs
+// (signed zeros included) in tests.
+constexpr double kSectorTan[5] = {0.0, 0.125, 0.25, 0.5, 1.0};
+constexpr double kSectorAtan[5] = {0.0, 0x1.fd5ba9aac2f6ep-4, 0x1.f5b75f92c80ddp-3,
+                                   0x1.dac670561bb4fp-2, 0x1.921fb54442d18p-1};
+constexpr double kSectorAtanLo[5] = {0.0, -0x1.cd37686760c17p-59, 0x1.8ab6e3cf7afbdp-57,
+                                     0x1.a2b7f222f65e2p-56, 0x1.1a62633145c07p-55};
+// Sector k + 1 starts at t = kSectorBound[k]: tan of the angle midway between atan(τ_k) and
+// atan(τ_{k+1}), except the first, just above 1/16 instead of at 0.06226, so that lo ≥ τ hi / 2
+// holds in sector 1 whatever the rounding of the comparison.
+constexpr double kSectorBound[4] = {0.0626, 0x1.7e8e639a21440p-3, 0x1.7acd608564de1p-2,
+                                    0x1.71075a3cdcf19p-1};
+constexpr double kPiHi = 0x1.921fb54442d18p+1, kPiLo = 0x1.1a62633145c07p-53;
+[[gnu::always_inline]] inline void angleLanes(const VD& y, const VD& x, VD& out) {
+  const VD zero{};
+  VD ax, ay;
+  absLanes(x, ax);
+  absLanes(y, ay);
+  const VI swap = ay > ax;
+  const VD lo0 = swap ? ax : ay, hi0 = swap ? ay : ax;
+  // atan2 is scale-invariant: hi is brought into [2^-1000, 2^1000], where τ hi is exact (not
+  // subnormal) and hi + τ lo finite. (lo underflows only where the result is below 2^-1400.)
+  const VD scale =
+      hi0 > 0x1p1000 ? zero + 0x1p-600 : (hi0 < 0x1p-1000 ? zero + 0x1p600 : zero + 1.0);
+  const VD lo = lo0 * scale, hi = hi0 * scale;
+  VD tau = zero, atau = zero, atauLo = zero;
+  for (int k = 1; k <= 4; ++k) {
+    const VI beyond = lo > kSectorBound[k - 1] * hi;
+    tau = beyond ? zero + kSectorTan[k] : tau;
+    atau = beyond ? zero + kSectorAtan[k] : atau;
+    atauLo = beyond ? zero + kSectorAtanLo[k] : atauLo;
+  }
+  const VD u0 = (lo - tau * hi) / (hi + tau * lo);
+  const VD u = hi == 0.0 ? zero : u0;
+  const VD s = u * u;
+  VD p = s * (-1.0 / 21) + 1.0 / 19;
+  p = p * s - 1.0 / 17;
+  p = p * s + 1.0 / 15;
+  p = p * s - 1.0 / 13;
+  p = p * s + 1.0 / 11;
+  p = p * s - 1.0 / 9;
+  p = p * s + 1.0 / 7;
+  p = p * s - 1.0 / 5;
+  p = p * s + 1.0 / 3;
+  const VD series = -(u * s * p);
+  const VD a = atau + (u + (atauLo + series));
+  // The quadrant: x < 0 reflects about π/2 (π − a, or π/2 + a when swapped), swapping about π/4
+  // (π/2 − a); y < 0 negates. Signs are read from the sign bits, like atan2's.
+  const VI xNeg = reinterpret_cast<VI>(x) < 0, yNeg = reinterpret_cast<VI>(y) < 0;
+  const VD offHi = swap ? zero + 0.5 * kPiHi : (xNeg ? zero + kPiHi : zero);
+  const VD offLo = swap ? zero + 0.5 * kPiLo : (xNeg ? zero + kPiLo : zero);
+  const VD signedA = (swap ^ xNeg) ? -a : a;
+  const VD r = offHi + (offLo + signedA);
+  out = hi == 0.0 ? zero : (yNeg ? -r : r);
+}
+
+// A growable, 64-byte aligned array of trivially copyable T.
+template <class T>
+class AlignedBuffer {
+ public:
+  AlignedBuffer() = default;
+  AlignedBuffer(const AlignedBuffer&) = delete;
+  AlignedBuffer& operator=(const AlignedBuffer&) = delete;
+  ~AlignedBuffer() { ::operator delete (data_, std::align_val_t{64}); }
+  void reserve(std::size_t n) {
+    if (n <= size_) return;
+    ::operator delete (data_, std::align_val_t{64});
+    data_ = static_cast<T*>(::operator new (n * sizeof(T), std::align_val_t{64}));
+    size_ = n;
+  }
+  T* data() { return data_; }
+  const T* data() const { return data_; }
+  T& operator[](std::size_t i) { return data_[i]; }
+  const T& operator[](std::size_t i) const { return data_[i]; }
+
+ private:
+  T* data_ = nullptr;
+  std::size_t size_ = 0;
 };
 
-// The terms of one edge (a, b) for the current point. The solid angle of a triangle (a, b, c) is
+struct VertexLanes {
+  VD r[3];  // v − x
+  VD length;
+};
+
+// The terms of one edge (a, b) for the current points. The solid angle of a triangle (a, b, c) is
 // Van Oosterom and Strackee's
 //     tan(Ω/2) = det(r_a, r_b, r_c) / (R_a R_b R_c + (r_a·r_b) R_c + (r_b·r_c) R_a + (r_c·r_a) R_b)
 //              = 2A h / (R_c P + S·r_c),
@@ -99,76 +280,233 @@ struct VertexTerm {
 // Each triangle evaluates its solid angle around its edge with the smallest P / (R_a R_b)
 // (1 + the cosine of the angle the edge subtends), the one where cancellation would occur, so the
 // two triangles of an edge that x is close to use the same q, P and S.
-struct EdgeTerm {
-  double log = 0.0;    // L, 0 when x is on the segment (the triangles using it are surface ones)
-  double dist2 = 0.0;  // squared distance from x to the segment
-  double p = 0.0;
-  double closeness = 2.0;  // P / (R_a R_b) when below 1/2, else 2
-  double r02 = 0.0;        // R0² = |q|²
-  Vec3 s{0.0};
-  Vec3 q{0.0};  // from x to its foot on the edge line
+struct EdgeLanes {
+  VD log;        // L, 0 when x is on the segment (the triangles using it are surface ones)
+  VD p;          // P
+  VD closeness;  // P / (R_a R_b) when below 1/2, else 2
+  VD r02;        // R0² = |q|²
+  VD s[3];
+  VD q[3];  // from x to its foot on the edge line
 };
 
-// h and d of one triangle for the current point, kept for the nearest-triangle search.
-struct FaceTerm {
-  double h = 0.0;
-  double d[3] = {0.0, 0.0, 0.0};
+// h and d of one triangle for the current points, kept for the nearest-triangle search.
+struct FaceLanes {
+  VD h;
+  VD d[3];
 };
 
-// Per-point work space, reused across points.
+// Per-thread work space of one group of points.
 struct Scratch {
-  std::vector<VertexTerm> vertices;
-  std::vector<EdgeTerm> edges;
-  std::vector<FaceTerm> faces;
+  AlignedBuffer<VertexLanes> vertices;
+  AlignedBuffer<VD> phi;  // per vertex
+  AlignedBuffer<EdgeLanes> edges;
+  AlignedBuffer<VD> edgeDist2;  // squared distance from x to the segment
+  AlignedBuffer<FaceLanes> faces;
+  AlignedBuffer<VD> psi;  // per triangle
+  // In: 0-2 the points' x, y, z; 3 the lanes of the surface pass (non-zero). Out: 4 the sum of
+  // the solid angles, 5 near a plane (non-zero), 6 the smallest squared distance to an edge.
+  AlignedBuffer<VD> io;
+
+  void reserve(const detail::GreenData& g) {
+    vertices.reserve(g.vertices.size());
+    phi.reserve(g.vertices.size());
+    edges.reserve(g.edges.size());
+    edgeDist2.reserve(g.edges.size());
+    faces.reserve(g.faces.size());
+    psi.reserve(g.faces.size());
+    io.reserve(7);
+  }
 };
+
+// The vertex and edge terms of the points in s.io[0..2]; the smallest squared distance from a
+// point to an edge goes to s.io[6].
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void edgePass(
+    const detail::GreenData& g, Scratch& s) {
+  const VD zero{};
+  const VD px = s.io[0], py = s.io[1], pz = s.io[2];
+  VertexLanes* __restrict vl = s.vertices.data();
+  for (std::size_t i = 0; i < g.vertices.size(); ++i) {
+    const Vec3& v = g.vertices[i];
+    VertexLanes& t = vl[i];
+    t.r[0] = v.x - px;
+    t.r[1] = v.y - py;
+    t.r[2] = v.z - pz;
+    sqrtLanes(t.r[0] * t.r[0] + t.r[1] * t.r[1] + t.r[2] * t.r[2], t.length);
+  }
+
+  EdgeLanes* __restrict el = s.edges.data();
+  VD* __restrict edgeDist2 = s.edgeDist2.data();
+  VD minDist2 = zero + kInf;
+  for (std::size_t index = 0; index < g.edges.size(); ++index) {
+    const detail::GreenData::Edge& edge = g.edges[index];
+    const double e[3] = {edge.direction.x, edge.direction.y, edge.direction.z};
+    const double len = edge.length;
+    const VertexLanes& a = vl[edge.a];
+    const VertexLanes& b = vl[edge.b];
+    EdgeLanes& out = el[index];
+    const VD ra = a.length, rb = b.length;
+    const VD ta = e[0] * a.r[0] + e[1] * a.r[1] + e[2] * a.r[2];
+    const VD tb = e[0] * b.r[0] + e[1] * b.r[1] + e[2] * b.r[2];
+    // The perpendicular from x to the edge line, from the nearer end (its error is then relative
+    // to that end's distance).
+    const VI aNearer = ra <= rb;
+    const VD tn = aNearer ? ta : tb;
+    VD q[3];
+    for (int c = 0; c < 3; ++c) q[c] = (aNearer ? a.r[c] : b.r[c]) - tn * e[c];
+    const VD r02 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+    // L: when the foot of x is before a (ta ≥ 0) every R + t is a sum of non-negatives; after b
+    // (tb ≤ 0) R + t = R0² / (R − t) at both ends and R0² cancels; in between
+    // R_a + t_a = R0² / (R_a − t_a), with R0² from the perpendicular itself.
+    const VI before = ta >= 0.0, after = tb <= 0.0;
+    const VD rbtb = rb + tb, rata = ra - ta;
+    const VD num = before ? rbtb : (after ? rata : rbtb * rata);
+    const VD den = before ? ra + ta : (after ? rb - tb : r02);
+    const VD dist2 = before ? ra * ra : (after ? rb * rb : r02);
+    // P and S as written are accurate unless r_a and r_b are far from each other's direction
+    // (1 + cos < 1/2, which needs the foot inside the segment); then the cancellation-free forms,
+    // computed in every lane when some lane needs them (about 1% of the edges for points inside
+    // a cage) and kept where needed.
+    const VD rarb = ra * rb;
+    const VD dot = a.r[0] * b.r[0] + a.r[1] * b.r[1] + a.r[2] * b.r[2];
+    const VD pFar = rarb + dot;
+    const VI close = ~(pFar >= 0.5 * rarb);
+    out.p = pFar;
+    for (int c = 0; c < 3; ++c) {
+      out.s[c] = ra * b.r[c] + rb * a.r[c];
+      out.q[c] = q[c];
+    }
+    out.closeness = zero + 2.0;
+    if (anyLane(close)) {
+      const VD d1 = rarb - dot;         // ≥ R_a R_b where close
+      const VD d2 = ra * tb - rb * ta;  // > 0 where close
+      const VD inv = 1.0 / (d1 * d2);
+      const VD pClose = len * len * r02 * d2 * inv;
+      const VD k = r02 * len * (ta + tb) * d1 * inv;
+      // q made orthogonal to e to round-off in |q|: a residual along e would enter S·r_c
+      // differently for the two triangles of the edge.
+      const VD qe = q[0] * e[0] + q[1] * e[1] + q[2] * e[2];
+      const VD rab = ra + rb;
+      out.p = close ? pClose : out.p;
+      for (int c = 0; c < 3; ++c) out.s[c] = close ? rab * (q[c] - qe * e[c]) + k * e[c] : out.s[c];
+      out.closeness = close ? pClose / rarb : out.closeness;
+    }
+    out.r02 = r02;
+    VD log;
+    logRatioLanes(num, den, log);
+    // Not finite only for x on the segment: every triangle using the edge then touches x and is
+    // a surface triangle, whose terms do not use L.
+    const VI finite = (num > 0.0) & (num < kInf) & (den > 0.0) & (den < kInf);
+    out.log = finite ? log : zero;
+    edgeDist2[index] = dist2;
+    minDist2 = dist2 < minDist2 ? dist2 : minDist2;
+  }
+  s.io[6] = minDist2;
+}
 
 constexpr int kOpposite[3] = {2, 0, 1};  // the corner opposite edge i
 
-// atan2(y, x), accurate to about one ulp of π, and much cheaper than glibc's atan2, which was the
-// largest single cost of the evaluation (one per triangle and point). With
-// t = min(|x|, |y|) / max(|x|, |y|) ∈ [0, 1], atan(t) = atan(τ_k) + atan(u),
-// u = (t − τ_k) / (1 + t τ_k), for the τ_k = tan(kπ/16) nearest in angle, so |u| ≤ tan(π/32) and
-// the Taylor series u (1 − u²/3 + u⁴/5 − …) truncated after u¹⁵/15 is exact to 5e-18 relative.
-// The octant is restored by a sign and an offset from a table (no unpredictable branches); small
-// angles in the first octant, the common case (most triangles subtend small solid angles), take a
-// shortcut.
-constexpr double kTanSector[5] = {0.0, 0x1.975f5e0553158p-3, 0x1.a827999fcef32p-2,
-                                  0x1.561b82ab7f990p-1, 1.0};  // tan(kπ/16), rounded
-constexpr double kAtanSector[5] = {0.0, 0.19634954084936207, 0.39269908169872414,
-                                   0.5890486225480862, 0.7853981633974483};  // atan(kTanSector)
-constexpr double kSectorBound[4] = {0.09849140335716425, 0.3033466836073424, 0.5345111359507916,
-                                    0.8206787908286602};  // tan((2k + 1)π/32)
-constexpr double kPi = std::numbers::pi, kHalfPi = 0.5 * std::numbers::pi;
-// Bits: |y| > |x|, x < 0, y < 0.
-constexpr double kOctantOffset[8] = {0.0, kHalfPi, kPi, kHalfPi, -0.0, -kHalfPi, -kPi, -kHalfPi};
-constexpr double kOctantSign[8] = {1.0, -1.0, -1.0, 1.0, -1.0, 1.0, 1.0, -1.0};
+// Adds every triangle's φ and ψ terms (into s.phi, s.psi) for the points whose vertex and edge
+// terms edgePass() left; leaves the sum of the solid angles in s.io[4] and, in the regular pass,
+// flags in s.io[5] the points within the surface tolerance of some triangle's plane. In the
+// surface pass, for the lanes set in s.io[3], the triangles touching x (within the tolerance)
+// contribute their principal value: no double layer (Ω = 0, h = 0) and the single layer at h = 0.
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void facePass(
+    const detail::GreenData& g, Scratch& s, bool surface) {
+  const VD zero{};
+  const VD infinity = zero + kInf;
+  const double tol2 = g.surfaceTolerance2;
+  const VI surfaceLanes = s.io[3] != 0.0;
+  const VertexLanes* __restrict vl = s.vertices.data();
+  const EdgeLanes* __restrict el = s.edges.data();
+  const VD* __restrict edgeDist2 = s.edgeDist2.data();
+  FaceLanes* __restrict fl = s.faces.data();
+  VD* __restrict phi = s.phi.data();
+  VD* __restrict psi = s.psi.data();
+  for (std::size_t i = 0; i < g.vertices.size(); ++i) phi[i] = zero;
+  VD omegaSum = zero;
+  VI nearPlane = surfaceLanes & 0;
+  for (std::size_t j = 0; j < g.faces.size(); ++j) {
+    const detail::GreenData::Face& f = g.faces[j];
+    const VertexLanes* v[3] = {&vl[f.vertex[0]], &vl[f.vertex[1]], &vl[f.vertex[2]]};
+    const EdgeLanes* e[3] = {&el[f.edge[0]], &el[f.edge[1]], &el[f.edge[2]]};
+    const Vec3& n = f.normal;
+    VD h = n.x * v[0]->r[0] + n.y * v[0]->r[1] + n.z * v[0]->r[2];
+    VD d[3];
+    for (int i = 0; i < 3; ++i) {
+      const Vec3& m = f.edgeNormal[i];
+      d[i] = m.x * v[i]->r[0] + m.y * v[i]->r[1] + m.z * v[i]->r[2];
+    }
+    const VD lg[3] = {e[0]->log, e[1]->log, e[2]->log};
+    if (!surface) {
+      fl[j].h = h;
+      for (int i = 0; i < 3; ++i) fl[j].d[i] = d[i];
+    }
 
-// atan(u) − u for |u| ≤ tan(π/32).
-inline double atanSeries(double u) {
-  const double s = u * u;
-  return u * s *
-         (-1.0 / 3 +
-          s * (1.0 / 5 + s * (-1.0 / 7 +
-                              s * (1.0 / 9 + s * (-1.0 / 11 + s * (1.0 / 13 + s * (-1.0 / 15)))))));
-}
+    // The solid angle around the edge with the smallest closeness (the first of equals): edge 0
+    // unless some lane is close to an edge.
+    const VI pick1 = e[1]->closeness < e[0]->closeness;
+    const VD closeness01 = pick1 ? e[1]->closeness : e[0]->closeness;
+    const VI pick2 = e[2]->closeness < closeness01;
+    VD p = e[0]->p, r02 = e[0]->r02, cLength = v[kOpposite[0]]->length;
+    VD sv[3], qv[3], c[3];
+    for (int i = 0; i < 3; ++i) {
+      sv[i] = e[0]->s[i];
+      qv[i] = e[0]->q[i];
+      c[i] = v[kOpposite[0]]->r[i];
+    }
+    if (anyLane(pick1 | pick2)) {
+      const VertexLanes& c1 = *v[kOpposite[1]];
+      const VertexLanes& c2 = *v[kOpposite[2]];
+      p = pick2 ? e[2]->p : (pick1 ? e[1]->p : p);
+      r02 = pick2 ? e[2]->r02 : (pick1 ? e[1]->r02 : r02);
+      cLength = pick2 ? c2.length : (pick1 ? c1.length : cLength);
+      for (int i = 0; i < 3; ++i) {
+        sv[i] = pick2 ? e[2]->s[i] : (pick1 ? e[1]->s[i] : sv[i]);
+        qv[i] = pick2 ? e[2]->q[i] : (pick1 ? e[1]->q[i] : qv[i]);
+        c[i] = pick2 ? c2.r[i] : (pick1 ? c1.r[i] : c[i]);
+      }
+    }
+    // det(r_a, r_b, r_c) = 2A h with h = n·q = n·r_c, from the shorter vector (its error is
+    // relative to its length): q close to the edge, r_c close to the opposite corner.
+    const VI useQ = r02 <= cLength * cLength;
+    const VD toPlane[3] = {useQ ? qv[0] : c[0], useQ ? qv[1] : c[1], useQ ? qv[2] : c[2]};
+    const VD num = f.twiceArea * (n.x * toPlane[0] + n.y * toPlane[1] + n.z * toPlane[2]);
+    const VD den = cLength * p + (sv[0] * c[0] + sv[1] * c[1] + sv[2] * c[2]);
+    VD omega;
+    angleLanes(num, den, omega);
+    omega = 2.0 * omega;
+    if (surface) {
+      // The squared distance from x to the triangle: to its plane if the projection is inside
+      // it, else to the nearest edge the projection is outside of.
+      VD edge2 = infinity;
+      for (int i = 0; i < 3; ++i) {
+        const VD di = d[i] < 0.0 ? edgeDist2[f.edge[i]] : infinity;
+        edge2 = di < edge2 ? di : edge2;
+      }
+      const VD dist2 = edge2 == kInf ? h * h : edge2;
+      const VI touching = surfaceLanes & (dist2 <= tol2);
+      omega = touching ? zero : omega;
+      h = touching ? zero : h;
+    } else {
+      nearPlane |= h * h <= tol2;
+    }
+    omegaSum += omega;
 
-inline double angle(double y, double x) {
-  if (x > 0.0 && std::abs(y) <= kSectorBound[0] * x) {
-    const double u = y / x;
-    return u + atanSeries(u);
+    // The three corners' terms add up to Ω / 4π (Σ Γ_l = 1, Σ_l g_l = 0): the third is the rest.
+    const VD w = kInv4Pi * omega, hw = kInv4Pi * h;
+    psi[j] = kInv4Pi * (d[0] * lg[0] + d[1] * lg[1] + d[2] * lg[2]) - hw * omega;
+    const double* g0 = f.gradDotEdge[0];
+    const double* g1 = f.gradDotEdge[1];
+    const VD phi0 =
+        d[1] * f.edgeFactor[1] * w - hw * (g0[0] * lg[0] + g0[1] * lg[1] + g0[2] * lg[2]);
+    const VD phi1 =
+        d[2] * f.edgeFactor[2] * w - hw * (g1[0] * lg[0] + g1[1] * lg[1] + g1[2] * lg[2]);
+    phi[f.vertex[0]] += phi0;
+    phi[f.vertex[1]] += phi1;
+    phi[f.vertex[2]] += w - phi0 - phi1;
   }
-  const double ax = std::abs(x), ay = std::abs(y);
-  const double lo = std::min(ax, ay), hi = std::max(ax, ay);
-  if (hi == 0.0) return 0.0;
-  const int k =
-      static_cast<int>(lo > kSectorBound[0] * hi) + static_cast<int>(lo > kSectorBound[1] * hi) +
-      static_cast<int>(lo > kSectorBound[2] * hi) + static_cast<int>(lo > kSectorBound[3] * hi);
-  const double tau = kTanSector[k];
-  const double u = (lo - tau * hi) / (hi + tau * lo);
-  const double a = kAtanSector[k] + (u + atanSeries(u));
-  const int octant = static_cast<int>(ay > ax) | (static_cast<int>(x < 0.0) << 1) |
-                     (static_cast<int>(y < 0.0) << 2);
-  return kOctantOffset[octant] + kOctantSign[octant] * a;
+  s.io[4] = omegaSum;
+  s.io[5] = nearPlane ? zero + 1.0 : zero;
 }
 
 // The nearest triangle found so far, with what the exterior and surface formulas need of it.
@@ -179,212 +517,164 @@ struct Nearest {
   double bary[3] = {0.0, 0.0, 0.0};  // Γ_l(p), p the projection of x onto the plane
 };
 
-// Evaluates one point. Kept out of the class so the hot loops see plain data only.
-class Evaluator {
- public:
-  using Impl = detail::GreenData;
-
-  Evaluator(const Impl& g, Scratch& s) : g_(g), s_(s) {
-    s_.vertices.resize(g.vertices.size());
-    s_.edges.resize(g.edges.size());
-    s_.faces.resize(g.faces.size());
-  }
-
-  // Fills row (V + F entries) and returns where x is; the nearest triangle and the distance are
-  // searched for only when needed (x outside or near the surface) or when `locate` is set.
-  GreenCoordinates::Location run(const Vec3& x, double* row, bool locate) {
-    const std::size_t nv = g_.vertices.size();
-    for (std::size_t i = 0; i < nv; ++i) {
-      VertexTerm& t = s_.vertices[i];
-      t.r = g_.vertices[i] - x;
-      t.length = std::sqrt(glm::dot(t.r, t.r));
+// The triangle containing the point of the surface nearest to the point of lane l; ties (the
+// point is on an edge or a vertex) go to the largest β (x farthest in front of the plane), then
+// the lowest index. The squared distance to a triangle is that to its plane if the projection p
+// is inside it, else that to the nearest edge p is outside of (the nearest point is on such an
+// edge).
+Nearest findNearest(const detail::GreenData& g, const Scratch& s, int l) {
+  Nearest nearest;
+  for (std::size_t j = 0; j < g.faces.size(); ++j) {
+    const detail::GreenData::Face& f = g.faces[j];
+    const double h = s.faces[j].h[l];
+    const double d[3] = {s.faces[j].d[0][l], s.faces[j].d[1][l], s.faces[j].d[2][l]};
+    double edgeDist2 = kInf;
+    for (int i = 0; i < 3; ++i)
+      if (d[i] < 0.0) edgeDist2 = std::min(edgeDist2, s.edgeDist2[f.edge[i]][l]);
+    const double dist2 = edgeDist2 == kInf ? h * h : edgeDist2;
+    const double beta = -h;
+    if (dist2 < nearest.dist2 || (dist2 == nearest.dist2 && beta > nearest.beta)) {
+      nearest.dist2 = dist2;
+      nearest.beta = beta;
+      nearest.face = j;
+      nearest.bary[0] = d[1] * f.edgeFactor[1];
+      nearest.bary[1] = d[2] * f.edgeFactor[2];
+      nearest.bary[2] = d[0] * f.edgeFactor[0];
     }
-    double minEdgeDist2 = kInf;
-    for (std::size_t e = 0; e < g_.edges.size(); ++e)
-      minEdgeDist2 = std::min(minEdgeDist2, edgeTerm(e));
+  }
+  return nearest;
+}
 
-    double* phi = row;
-    double* psi = row + nv;
-    std::fill(phi, phi + nv, 0.0);
-    bool nearPlane = false;
-    const double omegaSum = faceLoop<false>(phi, psi, nearPlane);
+// The rows of count ≤ kLanes points, written at rows + i * stride (V + F entries each), and, if
+// `locations` is set, where they are (the nearest triangle is then searched for every point;
+// otherwise only for points outside or near the surface). Unused lanes repeat the last point.
+void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count, double* rows,
+              std::size_t stride, GreenCoordinates::Location* locations) {
+  static thread_local Scratch scratch;
+  Scratch& s = scratch;
+  s.reserve(g);
+  for (int l = 0; l < kLanes; ++l) {
+    const Vec3& x = points[std::min(static_cast<std::size_t>(l), count - 1)];
+    s.io[0][l] = x.x;
+    s.io[1][l] = x.y;
+    s.io[2][l] = x.z;
+    s.io[3][l] = 0.0;
+  }
+  edgePass(g, s);
+  facePass(g, s, false);
 
-    GreenCoordinates::Location loc;
-    loc.windingNumber = omegaSum * kInv4Pi;
-    const bool inside = loc.windingNumber > 0.5;
+  const std::size_t nv = g.vertices.size(), nf = g.faces.size();
+  auto copyRow = [&](std::size_t l) {
+    double* row = rows + l * stride;
+    for (std::size_t i = 0; i < nv; ++i) row[i] = s.phi[i][l];
+    for (std::size_t j = 0; j < nf; ++j) row[nv + j] = s.psi[j][l];
+  };
+  GreenCoordinates::Location loc[kLanes];
+  Nearest nearest[kLanes];
+  bool anySurface = false;
+  for (std::size_t l = 0; l < count; ++l) {
+    copyRow(l);
+    loc[l].windingNumber = s.io[4][l] * kInv4Pi;
+    const bool inside = loc[l].windingNumber > 0.5;
     // The distance to a triangle is that to its plane or to one of its edges, so x can only be
     // within the tolerance of the surface if it is of a plane or an edge.
-    const bool maybeSurface = nearPlane || minEdgeDist2 <= g_.surfaceTolerance2;
-    if (inside && !maybeSurface && !locate) {
-      loc.region = GreenCoordinates::Region::Inside;
-      return loc;
+    const bool maybeSurface = s.io[5][l] != 0.0 || s.io[6][l] <= g.surfaceTolerance2;
+    loc[l].region = inside ? GreenCoordinates::Region::Inside : GreenCoordinates::Region::Outside;
+    if (inside && !maybeSurface && locations == nullptr) continue;
+    nearest[l] = findNearest(g, s, static_cast<int>(l));
+    loc[l].triangle = nearest[l].face;
+    loc[l].distance = std::sqrt(nearest[l].dist2);
+    if (nearest[l].dist2 <= g.surfaceTolerance2) {
+      loc[l].region = GreenCoordinates::Region::Surface;
+      s.io[3][l] = 1.0;
+      anySurface = true;
     }
-    const Nearest nearest = findNearest();
-    loc.triangle = nearest.face;
-    loc.distance = std::sqrt(nearest.dist2);
-    const Impl::Face& f = g_.faces[nearest.face];
-    if (nearest.dist2 <= g_.surfaceTolerance2) {
-      // Surface: principal value plus (1 − σ) times the hat values at the point.
-      std::fill(phi, phi + nv, 0.0);
-      const double sigma = faceLoop<true>(phi, psi, nearPlane) * kInv4Pi;
-      loc.region = GreenCoordinates::Region::Surface;
-      loc.windingNumber = sigma;
-      for (int l = 0; l < 3; ++l) phi[f.vertex[l]] += (1.0 - sigma) * nearest.bary[l];
-      return loc;
-    }
-    if (inside) {
-      loc.region = GreenCoordinates::Region::Inside;
-      return loc;
-    }
-    // Outside: continue the interior coordinates through the nearest triangle.
-    loc.region = GreenCoordinates::Region::Outside;
-    for (int l = 0; l < 3; ++l) phi[f.vertex[l]] += nearest.bary[l];
-    psi[nearest.face] += nearest.beta;
-    return loc;
   }
+  // Surface: principal value plus (1 − σ) times the hat values at the point.
+  if (anySurface) facePass(g, s, true);
+  for (std::size_t l = 0; l < count; ++l) {
+    double* row = rows + l * stride;
+    const detail::GreenData::Face& f = g.faces[nearest[l].face];
+    if (loc[l].region == GreenCoordinates::Region::Surface) {
+      copyRow(l);
+      const double sigma = s.io[4][l] * kInv4Pi;
+      loc[l].windingNumber = sigma;
+      for (int k = 0; k < 3; ++k) row[f.vertex[k]] += (1.0 - sigma) * nearest[l].bary[k];
+    } else if (loc[l].region == GreenCoordinates::Region::Outside) {
+      // Outside: continue the interior coordinates through the nearest triangle.
+      for (int k = 0; k < 3; ++k) row[f.vertex[k]] += nearest[l].bary[k];
+      row[nv + nearest[l].face] += nearest[l].beta;
+    }
+    if (locations != nullptr) locations[l] = loc[l];
+  }
+}
 
- private:
-  // Fills the terms of edge `index`; returns the squared distance from x to the edge.
-  double edgeTerm(std::size_t index) {
-    const Impl::Edge& edge = g_.edges[index];
-    const Vec3& e = edge.direction;
-    const VertexTerm& a = s_.vertices[edge.a];
-    const VertexTerm& b = s_.vertices[edge.b];
-    EdgeTerm& out = s_.edges[index];
-    const double ra = a.length, rb = b.length;
-    const double ta = glm::dot(e, a.r);
-    const double tb = glm::dot(e, b.r);
-    // The perpendicular from x to the edge line, from the nearer end (its error is then relative
-    // to that end's distance).
-    const bool aNearer = ra <= rb;
-    const Vec3 q = (aNearer ? a.r : b.r) - (aNearer ? ta : tb) * e;
-    out.q = q;
-    const double r02 = glm::dot(q, q);
-    out.r02 = r02;
-    // L: when the foot of x is before a (ta ≥ 0) every R + t is a sum of non-negatives; after b
-    // (tb ≤ 0) R + t = R0² / (R − t) at both ends and R0² cancels; in between
-    // R_a + t_a = R0² / (R_a − t_a), with R0² from the perpendicular itself.
-    const bool before = ta >= 0.0, after = tb <= 0.0;
-    const double num = before ? rb + tb : after ? ra - ta : (rb + tb) * (ra - ta);
-    const double den = before ? ra + ta : after ? rb - tb : r02;
-    out.dist2 = before ? ra * ra : after ? rb * rb : r02;
-    // P and S as written are accurate unless r_a and r_b are far from each other's direction
-    // (1 + cos < 1/2, which needs the foot inside the segment); then the cancellation-free forms.
-    const double rarb = ra * rb;
-    const double p = rarb + glm::dot(a.r, b.r);
-    if (p >= 0.5 * rarb) {
-      out.p = p;
-      out.s = ra * b.r + rb * a.r;
-      out.closeness = 2.0;
+// ---- the elementary functions on arrays, for their tests (detail::greenLogRatio, greenAtan2) ----
+
+template <bool kLog>
+[[gnu::always_inline]] inline void lanewise(const double* a, const double* b, double* out,
+                                            std::size_t n) {
+  for (std::size_t i = 0; i < n; i += kLanes) {
+    VD va, vb, y;
+    for (int l = 0; l < kLanes; ++l) {
+      const std::size_t k = std::min(i + static_cast<std::size_t>(l), n - 1);
+      va[l] = a[k];
+      vb[l] = b[k];
+    }
+    if constexpr (kLog) {
+      logRatioLanes(va, vb, y);
     } else {
-      const double d1 = rarb - glm::dot(a.r, b.r);  // ≥ R_a R_b
-      const double d2 = ra * tb - rb * ta;          // > 0
-      const double inv = 1.0 / (d1 * d2);
-      out.p = edge.length * edge.length * r02 * d2 * inv;
-      const double k = r02 * edge.length * (ta + tb) * d1 * inv;
-      // q made orthogonal to e to round-off in |q|: a residual along e would enter S·r_c
-      // differently for the two triangles of the edge.
-      out.s = (ra + rb) * (q - glm::dot(q, e) * e) + k * e;
-      out.closeness = out.p / rarb;
+      angleLanes(va, vb, y);
     }
-    const double log = std::log(num / den);
-    // Not finite only for x on the segment: every triangle using the edge then touches x and is
-    // a surface triangle, whose terms do not use L.
-    out.log = std::isfinite(log) ? log : 0.0;
-    return out.dist2;
+    for (std::size_t l = 0; l < kLanes && i + l < n; ++l) out[i + l] = y[l];
   }
+}
 
-  // The squared distance from x to triangle f: to its plane if the projection p is inside it,
-  // else to the nearest edge p is outside of (the nearest point is on such an edge).
-  double faceDist2(const Impl::Face& f, double h, const double d[3]) const {
-    const EdgeTerm* e[3] = {&s_.edges[f.edge[0]], &s_.edges[f.edge[1]], &s_.edges[f.edge[2]]};
-    const double edgeDist2 =
-        std::min(std::min(d[0] < 0.0 ? e[0]->dist2 : kInf, d[1] < 0.0 ? e[1]->dist2 : kInf),
-                 d[2] < 0.0 ? e[2]->dist2 : kInf);
-    return edgeDist2 == kInf ? h * h : edgeDist2;
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void logRatioDispatched(
+    const double* num, const double* den, double* out, std::size_t n) {
+  lanewise<true>(num, den, out, n);
+}
+void logRatioBaseline(const double* num, const double* den, double* out, std::size_t n) {
+  lanewise<true>(num, den, out, n);
+}
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void atan2Dispatched(const double* y,
+                                                                                 const double* x,
+                                                                                 double* out,
+                                                                                 std::size_t n) {
+  lanewise<false>(y, x, out, n);
+}
+void atan2Baseline(const double* y, const double* x, double* out, std::size_t n) {
+  lanewise<false>(y, x, out, n);
+}
+
+void checkSizes(const char* what, std::size_t a, std::size_t b, std::size_t out) {
+  if (a != b || a != out) {
+    throw InvalidInput(std::string(what) + ": the spans have different sizes (" +
+                       std::to_string(a) + ", " + std::to_string(b) + ", " + std::to_string(out) +
+                       ")");
   }
-
-  // The triangle containing the point of the surface nearest to x; ties (the point is on an edge
-  // or a vertex) go to the largest β (x farthest in front of the plane), then the lowest index.
-  Nearest findNearest() const {
-    Nearest nearest;
-    for (std::size_t j = 0; j < g_.faces.size(); ++j) {
-      const Impl::Face& f = g_.faces[j];
-      const double h = s_.faces[j].h;
-      const double* d = s_.faces[j].d;
-      const double dist2 = faceDist2(f, h, d);
-      const double beta = -h;
-      if (dist2 < nearest.dist2 || (dist2 == nearest.dist2 && beta > nearest.beta)) {
-        nearest.dist2 = dist2;
-        nearest.beta = beta;
-        nearest.face = j;
-        nearest.bary[0] = d[1] * f.edgeFactor[1];
-        nearest.bary[1] = d[2] * f.edgeFactor[2];
-        nearest.bary[2] = d[0] * f.edgeFactor[0];
-      }
-    }
-    return nearest;
-  }
-
-  // Adds every triangle's φ and ψ terms; returns the sum of the solid angles and sets nearPlane
-  // if x is within the surface tolerance of some triangle's plane. In the surface pass the
-  // triangles touching x (within the tolerance) contribute their principal value: no double layer
-  // (Ω = 0, h = 0) and the single layer at h = 0.
-  template <bool kSurface>
-  double faceLoop(double* phi, double* psi, bool& nearPlane) const {
-    double omegaSum = 0.0;
-    const double tol2 = g_.surfaceTolerance2;
-    for (std::size_t j = 0; j < g_.faces.size(); ++j) {
-      const Impl::Face& f = g_.faces[j];
-      const VertexTerm* v[3] = {&s_.vertices[f.vertex[0]], &s_.vertices[f.vertex[1]],
-                                &s_.vertices[f.vertex[2]]};
-      const EdgeTerm* e[3] = {&s_.edges[f.edge[0]], &s_.edges[f.edge[1]], &s_.edges[f.edge[2]]};
-      double h = glm::dot(f.normal, v[0]->r);
-      const double d[3] = {glm::dot(f.edgeNormal[0], v[0]->r), glm::dot(f.edgeNormal[1], v[1]->r),
-                           glm::dot(f.edgeNormal[2], v[2]->r)};
-      const double lg[3] = {e[0]->log, e[1]->log, e[2]->log};
-      if constexpr (!kSurface) s_.faces[j] = {h, {d[0], d[1], d[2]}};
-
-      double omega;
-      if (kSurface && faceDist2(f, h, d) <= tol2) {
-        omega = 0.0;
-        h = 0.0;
-      } else {
-        if constexpr (!kSurface) nearPlane |= h * h <= tol2;
-        int i = e[1]->closeness < e[0]->closeness ? 1 : 0;
-        if (e[2]->closeness < e[i]->closeness) i = 2;
-        const EdgeTerm& et = *e[i];
-        const VertexTerm& c = *v[kOpposite[i]];
-        // det(r_a, r_b, r_c) = 2A h with h = n·q = n·r_c, from the shorter vector (its error is
-        // relative to its length): q close to the edge, r_c close to the opposite corner.
-        const Vec3& toPlane = et.r02 <= c.length * c.length ? et.q : c.r;
-        const double num = f.twiceArea * glm::dot(f.normal, toPlane);
-        const double den = c.length * et.p + glm::dot(et.s, c.r);
-        omega = 2.0 * angle(num, den);
-      }
-      omegaSum += omega;
-
-      // The three corners' terms add up to Ω / 4π (Σ Γ_l = 1, Σ_l g_l = 0): the third is the rest.
-      const double w = kInv4Pi * omega, hw = kInv4Pi * h;
-      psi[j] = kInv4Pi * (d[0] * lg[0] + d[1] * lg[1] + d[2] * lg[2]) - hw * omega;
-      const double* c0 = f.gradDotEdge[0];
-      const double* c1 = f.gradDotEdge[1];
-      const double phi0 =
-          d[1] * f.edgeFactor[1] * w - hw * (c0[0] * lg[0] + c0[1] * lg[1] + c0[2] * lg[2]);
-      const double phi1 =
-          d[2] * f.edgeFactor[2] * w - hw * (c1[0] * lg[0] + c1[1] * lg[1] + c1[2] * lg[2]);
-      phi[f.vertex[0]] += phi0;
-      phi[f.vertex[1]] += phi1;
-      phi[f.vertex[2]] += w - phi0 - phi1;
-    }
-    return omegaSum;
-  }
-
-  const Impl& g_;
-  Scratch& s_;
-};
+}
 
 }  // namespace
+
+namespace detail {
+
+void greenLogRatio(std::span<const double> num, std::span<const double> den, std::span<double> out,
+                   bool baseline) {
+  checkSizes("greenLogRatio", num.size(), den.size(), out.size());
+  if (out.empty()) return;
+  (baseline ? logRatioBaseline : logRatioDispatched)(num.data(), den.data(), out.data(),
+                                                     out.size());
+}
+
+void greenAtan2(std::span<const double> y, std::span<const double> x, std::span<double> out,
+                bool baseline) {
+  checkSizes("greenAtan2", y.size(), x.size(), out.size());
+  if (out.empty()) return;
+  (baseline ? atan2Baseline : atan2Dispatched)(y.data(), x.data(), out.data(), out.size());
+}
+
+}  // namespace detail
 
 GreenCoordinates::GreenCoordinates(std::shared_ptr<const Cage> cage, GreenOptions options)
     : cage_(std::move(cage)), options_(options) {
@@ -454,8 +744,7 @@ std::size_t GreenCoordinates::columnCount() const {
 
 void GreenCoordinates::weights(const Vec3& x, std::span<double> row) const {
   checkWeightsArguments(x, row.size());
-  thread_local Scratch scratch;
-  Evaluator(*impl_, scratch).run(x, row.data(), false);
+  evaluate(*impl_, &x, 1, row.data(), row.size(), nullptr);
 }
 
 void GreenCoordinates::weightsBatch(std::span<const Vec3> points, std::span<double> rows) const {
@@ -469,13 +758,15 @@ void GreenCoordinates::weightsBatch(std::span<const Vec3> points, std::span<doub
     if (!isFinite(points[i]))
       throw InvalidInput("GreenCoordinates: point " + std::to_string(i) + " is not finite");
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 16),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      Scratch scratch;
-                      Evaluator evaluator(*impl_, scratch);
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        evaluator.run(points[i], rows.data() + i * m, false);
-                    });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, points.size(), kPointsPerTask),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i < r.end(); i += kLanes) {
+          const std::size_t count = std::min<std::size_t>(kLanes, r.end() - i);
+          evaluate(*impl_, points.data() + i, count, rows.data() + i * m, m, nullptr);
+        }
+      },
+      tbb::simple_partitioner());
 }
 
 void GreenCoordinates::columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const {
@@ -501,10 +792,11 @@ void GreenCoordinates::columnControls(std::span<const Vec3> posed, std::span<Vec
 
 GreenCoordinates::Location GreenCoordinates::locate(const Vec3& x) const {
   if (!isFinite(x)) throw InvalidInput("GreenCoordinates: the query point is not finite");
-  thread_local Scratch scratch;
   thread_local std::vector<double> row;
   row.resize(columnCount());
-  return Evaluator(*impl_, scratch).run(x, row.data(), true);
+  Location location;
+  evaluate(*impl_, &x, 1, row.data(), row.size(), &location);
+  return location;
 }
 
 }  // namespace spacewarp

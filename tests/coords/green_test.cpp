@@ -1,6 +1,8 @@
 #include "coords/green.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -573,6 +575,160 @@ TEST(GreenCoordinates, InvalidInputThrows) {
   EXPECT_THROW(CoordinateWarp(g, tooFew), InvalidInput);
   const Binding binding(g, std::vector<Vec3>{Vec3(0.1)});
   EXPECT_THROW(binding.deform(tooFew), InvalidInput);
+}
+
+// The kernel's own logarithm and arctangent (no libm in the SIMD passes) against the C++ library
+// and long double, over their whole input ranges, in the build the kernel runs on this CPU and
+// in the portable one.
+
+// |value − reference| in units of the ulp of the reference rounded to double (the spacing of
+// doubles at it: 2^-1074 for subnormals).
+double ulpError(double value, long double reference) {
+  const double r = std::abs(static_cast<double>(reference));
+  const double ulp = std::nextafter(r, std::numeric_limits<double>::infinity()) - r;
+  return static_cast<double>(std::abs(static_cast<long double>(value) - reference) / ulp);
+}
+
+// v in hexadecimal floating point, exactly.
+std::string hex(double v) {
+  char text[40];
+  std::snprintf(text, sizeof text, "%a", v);
+  return text;
+}
+
+// A positive double with a uniformly random exponent in [minExponent, maxExponent] (subnormals
+// below −1022) and a uniform mantissa.
+double randomMagnitude(std::mt19937_64& rng, int minExponent, int maxExponent) {
+  std::uniform_real_distribution<double> mantissa(1.0, 2.0);
+  std::uniform_int_distribution<int> exponent(minExponent, maxExponent);
+  return std::ldexp(mantissa(rng), exponent(rng));
+}
+
+TEST(GreenKernelFunctions, LogIsWithinTwoUlps) {
+  constexpr double kMax = std::numeric_limits<double>::max();
+  constexpr double kMin = std::numeric_limits<double>::min();
+  constexpr double kTiny = std::numeric_limits<double>::denorm_min();
+  // ln x against std::log: the whole positive range, 1 and its neighbourhood, the reduction's
+  // break points √½ and √2, powers of two.
+  std::vector<double> x = {1.0,
+                           kMax,
+                           kMin,
+                           kTiny,
+                           2 * kTiny,
+                           0.5,
+                           2.0,
+                           std::nextafter(1.0, 0.0),
+                           std::nextafter(1.0, 2.0)};
+  for (double c : {std::numbers::sqrt2, 0.5 * std::numbers::sqrt2}) {
+    double lo = c, hi = c;
+    for (int i = 0; i < 20; ++i) {
+      x.push_back(lo = std::nextafter(lo, 0.0));
+      x.push_back(hi = std::nextafter(hi, 2.0));
+    }
+  }
+  for (int e = -1074; e <= 1023; e += 7) x.push_back(std::ldexp(1.0, e));
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (int i = 0; i < 200000; ++i) x.push_back(randomMagnitude(rng, -1074, 1023));
+  for (int i = 0; i < 20000; ++i) {
+    const double near1 = 1.0 + unit(rng) * std::ldexp(1.0, -(i % 53));
+    if (near1 > 0.0) x.push_back(near1);
+  }
+  // ln(num / den) against long double: num and den anywhere in the range, and close to each
+  // other (where the quotient's logarithm is small and a rounded quotient would lose it).
+  std::vector<double> num, den;
+  for (int i = 0; i < 200000; ++i) {
+    den.push_back(randomMagnitude(rng, -1074, 1023));
+    num.push_back(i % 2 == 0 ? randomMagnitude(rng, -1074, 1023)
+                             : den.back() * (1.0 + unit(rng) * std::ldexp(1.0, -(i % 60))));
+    if (!(num.back() > 0.0 && num.back() <= kMax)) num.back() = den.back();
+  }
+  for (bool baseline : {false, true}) {
+    std::vector<double> out(x.size());
+    detail::greenLogRatio(x, std::vector<double>(x.size(), 1.0), out, baseline);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const double reference = std::log(x[i]);
+      if (reference == 0.0) {
+        ASSERT_EQ(out[i], 0.0) << hex(x[i]);
+        continue;
+      }
+      const double err = ulpError(out[i], reference);
+      worst = std::max(worst, err);
+      ASSERT_LE(err, 2.0) << "ln " << hex(x[i]) << (baseline ? " (baseline)" : "");
+    }
+    std::vector<double> ratio(num.size());
+    detail::greenLogRatio(num, den, ratio, baseline);
+    double worstRatio = 0.0;
+    for (std::size_t i = 0; i < num.size(); ++i) {
+      const long double n = num[i], d = den[i];
+      const long double q = n / d;
+      // Near 1, log1p of the exact difference (num − den is exact there).
+      const long double reference = std::abs(q - 1) < 0.5L ? std::log1p((n - d) / d) : std::log(q);
+      if (reference == 0.0L) continue;
+      const double err = ulpError(ratio[i], reference);
+      worstRatio = std::max(worstRatio, err);
+      ASSERT_LE(err, 2.0) << "ln(" << hex(num[i]) << " / " << hex(den[i]) << ")"
+                          << (baseline ? " (baseline)" : "");
+    }
+    RecordProperty(baseline ? "worst_ulp_log_baseline" : "worst_ulp_log",
+                   std::to_string(worst) + ", ratio " + std::to_string(worstRatio));
+  }
+}
+
+TEST(GreenKernelFunctions, Atan2IsWithinTwoUlps) {
+  // Every quadrant and sign of zero, the axes and diagonals, the neighbourhoods of the sector
+  // bounds, arguments of similar size and anywhere in the range (subnormal to the largest).
+  std::vector<double> y, x;
+  auto add = [&](double a, double b) {
+    for (double sy : {1.0, -1.0})
+      for (double sx : {1.0, -1.0}) {
+        y.push_back(sy * a);
+        x.push_back(sx * b);
+        y.push_back(sy * b);
+        x.push_back(sx * a);
+      }
+  };
+  const double kMax = std::numeric_limits<double>::max();
+  for (double b : {1.0, kMax, std::numeric_limits<double>::denorm_min()}) {
+    add(0.0, b);
+    add(b, b);
+  }
+  for (double t : {0.0625, 0.0626, 0.125, 0.18679502309911022, 0.25, 0.36992407621548123, 0.5,
+                   0.7207592200561265, 1.0}) {
+    double lo = t, hi = t;
+    for (int i = 0; i < 20; ++i) {
+      add(lo = std::nextafter(lo, 0.0), 1.0);
+      add(hi = std::nextafter(hi, 2.0), 1.0);
+    }
+  }
+  std::mt19937_64 rng(22);
+  for (int i = 0; i < 50000; ++i) {
+    const double b = randomMagnitude(rng, -1074, 1023);
+    add(randomMagnitude(rng, -1074, 1023), b);
+    add(b * std::uniform_real_distribution<double>(0.0, 1.0)(rng), b);
+  }
+  for (bool baseline : {false, true}) {
+    std::vector<double> out(y.size());
+    detail::greenAtan2(y, x, out, baseline);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      const double reference = std::atan2(y[i], x[i]);
+      const double err = reference == 0.0
+                             ? (out[i] == reference ? 0.0 : std::numeric_limits<double>::infinity())
+                             : ulpError(out[i], reference);
+      worst = std::max(worst, err);
+      ASSERT_LE(err, 2.0) << "atan2(" << hex(y[i]) << ", " << hex(x[i]) << ") = " << hex(out[i])
+                          << ", not " << hex(reference) << (baseline ? " (baseline)" : "");
+      ASSERT_EQ(std::signbit(out[i]), std::signbit(reference)) << hex(y[i]) << ", " << hex(x[i]);
+    }
+    RecordProperty(baseline ? "worst_ulp_atan2_baseline" : "worst_ulp_atan2",
+                   std::to_string(worst));
+  }
+  // Both zero: 0 (the solid angle of a triangle seen from one of its points).
+  std::vector<double> zero = {0.0, -0.0, 0.0, -0.0}, signedZero = {0.0, 0.0, -0.0, -0.0}, out(4);
+  detail::greenAtan2(zero, signedZero, out);
+  for (double a : out) EXPECT_EQ(a, 0.0);
 }
 
 // The Armadillo of Ju, Schaefer and Warren (2005) with its cage and posed cages, when the shared
