@@ -42,13 +42,18 @@ void CoordinateWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) c
     throw InvalidInput("CoordinateWarp::applyBatch: input has " + std::to_string(in.size()) +
                        " points but output has " + std::to_string(out.size()));
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 256),
+  // Blocks of points through weightsBatch, so coordinates with a multi-point kernel (mean-value,
+  // Green) use it; their rows are bit-identical to weights(), so this equals apply().
+  constexpr std::size_t kBlock = 64;
+  const std::size_t m = displacement_.size();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), kBlock),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      std::vector<double> w(displacement_.size());
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        coordinates_->weights(in[i], w);
-                        out[i] = displace(in[i], w, displacement_);
-                      }
+                      std::vector<double> rows(r.size() * m);
+                      std::vector<Vec3> block(in.begin() + r.begin(), in.begin() + r.end());
+                      coordinates_->weightsBatch(block, rows);
+                      for (std::size_t i = 0; i < block.size(); ++i)
+                        out[r.begin() + i] =
+                            displace(block[i], std::span(rows).subspan(i * m, m), displacement_);
                     });
 }
 

@@ -22,8 +22,8 @@ class CoordinateWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
-  /// Computes weights block by block with one reused row buffer per block (no allocation per
-  /// point); bit-identical to apply().
+  /// Computes weights block by block through Coordinates::weightsBatch (so multi-point kernels
+  /// are used); bit-identical to apply().
   void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   const Coordinates& coordinates() const { return *coordinates_; }
