@@ -5,6 +5,8 @@
 
 #include "apps/cage_methods.h"
 #include "apps/ffd_rig.h"
+#include "apps/graph_rig.h"
+#include "apps/mls_rig.h"
 #include "apps/rbf_rig.h"
 #include "core/bend.h"
 #include "core/combinators.h"
@@ -58,6 +60,8 @@ const std::map<std::string, RigFactory>& factories() {
       {"mvc", [](RigReader& r) { return cageRig("mvc", r.path("cage"), r.path("pose")); }},
       {"green", [](RigReader& r) { return cageRig("green", r.path("cage"), r.path("pose")); }},
       {"ffd", ffdRig},
+      {"graph", graphRig},
+      {"mls", mlsRig},
       {"rbf", rbfRig},
       {"compose",
        [](RigReader& r) {

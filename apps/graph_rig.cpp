@@ -1,0 +1,77 @@
+#include "apps/graph_rig.h"
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/errors.h"
+#include "core/geometry.h"
+#include "nonlinear/deformation_graph.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+constexpr double kMaxGridNodes = 2.0e6;
+
+// Grid nodes of spacing s over the handles' bounding box padded by 2 s, x fastest.
+std::vector<Vec3> gridNodes(RigReader& r, const std::vector<Vec3>& handles, double s) {
+  const BoundingBox box = boundingBox(handles);
+  const Vec3 lo = box.min - Vec3(2.0 * s);
+  const Vec3 extent = box.extent() + Vec3(4.0 * s);
+  double counts[3];
+  for (int a = 0; a < 3; ++a) counts[a] = std::ceil(extent[a] / s - 1e-9) + 1.0;
+  if (!(counts[0] * counts[1] * counts[2] <= kMaxGridNodes)) {
+    r.fail("spacing", "gives more than 2,000,000 grid nodes over the handles' bounding box");
+  }
+  const int nx = int(counts[0]), ny = int(counts[1]), nz = int(counts[2]);
+  std::vector<Vec3> nodes;
+  nodes.reserve(std::size_t(nx) * std::size_t(ny) * std::size_t(nz));
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) nodes.push_back(lo + s * Vec3(i, j, k));
+  return nodes;
+}
+
+}  // namespace
+
+Rig graphRig(RigReader& r) {
+  const std::vector<Vec3> handles = r.points("handles");
+  const std::vector<Vec3> targets = r.points("targets");
+  if (targets.size() != handles.size()) {
+    r.fail("targets", "must have as many points as 'handles' (" + std::to_string(handles.size()) +
+                          "), not " + std::to_string(targets.size()));
+  }
+  DeformationGraphOptions options;
+  const double k = r.number("k", options.k);
+  if (!(k >= 1.0) || k != std::floor(k) || k > 64.0) r.fail("k", "must be an integer in [1, 64]");
+  options.k = int(k);
+  std::vector<Vec3> nodes;
+  if (r.has("nodes")) {
+    nodes = r.points("nodes");
+  } else {
+    options.spacing = r.number("spacing");
+    if (!(options.spacing > 0.0)) r.fail("spacing", "must be > 0");
+    nodes = gridNodes(r, handles, options.spacing);
+  }
+  if (options.k >= int(std::min<std::size_t>(nodes.size(), 65))) {
+    r.fail("k", "must be less than the number of nodes (" + std::to_string(nodes.size()) + ")");
+  }
+  DeformationGraphSolveOptions solve;
+  solve.rotationWeight = r.number("rotationWeight", solve.rotationWeight);
+  solve.regularizationWeight = r.number("regularizationWeight", solve.regularizationWeight);
+  solve.constraintWeight = r.number("constraintWeight", solve.constraintWeight);
+  for (const char* key : {"rotationWeight", "regularizationWeight", "constraintWeight"}) {
+    if (r.has(key) && !(r.number(key) >= 0.0)) r.fail(key, "must be >= 0");
+  }
+  try {
+    DeformationGraph graph(nodes, {}, options);
+    graph.solve(handles, targets, solve);
+    return {std::make_shared<DeformationGraphWarp>(graph.warp()), nullptr};
+  } catch (const SolverError& e) {
+    throw SolverError(r.where() + ": " + e.what());
+  }
+}
+
+}  // namespace spacewarp::cli

@@ -1,0 +1,20 @@
+#pragma once
+// The "graph" rig method: an embedded deformation graph (nonlinear/deformation_graph.h) solved
+// so that handles reach their targets. Keys are documented in README.md.
+
+#include "apps/rig.h"
+#include "apps/rig_reader.h"
+
+namespace spacewarp::cli {
+
+/// Reads "handles" and "targets" (arrays of [x, y, z], the same length), "spacing" (> 0, world
+/// units), optional "k" (nearest nodes per point, integer >= 1, default 4), optional "nodes"
+/// (explicit node positions) and optional "rotationWeight", "regularizationWeight",
+/// "constraintWeight" (>= 0; defaults 1, 10, 100). The rig does not see the input it will
+/// deform, so without "nodes" the nodes are a regular grid of spacing "spacing" over the
+/// bounding box of the handles padded by 2 · spacing on every side (at most 2,000,000 nodes);
+/// with "nodes", "spacing" is not read. Returns the solved DeformationGraphWarp and no
+/// coordinates.
+Rig graphRig(RigReader& reader);
+
+}  // namespace spacewarp::cli

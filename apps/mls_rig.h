@@ -1,0 +1,15 @@
+#pragma once
+// The "mls" rig method: a moving-least-squares warp of point handles to targets
+// (nonlinear/mls.h). Keys are documented in README.md.
+
+#include "apps/rig.h"
+#include "apps/rig_reader.h"
+
+namespace spacewarp::cli {
+
+/// Reads "handles" and "targets" (arrays of [x, y, z], the same length), optional "mode"
+/// ("affine", "similarity" or "rigid"; default "rigid") and "alpha" (> 0, default 1). Returns
+/// the MlsWarp and no coordinates.
+Rig mlsRig(RigReader& reader);
+
+}  // namespace spacewarp::cli

@@ -1,0 +1,146 @@
+#pragma once
+// The embedded deformation graph of Sumner, Schmid and Pauly, "Embedded deformation for shape
+// manipulation" (SIGGRAPH 2007): a sparse set of nodes g_j, each carrying an affine map
+// (A_j, t_j), blended over space by the nodes' distance weights. Handle constraints are met
+// by Gauss-Newton on E = w_rot E_rot + w_reg E_reg + w_con E_con, and the solved graph is a
+// plain `Warp`: x' = Σ_j w_j(x) [A_j (x − g_j) + g_j + t_j].
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "core/math.h"
+#include "core/warp.h"
+
+namespace spacewarp {
+
+namespace detail {
+struct GraphIndex;  // nodes, KD-tree and lookup grid (deformation_graph.cpp)
+}
+
+/// How a graph is built.
+struct DeformationGraphOptions {
+  /// Node sampling spacing (world units): the positions are binned into cubic cells of this
+  /// edge length and each occupied cell gives one node, the input point nearest the cell's
+  /// centroid (ties: the lower index). Must be > 0 when nodes are sampled; ignored when the
+  /// nodes are given explicitly.
+  double spacing = 0.0;
+  /// Nodes influencing each point: its k nearest (default 4, as in the paper). The weight
+  /// cut-off d_max is the distance to the (k+1)-th nearest node, so the graph needs at least
+  /// k + 1 nodes.
+  int k = 4;
+};
+
+/// Parameters of DeformationGraph::solve(). Defaults are the paper's.
+struct DeformationGraphSolveOptions {
+  double rotationWeight = 1.0;         ///< w_rot: how close each A_j stays to a rotation.
+  double regularizationWeight = 10.0;  ///< w_reg: how well neighbouring maps agree.
+  double constraintWeight = 100.0;     ///< w_con: how closely handles reach their targets.
+  /// Gauss-Newton iterations at most (each may retry with a larger damping, see below).
+  int maxIterations = 50;
+  /// The paper's stopping rule: stop when |E_k − E_{k−1}| < tolerance · (1 + E_k).
+  double tolerance = 1e-6;
+};
+
+/// What solve() did.
+struct DeformationGraphReport {
+  /// energies[0] is the energy of the starting state; energies[i] the energy after
+  /// iteration i. Never increasing: a step that would raise the energy is retried with a
+  /// ten times larger Levenberg-Marquardt damping instead.
+  std::vector<double> energies;
+  int iterations = 0;  ///< Accepted Gauss-Newton steps.
+  /// The stopping rule was met, or no damped step lowered the energy any more (a numerical
+  /// minimum); false when the iterations ran out.
+  bool converged = false;
+  /// The unweighted terms at the final state (E = w_rot·rotation + w_reg·... ).
+  double rotationEnergy = 0.0;
+  double regularizationEnergy = 0.0;
+  double constraintEnergy = 0.0;
+  /// Connected components of the graph (edges: nodes influencing a common point).
+  int componentCount = 0;
+  /// Components that no constraint reaches: they stay rigidly in place (A = I, t = 0).
+  int unconstrainedComponents = 0;
+  /// The nodes of those components, ascending.
+  std::vector<std::uint32_t> unconstrainedNodes;
+};
+
+/// The k nearest nodes of a point and their normalised weights.
+struct NodeWeights {
+  std::vector<std::uint32_t> nodes;  ///< k node indices, nearest first (ties: lower index).
+  std::vector<double> weights;       ///< k weights, summing to 1.
+};
+
+/// A solved (or rest) graph as a `Warp`: x' = Σ_j w_j(x) [A_j (x − g_j) + g_j + t_j] over the
+/// k nearest nodes of x, w_j = (1 − |x − g_j| / d_max)² normalised, d_max = |x − g_(k+1)|.
+/// Continuous everywhere; smooth except where the set of k nearest nodes changes (the weights
+/// are zero there) and at the nodes themselves. The Jacobian is analytic. A snapshot: later
+/// solves of the graph do not change it.
+class DeformationGraphWarp final : public Warp {
+ public:
+  DeformationGraphWarp(std::shared_ptr<const detail::GraphIndex> index, std::vector<Mat3> a,
+                       std::vector<Vec3> t);
+  Vec3 apply(const Vec3& x) const override;
+  Mat3 jacobian(const Vec3& x) const override;
+  /// Parallel (TBB), allocation-free per point, bit-identical to apply() for any thread count.
+  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
+
+ private:
+  std::shared_ptr<const detail::GraphIndex> index_;
+  std::vector<Mat3> a_;
+  std::vector<Vec3> t_;
+};
+
+/// The deformation graph: nodes, their neighbourhoods, and one affine map per node
+/// (the identity until solve() is called).
+class DeformationGraph {
+ public:
+  /// Samples nodes from `positions` (n points, world units: a PointSet's or PolygonSoup's
+  /// positions, or the centres of a volume's active voxels) at options.spacing; edges join
+  /// nodes that influence a common position. Throws InvalidInput for empty or non-finite
+  /// positions, spacing <= 0 or not finite, k < 1, or k >= the number of nodes.
+  DeformationGraph(std::span<const Vec3> positions, const DeformationGraphOptions& options);
+
+  /// Explicit nodes (world units). Edges join nodes that influence a common point of
+  /// `positions`; when `positions` is empty the nodes themselves are used. Throws
+  /// InvalidInput as above (options.spacing is ignored).
+  DeformationGraph(std::span<const Vec3> nodes, std::span<const Vec3> positions,
+                   const DeformationGraphOptions& options);
+
+  ~DeformationGraph();
+  DeformationGraph(DeformationGraph&&) noexcept;
+  DeformationGraph& operator=(DeformationGraph&&) noexcept;
+
+  std::size_t nodeCount() const;
+  std::span<const Vec3> nodes() const;
+  int k() const;
+  /// Undirected edges (i < j), sorted.
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>>& edges() const;
+  /// The k nearest nodes of x and their weights (throws InvalidInput if x is not finite).
+  NodeWeights weights(const Vec3& x) const;
+
+  /// Moves each handles[l] (any point of space, world units) towards targets[l] by
+  /// Gauss-Newton from the current maps (the identity at first). Components of the graph
+  /// that no handle's nodes reach keep A = I, t = 0 and are listed in the report. Throws
+  /// InvalidInput for mismatched sizes, non-finite points or invalid options, SolverError if
+  /// the normal equations cannot be factorised.
+  DeformationGraphReport solve(std::span<const Vec3> handles, std::span<const Vec3> targets,
+                               const DeformationGraphSolveOptions& options = {});
+
+  /// Back to the rest state (A = I, t = 0).
+  void reset();
+
+  std::span<const Mat3> affineMaps() const { return a_; }    ///< A_j, one per node.
+  std::span<const Vec3> translations() const { return t_; }  ///< t_j (world units).
+
+  /// A snapshot of the current state as a Warp.
+  DeformationGraphWarp warp() const;
+
+ private:
+  std::shared_ptr<const detail::GraphIndex> index_;
+  std::vector<Mat3> a_;
+  std::vector<Vec3> t_;
+};
+
+}  // namespace spacewarp

@@ -1,0 +1,596 @@
+#include "nonlinear/mls.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <utility>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+
+namespace {
+
+// Everything the per-point fit reads, by value (pointers into the warp's vectors).
+struct Model {
+  const Vec3* p = nullptr;
+  const Vec3* q = nullptr;  // null for coordinates (no targets)
+  std::size_t n = 0;
+  double alpha = 1.0;
+  MlsMode mode = MlsMode::Rigid;
+};
+
+// Per-point scratch of n doubles: on the stack for small handle sets, else one allocation.
+class Scratch {
+ public:
+  explicit Scratch(std::size_t n) {
+    if (n > local_.size()) heap_.resize(n);
+    data_ = n > local_.size() ? heap_.data() : local_.data();
+  }
+  double* data() { return data_; }
+
+ private:
+  std::array<double, 64> local_{};
+  std::vector<double> heap_;
+  double* data_;
+};
+
+inline double powAlpha(double ratio, double alpha) {
+  if (alpha == 1.0) return ratio;
+  if (alpha == 2.0) return ratio * ratio;
+  return std::pow(ratio, alpha);
+}
+
+// The weights of one point, normalised so that the largest is 1 (or, pinned, so that the largest
+// of the other handles' is 1), with the weighted centroids.
+struct WeightSet {
+  std::size_t nearest = 0;
+  bool exact = false;   // x is the nearest handle
+  bool pinned = false;  // the nearest handle dominates: limit fit, w[nearest] = 0
+  double sum = 0.0;     // Σ w_i
+  Vec3 pc{0.0}, qc{0.0};
+};
+
+// The nearest handle outweighs all others together by more than 2^60 (so that its limit fit
+// equals the formula to rounding) when n (r_min² / r_2²)^alpha is below this.
+constexpr double kPinRatio = 0x1p-60;
+
+// Pass 1 over the handles: the squared distances into w, the nearest handle, and whether the
+// point is pinned to it. Returns the normalising squared distance of the weights.
+double scanHandles(const Model& m, const Vec3& x, double* w, WeightSet& s) {
+  double min1 = std::numeric_limits<double>::infinity();
+  double min2 = min1;
+  for (std::size_t i = 0; i < m.n; ++i) {
+    const Vec3 d = x - m.p[i];
+    const double r2 = glm::dot(d, d);
+    w[i] = r2;
+    if (r2 < min1) {
+      min2 = min1;
+      min1 = r2;
+      s.nearest = i;
+    } else if (r2 < min2) {
+      min2 = r2;
+    }
+  }
+  s.exact = min1 == 0.0;
+  s.pinned = s.exact || static_cast<double>(m.n) * powAlpha(min1 / min2, m.alpha) < kPinRatio;
+  return s.pinned ? min2 : min1;
+}
+
+// The weights of one point into w (see WeightSet) and the weighted centroids.
+WeightSet computeWeights(const Model& m, const Vec3& x, double* w) {
+  WeightSet s;
+  const double scale = scanHandles(m, x, w, s);
+  Vec3 sp(0.0), sq(0.0);
+  double sum = 0.0;
+  for (std::size_t i = 0; i < m.n; ++i) {
+    const double wi = (s.pinned && i == s.nearest) ? 0.0 : powAlpha(scale / w[i], m.alpha);
+    w[i] = wi;
+    sum += wi;
+    sp += wi * m.p[i];
+    if (m.q) sq += wi * m.q[i];
+  }
+  s.sum = sum;
+  if (s.pinned) {
+    s.pc = m.p[s.nearest];
+    if (m.q) s.qc = m.q[s.nearest];
+  } else {
+    s.pc = sp / sum;
+    if (m.q) s.qc = sq / sum;
+  }
+  return s;
+}
+
+// Cyclic Jacobi eigen-decomposition of the symmetric matrix a: eigenvalues e, eigenvectors as
+// the columns of v. Deterministic; stops when a sweep rotates nothing (quadratic convergence,
+// typically 3 to 4 sweeps), at most 20 sweeps.
+void symmetricEigen(const Mat3& m, double e[3], Mat3& v) {
+  double a[3][3];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) a[r][c] = m[c][r];
+  double vv[3][3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
+  constexpr int kPairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  for (int sweep = 0; sweep < 20; ++sweep) {
+    bool rotated = false;
+    for (const auto& pair : kPairs) {
+      const int p = pair[0];
+      const int q = pair[1];
+      const double apq = a[p][q];
+      if (apq == 0.0) continue;
+      const double app = a[p][p];
+      const double aqq = a[q][q];
+      const double g = 100.0 * std::abs(apq);
+      if (std::abs(app) + g == std::abs(app) && std::abs(aqq) + g == std::abs(aqq)) {
+        a[p][q] = a[q][p] = 0.0;
+        continue;
+      }
+      rotated = true;
+      const double theta = (aqq - app) / (2.0 * apq);
+      const double t =
+          std::abs(theta) > 1e150
+              ? 0.5 / theta
+              : std::copysign(1.0, theta) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
+      const double c = 1.0 / std::sqrt(t * t + 1.0);
+      const double sn = t * c;
+      a[p][p] = app - t * apq;
+      a[q][q] = aqq + t * apq;
+      a[p][q] = a[q][p] = 0.0;
+      const int r = 3 - p - q;
+      const double arp = a[r][p];
+      const double arq = a[r][q];
+      a[r][p] = a[p][r] = c * arp - sn * arq;
+      a[r][q] = a[q][r] = sn * arp + c * arq;
+      for (int k = 0; k < 3; ++k) {
+        const double vp = vv[k][p];
+        const double vq = vv[k][q];
+        vv[k][p] = c * vp - sn * vq;
+        vv[k][q] = sn * vp + c * vq;
+      }
+    }
+    if (!rotated) break;
+  }
+  for (int i = 0; i < 3; ++i) {
+    e[i] = a[i][i];
+    v[i] = Vec3(vv[0][i], vv[1][i], vv[2][i]);
+  }
+}
+
+// A unit vector perpendicular to the unit vector u.
+Vec3 anyPerpendicular(const Vec3& u) {
+  const Vec3 helper = std::abs(u.x) < 0.6 ? Vec3(1.0, 0.0, 0.0) : Vec3(0.0, 1.0, 0.0);
+  return glm::normalize(glm::cross(u, helper));
+}
+
+// The rotation R maximising tr(Rᵀ b): U diag(1, 1, det(U Vᵀ)) Vᵀ for the SVD b = U Σ Vᵀ, from the
+// eigenvectors v_1, v_2 of bᵀb (largest first) as u_1 = b v_1 / σ_1, u_2 = b v_2 / σ_2
+// (re-orthogonalised), u_3 = u_1 × u_2, v_3 = v_1 × v_2: both frames are right-handed, so det R =
+// +1 and tr(Rᵀ b) = σ_1 + σ_2 + sign(det b) σ_3, the optimum. Rank < 2: a deterministic choice.
+Mat3 rotationByEigen(const Mat3& b) {
+  double e[3];
+  Mat3 v;
+  symmetricEigen(glm::transpose(b) * b, e, v);
+  int i0 = 0, i1 = 1, i2 = 2;
+  if (e[i0] < e[i1]) std::swap(i0, i1);
+  if (e[i1] < e[i2]) std::swap(i1, i2);
+  if (e[i0] < e[i1]) std::swap(i0, i1);
+  const Vec3 v1 = v[i0];
+  const Vec3 v2 = v[i1];
+  const Vec3 v3 = glm::cross(v1, v2);
+  const Vec3 b1 = b * v1;
+  const double n1 = glm::length(b1);
+  if (!(n1 > 0.0)) return Mat3(1.0);
+  const Vec3 u1 = b1 / n1;
+  const Vec3 b2 = b * v2;
+  Vec3 t = b2 - glm::dot(u1, b2) * u1;
+  double n2 = glm::length(t);
+  if (!(n2 > 1e-12 * n1)) {
+    t = v2 - glm::dot(u1, v2) * u1;  // rank 1: keep v_2 as unturned as the constraint allows
+    n2 = glm::length(t);
+    if (!(n2 > 1e-6)) {
+      t = anyPerpendicular(u1);
+      n2 = 1.0;
+    }
+  }
+  const Vec3 u2 = t / n2;
+  const Vec3 u3 = glm::cross(u1, u2);
+  return glm::outerProduct(u1, v1) + glm::outerProduct(u2, v2) + glm::outerProduct(u3, v3);
+}
+
+inline double frobenius2(const Mat3& a) {
+  return glm::dot(a[0], a[0]) + glm::dot(a[1], a[1]) + glm::dot(a[2], a[2]);
+}
+
+// The rotation maximising tr(Rᵀ b). For det b clearly positive (the common case: handles
+// around x in general position, targets not folded) it is the orthogonal polar factor of b, by
+// Higham's scaled Newton iteration X <- (γ X + X⁻ᵀ / γ) / 2 (a cofactor inverse per step) until
+// near orthogonal, then Newton-Schulz steps (both quadratic; stopped by fixed relative
+// tolerances, so deterministic). Near
+// singular or reflecting b go through the eigen-decomposition of bᵀb (rotationByEigen), which
+// handles rank 2 and det b < 0.
+Mat3 rotationOf(const Mat3& b) {
+  const double norm2 = frobenius2(b);
+  const double det = glm::determinant(b);
+  if (!(det > 1e-8 * norm2 * std::sqrt(norm2))) return rotationByEigen(b);
+  Mat3 x = b * (1.0 / std::sqrt(norm2));
+  for (int k = 0; k < 30; ++k) {
+    const Vec3 c0 = glm::cross(x[1], x[2]);
+    const Vec3 c1 = glm::cross(x[2], x[0]);
+    const Vec3 c2 = glm::cross(x[0], x[1]);
+    const double d = glm::dot(x[0], c0);
+    if (!(d > 0.0)) break;
+    const double invD = 1.0 / d;
+    // x⁻ᵀ = (c0, c1, c2) / d; γ = (|x⁻¹|_F / |x|_F)^(1/2).
+    const double cof2 = glm::dot(c0, c0) + glm::dot(c1, c1) + glm::dot(c2, c2);
+    const double gamma = std::sqrt(std::sqrt(cof2 / frobenius2(x)) * invD);
+    const double a = 0.5 * gamma;
+    const double c = 0.5 * invD / gamma;
+    const Mat3 next(a * x[0] + c * c0, a * x[1] + c * c1, a * x[2] + c * c2);
+    const double delta = frobenius2(next - x);
+    x = next;
+    // The error after a step is about half the square of the step: |step| <= 1e-9 leaves ~1e-18.
+    if (delta <= 1e-18) return x;
+    if (delta <= 1e-2) {
+      // Close to orthogonal (singular values within ~0.1 of 1): Newton-Schulz steps
+      // X <- X (3 I - XᵀX) / 2 converge quadratically there with no division or root.
+      for (int j = 0; j < 10; ++j) {
+        const Mat3 e = glm::transpose(x) * x;
+        const Mat3 ns = x * (1.5 * Mat3(1.0) - 0.5 * e);
+        const double step = frobenius2(ns - x);
+        x = ns;
+        if (step <= 1e-18) return x;
+      }
+      break;
+    }
+  }
+  return rotationByEigen(b);
+}
+
+inline double frobeniusDot(const Mat3& a, const Mat3& b) {
+  return glm::dot(a[0], b[0]) + glm::dot(a[1], b[1]) + glm::dot(a[2], b[2]);
+}
+
+// Weighted second moments of one point (the centroids subtracted).
+struct Moments {
+  Mat3 pp{0.0};   // Σ w p̂ p̂ᵀ (Affine only)
+  Mat3 qp{0.0};   // Σ w q̂ p̂ᵀ
+  double mu = 0;  // Σ w |p̂|² (Similarity only)
+};
+
+Moments computeMoments(const Model& m, const WeightSet& s, const double* w) {
+  Moments mo;
+  for (std::size_t i = 0; i < m.n; ++i) {
+    const double wi = w[i];
+    const Vec3 ph = m.p[i] - s.pc;
+    const Vec3 wq = wi * (m.q[i] - s.qc);
+    mo.qp += glm::outerProduct(wq, ph);
+    if (m.mode == MlsMode::Affine) {
+      mo.pp += glm::outerProduct(wi * ph, ph);
+    } else if (m.mode == MlsMode::Similarity) {
+      mo.mu += wi * glm::dot(ph, ph);
+    }
+  }
+  return mo;
+}
+
+// The local transform T from the moments; for Rigid and Similarity also the rotation.
+Mat3 transformOf(const Model& m, const Moments& mo, Mat3* rotation = nullptr,
+                 double* scale = nullptr) {
+  if (m.mode == MlsMode::Affine) return mo.qp * glm::inverse(mo.pp);
+  const Mat3 r = rotationOf(mo.qp);
+  if (rotation) *rotation = r;
+  double s = 1.0;
+  if (m.mode == MlsMode::Similarity) s = frobeniusDot(r, mo.qp) / mo.mu;
+  if (scale) *scale = s;
+  return s * r;
+}
+
+// The local fit in two passes over the handles: the scan, then weights, centroids and moments
+// together, accumulated about the nearest handle (p_k, q_k) and corrected to the centroids:
+// Σ w q̂ p̂ᵀ = Σ w (q − q_k)(p − p_k)ᵀ − W b aᵀ, a = p* − p_k, b = q* − q_k. Shifting to the
+// nearest handle keeps the sums at the scale of the handle spread (no cancellation from far
+// coordinates), and pinned points need no correction (p* = p_k).
+MlsFit fitAt(const Model& m, const Vec3& x, double* w, WeightSet& s) {
+  const double scale = scanHandles(m, x, w, s);
+  const Vec3 pr = m.p[s.nearest];
+  const Vec3 qr = m.q[s.nearest];
+  double sum = 0.0;
+  Vec3 sp(0.0), sq(0.0);
+  Moments mo;
+  for (std::size_t i = 0; i < m.n; ++i) {
+    const double wi = (s.pinned && i == s.nearest) ? 0.0 : powAlpha(scale / w[i], m.alpha);
+    const Vec3 dp = m.p[i] - pr;
+    const Vec3 wdp = wi * dp;
+    const Vec3 wdq = wi * (m.q[i] - qr);
+    sum += wi;
+    sp += wdp;
+    sq += wdq;
+    mo.qp += glm::outerProduct(wdq, dp);
+    if (m.mode == MlsMode::Affine) {
+      mo.pp += glm::outerProduct(wdp, dp);
+    } else if (m.mode == MlsMode::Similarity) {
+      mo.mu += glm::dot(wdp, dp);
+    }
+  }
+  s.sum = sum;
+  MlsFit fit;
+  if (s.pinned) {
+    fit.handleCentroid = pr;
+    fit.targetCentroid = qr;
+  } else {
+    const Vec3 a = sp / sum;
+    const Vec3 b = sq / sum;
+    fit.handleCentroid = pr + a;
+    fit.targetCentroid = qr + b;
+    mo.qp -= glm::outerProduct(sum * b, a);
+    if (m.mode == MlsMode::Affine) {
+      mo.pp -= glm::outerProduct(sum * a, a);
+    } else if (m.mode == MlsMode::Similarity) {
+      mo.mu -= sum * glm::dot(a, a);
+    }
+  }
+  s.pc = fit.handleCentroid;
+  s.qc = fit.targetCentroid;
+  fit.transform = transformOf(m, mo);
+  return fit;
+}
+
+// The one per-point map, used by apply() and applyBatch() alike (bit-identical results).
+inline Vec3 mlsPoint(const Model& m, const Vec3& x, double* w) {
+  WeightSet s;
+  const MlsFit fit = fitAt(m, x, w, s);
+  if (s.exact) return m.q[s.nearest];
+  return fit.transform * (x - fit.handleCentroid) + fit.targetCentroid;
+}
+
+// The singular values of the centred points (their spread along the principal directions),
+// largest first.
+std::array<double, 3> singularSpread(const std::vector<Vec3>& pts) {
+  Vec3 c(0.0);
+  for (const Vec3& p : pts) c += p;
+  c /= static_cast<double>(pts.size());
+  Mat3 cov(0.0);
+  for (const Vec3& p : pts) cov += glm::outerProduct(p - c, p - c);
+  double e[3];
+  Mat3 v;
+  symmetricEigen(cov, e, v);
+  std::array<double, 3> s = {std::sqrt(std::max(e[0], 0.0)), std::sqrt(std::max(e[1], 0.0)),
+                             std::sqrt(std::max(e[2], 0.0))};
+  std::sort(s.begin(), s.end(), std::greater<>());
+  return s;
+}
+
+std::string indexed(const std::string& what, std::size_t i) {
+  return what + " " + std::to_string(i);
+}
+
+// Validates handles (and targets, if given) for the mode; `who` prefixes messages.
+void validate(const std::string& who, const std::vector<Vec3>& handles,
+              const std::vector<Vec3>* targets, MlsMode mode, double alpha) {
+  if (!std::isfinite(alpha) || !(alpha > 0.0))
+    throw InvalidInput(who + ": alpha must be finite and > 0, not " + std::to_string(alpha));
+  if (targets && targets->size() != handles.size()) {
+    throw InvalidInput(who + ": " + std::to_string(handles.size()) + " handles but " +
+                       std::to_string(targets->size()) + " targets");
+  }
+  const std::size_t needed = mode == MlsMode::Affine ? 4 : 3;
+  if (handles.size() < needed) {
+    throw InvalidInput(who + ": " + mlsModeName(mode) + " mode needs at least " +
+                       std::to_string(needed) + " handles, got " + std::to_string(handles.size()));
+  }
+  for (std::size_t i = 0; i < handles.size(); ++i) {
+    if (!isFinite(handles[i]))
+      throw InvalidInput(who + ": " + indexed("handle", i) + " is not finite");
+    if (targets && !isFinite((*targets)[i]))
+      throw InvalidInput(who + ": " + indexed("target", i) + " is not finite");
+  }
+  // Coincident handles: sort by x, compare neighbours within the tolerance along x.
+  Vec3 lo = handles[0], hi = handles[0];
+  for (const Vec3& p : handles) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const double tol = 1e-12 * glm::length(hi - lo);
+  std::vector<std::size_t> order(handles.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return handles[a].x < handles[b].x || (handles[a].x == handles[b].x && a < b);
+  });
+  for (std::size_t a = 0; a < order.size(); ++a) {
+    for (std::size_t b = a + 1; b < order.size(); ++b) {
+      const Vec3& pa = handles[order[a]];
+      const Vec3& pb = handles[order[b]];
+      if (pb.x - pa.x > tol) break;
+      if (glm::length(pb - pa) <= tol) {
+        const std::size_t i = std::min(order[a], order[b]);
+        const std::size_t j = std::max(order[a], order[b]);
+        throw InvalidInput(who + ": handles " + std::to_string(i) + " and " + std::to_string(j) +
+                           " coincide");
+      }
+    }
+  }
+  constexpr double kSpread = 1e-6;
+  const std::array<double, 3> s = singularSpread(handles);
+  if (mode == MlsMode::Affine) {
+    if (!(s[2] > kSpread * s[0])) {
+      throw InvalidInput(who +
+                         ": the handles are coplanar (affine mode needs 4 affinely "
+                         "independent handles)");
+    }
+  } else {
+    if (!(s[1] > kSpread * s[0])) {
+      throw InvalidInput(who + ": the handles are collinear (" + mlsModeName(mode) +
+                         " mode needs 3 non-collinear handles for a unique rotation)");
+    }
+    if (targets) {
+      const std::array<double, 3> t = singularSpread(*targets);
+      if (!(t[1] > kSpread * t[0])) {
+        throw InvalidInput(who + ": the targets are collinear (" + mlsModeName(mode) +
+                           " mode needs 3 non-collinear targets for a unique rotation)");
+      }
+    }
+  }
+}
+
+Mat3 crossMatrix(const Vec3& y) {  // [y]x v = y × v
+  Mat3 m(0.0);
+  m[0] = Vec3(0.0, y.z, -y.y);
+  m[1] = Vec3(-y.z, 0.0, y.x);
+  m[2] = Vec3(y.y, -y.x, 0.0);
+  return m;
+}
+
+}  // namespace
+
+std::string mlsModeName(MlsMode mode) {
+  switch (mode) {
+    case MlsMode::Affine:
+      return "affine";
+    case MlsMode::Similarity:
+      return "similarity";
+    case MlsMode::Rigid:
+      return "rigid";
+  }
+  return "unknown";
+}
+
+MlsMode mlsModeFromName(std::string_view name) {
+  if (name == "affine") return MlsMode::Affine;
+  if (name == "similarity") return MlsMode::Similarity;
+  if (name == "rigid") return MlsMode::Rigid;
+  throw InvalidInput("MLS mode '" + std::string(name) +
+                     "' is not one of: affine, similarity, rigid");
+}
+
+MlsWarp::MlsWarp(std::vector<Vec3> handles, std::vector<Vec3> targets, const MlsOptions& options)
+    : handles_(std::move(handles)), targets_(std::move(targets)), options_(options) {
+  validate("MlsWarp", handles_, &targets_, options_.mode, options_.alpha);
+}
+
+namespace {
+
+Model modelOf(const std::vector<Vec3>& p, const std::vector<Vec3>& q, const MlsOptions& o) {
+  return {p.data(), q.data(), p.size(), o.alpha, o.mode};
+}
+
+}  // namespace
+
+MlsFit MlsWarp::localFit(const Vec3& x) const {
+  Scratch scratch(handles_.size());
+  WeightSet s;
+  return fitAt(modelOf(handles_, targets_, options_), x, scratch.data(), s);
+}
+
+Vec3 MlsWarp::apply(const Vec3& x) const {
+  Scratch scratch(handles_.size());
+  return mlsPoint(modelOf(handles_, targets_, options_), x, scratch.data());
+}
+
+void MlsWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
+  if (in.size() != out.size()) {
+    throw InvalidInput("MlsWarp::applyBatch: input has " + std::to_string(in.size()) +
+                       " points but output has " + std::to_string(out.size()));
+  }
+  const Model m = modelOf(handles_, targets_, options_);
+  const Vec3* src = in.data();
+  Vec3* dst = out.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 1024),
+                    [m, src, dst](const tbb::blocked_range<std::size_t>& r) {
+                      Scratch scratch(m.n);
+                      for (std::size_t i = r.begin(); i != r.end(); ++i)
+                        dst[i] = mlsPoint(m, src[i], scratch.data());
+                    });
+}
+
+Mat3 MlsWarp::jacobian(const Vec3& x) const {
+  const Model m = modelOf(handles_, targets_, options_);
+  Scratch scratch(m.n);
+  double* w = scratch.data();
+  const WeightSet s = computeWeights(m, x, w);
+  const Moments mo = computeMoments(m, s, w);
+  Mat3 rot(1.0);
+  double scale = 1.0;
+  const Mat3 t = transformOf(m, mo, &rot, &scale);
+  if (s.pinned) return t;  // the limit fit at the handle
+
+  const Vec3 y = x - s.pc;
+  // Weight gradients g_i = ∇w_i = −2 alpha w_i (x − p_i) / |x − p_i|² (the normalisation of the
+  // weights is a common factor, which the fit does not depend on).
+  Mat3 dp(0.0), dq(0.0), first(0.0), cross(0.0);
+  Vec3 ds(0.0);
+  Mat3 pinv(1.0);
+  Vec3 z(0.0);
+  if (m.mode == MlsMode::Affine) {
+    pinv = glm::inverse(mo.pp);
+    z = pinv * y;
+  }
+  const Mat3 rt = glm::transpose(rot);
+  for (std::size_t i = 0; i < m.n; ++i) {
+    const Vec3 d = x - m.p[i];
+    const Vec3 g = (-2.0 * m.alpha * w[i] / glm::dot(d, d)) * d;
+    const Vec3 ph = m.p[i] - s.pc;
+    const Vec3 qh = m.q[i] - s.qc;
+    dp += glm::outerProduct(ph, g);
+    dq += glm::outerProduct(qh, g);
+    if (m.mode == MlsMode::Affine) {
+      first += glm::outerProduct(glm::dot(ph, z) * (qh - t * ph), g);
+    } else {
+      cross += glm::outerProduct(glm::cross(ph, rt * qh), g);
+      if (m.mode == MlsMode::Similarity)
+        ds += (glm::dot(qh, rot * ph) - scale * glm::dot(ph, ph)) * g;
+    }
+  }
+  dp /= s.sum;
+  dq /= s.sum;
+  if (m.mode != MlsMode::Affine) {
+    Mat3 sym = rt * mo.qp;
+    sym = 0.5 * (sym + glm::transpose(sym));
+    const Mat3 h = Mat3(sym[0][0] + sym[1][1] + sym[2][2]) - sym;
+    const double det = glm::determinant(h);
+    const double hs = frobeniusDot(h, h);
+    if (!(std::abs(det) > 1e-12 * hs * std::sqrt(hs))) return Warp::jacobian(x);
+    const Mat3 omega = glm::inverse(h) * cross;
+    first = -scale * rot * crossMatrix(y) * omega;
+    if (m.mode == MlsMode::Similarity) first += glm::outerProduct(rot * y, ds / mo.mu);
+  }
+  return first + t * (Mat3(1.0) - dp) + dq;
+}
+
+MlsAffineCoordinates::MlsAffineCoordinates(std::vector<Vec3> handles, double alpha)
+    : handles_(std::move(handles)), alpha_(alpha) {
+  validate("MlsAffineCoordinates", handles_, nullptr, MlsMode::Affine, alpha_);
+}
+
+void MlsAffineCoordinates::weights(const Vec3& x, std::span<double> row) const {
+  checkWeightsArguments(x, row.size());
+  const Model m{handles_.data(), nullptr, handles_.size(), alpha_, MlsMode::Affine};
+  double* w = row.data();  // the weights are computed in place, then turned into A_j
+  const WeightSet s = computeWeights(m, x, w);
+  Mat3 pp(0.0);
+  for (std::size_t i = 0; i < m.n; ++i) {
+    const Vec3 ph = m.p[i] - s.pc;
+    pp += glm::outerProduct(w[i] * ph, ph);
+  }
+  const Vec3 z = glm::inverse(pp) * (x - s.pc);
+  if (s.pinned) {
+    // x' = q_k + Σ_{j≠k} w_j p̂_jᵀ z (q_j − q_k), p̂_j = p_j − p_k.
+    double others = 0.0;
+    for (std::size_t j = 0; j < m.n; ++j) {
+      if (j == s.nearest) continue;
+      row[j] = w[j] * glm::dot(m.p[j] - s.pc, z);
+      others += row[j];
+    }
+    row[s.nearest] = 1.0 - others;
+    return;
+  }
+  const double inv = 1.0 / s.sum;
+  for (std::size_t j = 0; j < m.n; ++j) row[j] = w[j] * (inv + glm::dot(m.p[j] - s.pc, z));
+}
+
+}  // namespace spacewarp
