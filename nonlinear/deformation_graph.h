@@ -17,8 +17,9 @@
 namespace spacewarp {
 
 namespace detail {
-struct GraphIndex;  // nodes, KD-tree and lookup grid (deformation_graph.cpp)
-}
+struct GraphIndex;   // nodes, KD-tree and lookup grid (deformation_graph.cpp)
+struct SolverCache;  // the Cholesky analysis kept between solves (deformation_graph.cpp)
+}  // namespace detail
 
 /// How a graph is built.
 struct DeformationGraphOptions {
@@ -141,6 +142,9 @@ class DeformationGraph {
   std::shared_ptr<const detail::GraphIndex> index_;
   std::vector<Mat3> a_;
   std::vector<Vec3> t_;
+  /// The Cholesky factorisation's symbolic analysis, reused by later solve() calls whose
+  /// normal equations have the same sparsity (same constrained components).
+  std::unique_ptr<detail::SolverCache> cache_;
 };
 
 }  // namespace spacewarp
