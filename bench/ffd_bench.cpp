@@ -7,6 +7,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench/bench.h"
+
 #include "core/primitives.h"
 #include "ffd/lattice_warp.h"
 
@@ -14,18 +16,8 @@ namespace {
 
 using namespace spacewarp;
 
-constexpr std::size_t kPoints = 10'000'000;
-
-const std::vector<Vec3>& cloud() {
-  static const std::vector<Vec3> points =
-      makeRandomPoints(Vec3(-1.0), Vec3(1.0), kPoints, 42).positions;
-  return points;
-}
-
-void reportPoints(benchmark::State& state, std::size_t n) {
-  state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * n));
-  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * n * 2 * sizeof(Vec3)));
-}
+using spacewarp::bench::cloud;
+using spacewarp::bench::reportPoints;
 
 // The baseline, a copy of the same 10M points, is core_bench.cpp's BM_CopyBaseline in the
 // same run.

@@ -60,7 +60,8 @@ bool triangulatePolygon(std::span<const Vec3> p, std::vector<glm::uvec3>& out) {
   for (std::size_t i = 0; i < n; ++i) ring[i] = static_cast<unsigned>(i);
   auto inside = [&](const glm::dvec2& x, const glm::dvec2& a, const glm::dvec2& b,
                     const glm::dvec2& c) {
-    return cross2(b - a, x - a) >= 0.0 && cross2(c - b, x - b) >= 0.0 && cross2(a - c, x - c) >= 0.0;
+    return cross2(b - a, x - a) >= 0.0 && cross2(c - b, x - b) >= 0.0 &&
+           cross2(a - c, x - c) >= 0.0;
   };
   while (ring.size() > 3) {
     bool clipped = false;
@@ -120,8 +121,8 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
       fail("face " + str(f) + " could not be triangulated (degenerate or self-intersecting)");
     for (const glm::uvec3& t : local) {
       const Triangle tri(poly[t.x], poly[t.y], poly[t.z]);
-      const Vec3 cross = glm::cross(vertices_[tri.y] - vertices_[tri.x],
-                                    vertices_[tri.z] - vertices_[tri.x]);
+      const Vec3 cross =
+          glm::cross(vertices_[tri.y] - vertices_[tri.x], vertices_[tri.z] - vertices_[tri.x]);
       if (0.5 * glm::length(cross) <= minArea)
         fail("face " + str(f) + " has zero area (vertices " + str(tri.x) + ", " + str(tri.y) +
              ", " + str(tri.z) + ")");
@@ -176,8 +177,8 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
           flip[u] = want;
           component.push_back(u);
         } else if (flip[u] != want) {
-          fail("the cage is not orientable (triangles " + str(t) + " and " + str(u) +
-               " of face " + str(triangleSource_[u]) + " cannot agree)");
+          fail("the cage is not orientable (triangles " + str(t) + " and " + str(u) + " of face " +
+               str(triangleSource_[u]) + " cannot agree)");
         }
       }
     }
@@ -214,8 +215,8 @@ Vec3 Cage::normal(std::size_t t) const {
 
 double Cage::area(std::size_t t) const {
   const Triangle& tri = triangles_[t];
-  return 0.5 * glm::length(
-                   glm::cross(vertices_[tri.y] - vertices_[tri.x], vertices_[tri.z] - vertices_[tri.x]));
+  return 0.5 * glm::length(glm::cross(vertices_[tri.y] - vertices_[tri.x],
+                                      vertices_[tri.z] - vertices_[tri.x]));
 }
 
 std::vector<Vec3> Cage::posedVertices(const PolygonSoup& posed, const std::string& name) const {

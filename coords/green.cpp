@@ -17,6 +17,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "core/detail/aligned_buffer.h"
 #include "core/errors.h"
 
 namespace spacewarp {
@@ -238,29 +239,7 @@ constexpr double kPiHi = 0x1.921fb54442d18p+1, kPiLo = 0x1.1a62633145c07p-53;
   out = hi == 0.0 ? zero : (yNeg ? -r : r);
 }
 
-// A growable, 64-byte aligned array of trivially copyable T.
-template <class T>
-class AlignedBuffer {
- public:
-  AlignedBuffer() = default;
-  AlignedBuffer(const AlignedBuffer&) = delete;
-  AlignedBuffer& operator=(const AlignedBuffer&) = delete;
-  ~AlignedBuffer() { ::operator delete (data_, std::align_val_t{64}); }
-  void reserve(std::size_t n) {
-    if (n <= size_) return;
-    ::operator delete (data_, std::align_val_t{64});
-    data_ = static_cast<T*>(::operator new (n * sizeof(T), std::align_val_t{64}));
-    size_ = n;
-  }
-  T* data() { return data_; }
-  const T* data() const { return data_; }
-  T& operator[](std::size_t i) { return data_[i]; }
-  const T& operator[](std::size_t i) const { return data_[i]; }
-
- private:
-  T* data_ = nullptr;
-  std::size_t size_ = 0;
-};
+using detail::AlignedBuffer;
 
 struct VertexLanes {
   VD r[3];  // v − x

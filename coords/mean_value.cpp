@@ -78,6 +78,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "core/detail/aligned_buffer.h"
 #include "core/errors.h"
 
 // See "lanes" below.
@@ -153,27 +154,7 @@ inline void asinFactor(const VD& t, VD& q) {
   q = 1.0 + t * r;
 }
 
-// A growable, 64-byte aligned array of trivially copyable T.
-template <class T>
-class AlignedBuffer {
- public:
-  AlignedBuffer() = default;
-  AlignedBuffer(const AlignedBuffer&) = delete;
-  AlignedBuffer& operator=(const AlignedBuffer&) = delete;
-  ~AlignedBuffer() { ::operator delete (data_, std::align_val_t{64}); }
-  void reserve(std::size_t n) {
-    if (n <= size_) return;
-    ::operator delete (data_, std::align_val_t{64});
-    data_ = static_cast<T*>(::operator new (n * sizeof(T), std::align_val_t{64}));
-    size_ = n;
-  }
-  T* data() { return data_; }
-  T& operator[](std::size_t i) { return data_[i]; }
-
- private:
-  T* data_ = nullptr;
-  std::size_t size_ = 0;
-};
+using detail::AlignedBuffer;
 
 // The cage in structure-of-arrays form, with its edges (each once) and, per triangle, the edge
 // opposite each corner and the sign that orients it like the triangle.

@@ -42,7 +42,8 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
   // The similarity-posed cage and its column controls, as displacements.
   const Vec3 centre = 0.5 * (boundingBox(cage.vertices()).min + boundingBox(cage.vertices()).max);
   Mat4 similarity = glm::translate(Mat4(1.0), centre + options.similarityTranslation * diagonal);
-  similarity = glm::rotate(similarity, options.similarityAngle, glm::normalize(options.similarityAxis));
+  similarity =
+      glm::rotate(similarity, options.similarityAngle, glm::normalize(options.similarityAxis));
   similarity = glm::scale(similarity, Vec3(options.similarityScale));
   similarity = glm::translate(similarity, -centre);
   auto applySimilarity = [&](const Vec3& x) { return Vec3(similarity * glm::dvec4(x, 1.0)); };
@@ -80,7 +81,8 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
     report.similarityReproduction = std::max(
         report.similarityReproduction, glm::length(moved - applySimilarity(samples[s])) / diagonal);
   }
-  report.negativeFraction = static_cast<double>(negative) / static_cast<double>(samples.size() * nv);
+  report.negativeFraction =
+      static_cast<double>(negative) / static_cast<double>(samples.size() * nv);
   report.samplesWithNegative =
       static_cast<double>(samplesNegative) / static_cast<double>(samples.size());
 
@@ -88,8 +90,8 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
   const std::vector<double> atVertices = weightRows(coordinates, cage.vertices());
   for (std::size_t j = 0; j < nv; ++j)
     for (std::size_t i = 0; i < nv; ++i)
-      report.lagrange = std::max(report.lagrange,
-                                 std::abs(atVertices[j * m + i] - (i == j ? 1.0 : 0.0)));
+      report.lagrange =
+          std::max(report.lagrange, std::abs(atVertices[j * m + i] - (i == j ? 1.0 : 0.0)));
 
   // Linear interpolation on faces: at random barycentric points of every triangle.
   std::mt19937_64 rng(options.seed);

@@ -30,11 +30,11 @@ struct PropertyOptions {
 /// columns of Green coordinates count for linear and similarity reproduction.
 struct PropertyReport {
   std::size_t sampleCount = 0;
-  double partitionOfUnity = 0.0;    ///< max |Σ_i w_i(x) − 1|
-  double linearReproduction = 0.0;  ///< max |Σ_c w_c(x) C_c(rest) − x| / diagonal
-  double minWeight = 0.0;           ///< smallest vertex weight at any sample
-  double negativeFraction = 0.0;    ///< fraction of (sample, vertex) weights below zero
-  double samplesWithNegative = 0.0; ///< fraction of samples with at least one negative weight
+  double partitionOfUnity = 0.0;     ///< max |Σ_i w_i(x) − 1|
+  double linearReproduction = 0.0;   ///< max |Σ_c w_c(x) C_c(rest) − x| / diagonal
+  double minWeight = 0.0;            ///< smallest vertex weight at any sample
+  double negativeFraction = 0.0;     ///< fraction of (sample, vertex) weights below zero
+  double samplesWithNegative = 0.0;  ///< fraction of samples with at least one negative weight
   /// max |w_i(v_j) − δ_ij| over the cage vertices v_j (interpolating coordinates have 0).
   double lagrange = 0.0;
   /// max |w(x) − barycentric(x)| at random points on cage triangles (interpolating coordinates
@@ -51,6 +51,7 @@ struct PropertyReport {
 /// `cage`) at `samples` (n points, world units). Throws InvalidInput if the coordinates'
 /// control-point count differs from the cage's vertex count or `samples` is empty.
 PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cage,
-                                 std::span<const Vec3> samples, const PropertyOptions& options = {});
+                                 std::span<const Vec3> samples,
+                                 const PropertyOptions& options = {});
 
 }  // namespace spacewarp

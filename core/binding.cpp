@@ -23,9 +23,10 @@ constexpr std::size_t kRowsPerTask = 256;
 
 template <typename Body>
 void forRowBlocks(std::size_t n, Body body) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kRowsPerTask),
-                    [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); },
-                    tbb::simple_partitioner());
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kRowsPerTask),
+      [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); },
+      tbb::simple_partitioner());
 }
 
 // out[i] = rest[i] + Σ_c w[i][c] d[c] for the dense rows [begin, end), with the displacements

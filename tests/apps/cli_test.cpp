@@ -45,9 +45,8 @@ TEST_F(CliTest, TwistRigMatchesTheClosedForm) {
   writeSoup(bar, dir_ / "bar.ply");
   write("twist.json",
         R"({"method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 2], "rate": 0.5})");
-  const CliResult r =
-      run("deform --rig " + (dir_ / "twist.json").string() + " " + (dir_ / "bar.ply").string() +
-          " -o " + (dir_ / "out.obj").string());
+  const CliResult r = run("deform --rig " + (dir_ / "twist.json").string() + " " +
+                          (dir_ / "bar.ply").string() + " -o " + (dir_ / "out.obj").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const PolygonSoup out = readSoup(dir_ / "out.obj");
   ASSERT_EQ(out.size(), bar.size());
@@ -66,8 +65,9 @@ TEST_F(CliTest, AffineRigIsRowMajorOnColumnPoints) {
   PolygonSoup cloud;
   static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1), Vec3(1), 100, 3);
   writeSoup(cloud, dir_ / "cloud.ply");
-  write("affine.json",
-        R"({"method": "affine", "matrix": [[0, -1, 0, 5], [1, 0, 0, 6], [0, 0, 2, 7], [0, 0, 0, 1]]})");
+  write(
+      "affine.json",
+      R"({"method": "affine", "matrix": [[0, -1, 0, 5], [1, 0, 0, 6], [0, 0, 2, 7], [0, 0, 0, 1]]})");
   const CliResult r = run("deform --rig " + (dir_ / "affine.json").string() + " " +
                           (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -136,9 +136,10 @@ INSTANTIATE_TEST_SUITE_P(
         BadRig{"ProjectiveMatrix",
                R"({"method": "affine", "matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[1,0,0,1]]})",
                "last row"},
-        BadRig{"NestedError",
-               R"({"method": "compose", "warps": [{"method": "taper", "origin": [0,0,0], "axis": [0,0,1]}]})",
-               "warps[0]"}),
+        BadRig{
+            "NestedError",
+            R"({"method": "compose", "warps": [{"method": "taper", "origin": [0,0,0], "axis": [0,0,1]}]})",
+            "warps[0]"}),
     [](const auto& info) { return std::string(info.param.name); });
 
 struct BadFile {
@@ -190,9 +191,9 @@ TEST_F(CliTest, BadInputDoesNotReplaceAnExistingOutput) {
 TEST_F(CliTest, DemoWritesEveryResult) {
   const CliResult r = run("demo " + (dir_ / "demo").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  for (const char* name : {"bar_twist.obj", "bar_bend.obj", "bar_taper.obj", "cloud_twist.ply",
-                           "cloud_bend.ply", "cloud_taper.ply", "bar_mvc.obj", "bar_green.obj",
-                           "cloud_mvc.ply", "cloud_green.ply"}) {
+  for (const char* name :
+       {"bar_twist.obj", "bar_bend.obj", "bar_taper.obj", "cloud_twist.ply", "cloud_bend.ply",
+        "cloud_taper.ply", "bar_mvc.obj", "bar_green.obj", "cloud_mvc.ply", "cloud_green.ply"}) {
     const PolygonSoup soup = readSoup(dir_ / "demo" / name);
     EXPECT_GT(soup.size(), 0u) << name;
   }
@@ -226,10 +227,9 @@ TEST_F(CliTest, CageMethodsReproduceASimilarityPose) {
   writeSoup(cloud, dir_ / "cloud.ply");
   write("mvc.json", R"({"method": "mvc", "cage": "cage.obj", "pose": "pose.obj"})");
   for (const std::string how : {"--method mvc", "--method green", "--rig mvc.json"}) {
-    const std::string flags = how.starts_with("--rig")
-                                  ? "--rig " + (dir_ / "mvc.json").string()
-                                  : how + " --cage " + cage.rest.string() + " --pose " +
-                                        cage.pose.string();
+    const std::string flags = how.starts_with("--rig") ? "--rig " + (dir_ / "mvc.json").string()
+                                                       : how + " --cage " + cage.rest.string() +
+                                                             " --pose " + cage.pose.string();
     const CliResult r = run("deform " + flags + " " + (dir_ / "cloud.ply").string() + " -o " +
                             (dir_ / "out.ply").string());
     ASSERT_EQ(r.exitCode, 0) << how << ": " << r.err;
@@ -310,8 +310,8 @@ TEST_F(CliTest, InvalidCagesExitWith3) {
   EXPECT_EQ(open.exitCode, 3);
   EXPECT_THAT(open.err, HasSubstr("open.obj"));
   EXPECT_THAT(open.err, HasSubstr("open boundary at edge"));
-  const CliResult mismatch = run("deform --method green --cage " + cage.rest.string() +
-                                 " --pose " + (dir_ / "short.obj").string() + " " +
+  const CliResult mismatch = run("deform --method green --cage " + cage.rest.string() + " --pose " +
+                                 (dir_ / "short.obj").string() + " " +
                                  (dir_ / "cloud.ply").string() + " -o " + output.string());
   EXPECT_EQ(mismatch.exitCode, 3);
   EXPECT_THAT(mismatch.err, HasSubstr("4 vertices"));

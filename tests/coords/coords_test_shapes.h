@@ -30,7 +30,7 @@ inline PolygonSoup lPrism() {
   const double xy[6][2] = {{0, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}};
   for (int z = 0; z < 2; ++z)
     for (const auto& p : xy) s.positions.push_back(Vec3(p[0], p[1], z));
-  s.addPolygon({5, 4, 3, 2, 1, 0});   // bottom, facing -z
+  s.addPolygon({5, 4, 3, 2, 1, 0});    // bottom, facing -z
   s.addPolygon({6, 7, 8, 9, 10, 11});  // top, facing +z
   for (std::uint32_t i = 0; i < 6; ++i) {
     const std::uint32_t j = (i + 1) % 6;
@@ -43,8 +43,8 @@ inline PolygonSoup lPrism() {
 /// spikes, 14 vertices and 24 triangles.
 inline PolygonSoup star() {
   PolygonSoup s;
-  s.positions = {Vec3(1, 0, 0), Vec3(-1, 0, 0), Vec3(0, 1, 0),
-                 Vec3(0, -1, 0), Vec3(0, 0, 1), Vec3(0, 0, -1)};
+  s.positions = {Vec3(1, 0, 0),  Vec3(-1, 0, 0), Vec3(0, 1, 0),
+                 Vec3(0, -1, 0), Vec3(0, 0, 1),  Vec3(0, 0, -1)};
   const std::uint32_t faces[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
                                      {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
   for (const auto& f : faces) {
@@ -61,9 +61,8 @@ inline PolygonSoup star() {
 /// An icosahedron subdivided `levels` times and projected onto the unit sphere.
 inline PolygonSoup icosphere(int levels) {
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Vec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
-                         {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
-                         {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+  std::vector<Vec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
   std::vector<glm::u32vec3> f = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
                                  {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
                                  {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},

@@ -4,8 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
 #include "coords_test_shapes.h"
+#include "core/errors.h"
 
 namespace spacewarp {
 namespace {

@@ -4,8 +4,8 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include <spacewarp/core/combinators.h>
 #include <core/primitives.h>
+#include <spacewarp/core/combinators.h>
 
 int main() {
   const spacewarp::Mat4 shift = glm::translate(spacewarp::Mat4(1.0), spacewarp::Vec3(1, 2, 3));
