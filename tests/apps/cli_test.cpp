@@ -25,6 +25,9 @@ using ::testing::HasSubstr;
 
 namespace {
 
+using ::spacewarp::test::BadRig;
+using ::spacewarp::test::BadRigTest;
+
 using test::CliResult;
 using test::slurp;
 
@@ -98,29 +101,25 @@ TEST_F(CliTest, UsageErrorsExitWith2) {
   EXPECT_EQ(run("deform --help").exitCode, 0);
 }
 
-struct BadRig {
-  const char* name;
-  const char* json;
-  const char* message;
-};
-
-class CliBadRigTest : public CliTest, public ::testing::WithParamInterface<BadRig> {};
-
-TEST_P(CliBadRigTest, ExitsWith3AndWritesNothing) {
-  writeSoup(makeBoxSurface(Vec3(0), Vec3(1), {1, 1, 1}), dir_ / "box.obj");
+TEST_P(BadRigTest, FailsWithItsCodeInOneLineAndWritesNothing) {
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(0), Vec3(1), 10, 11);
+  writeSoup(cloud, dir_ / "cloud.ply");
   write("rig.json", GetParam().json);
-  const fs::path output = dir_ / "out.obj";
-  const CliResult r = run("deform --rig " + (dir_ / "rig.json").string() + " " +
-                          (dir_ / "box.obj").string() + " -o " + output.string());
-  EXPECT_EQ(r.exitCode, 3) << r.err;
+  const fs::path output = dir_ / "out.ply";
+  const test::CliResult r = run("deform --rig " + (dir_ / "rig.json").string() + " " +
+                                (dir_ / "cloud.ply").string() + " -o " + output.string());
+  EXPECT_EQ(r.exitCode, GetParam().exitCode) << r.err;
   EXPECT_THAT(r.err, HasSubstr("rig.json"));
   EXPECT_THAT(r.err, HasSubstr(GetParam().message));
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;  // one line
-  expectNoOutput(output);
+  EXPECT_FALSE(fs::exists(output));
+  for (const auto& entry : fs::directory_iterator(dir_))
+    EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp")));
 }
 
 INSTANTIATE_TEST_SUITE_P(
-    Rigs, CliBadRigTest,
+    CoreRigs, BadRigTest,
     ::testing::Values(
         BadRig{"NotJson", R"({"method": "twist", )", "JSON"},
         BadRig{"MissingKey", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1]})",
@@ -140,7 +139,7 @@ INSTANTIATE_TEST_SUITE_P(
             "NestedError",
             R"({"method": "compose", "warps": [{"method": "taper", "origin": [0,0,0], "axis": [0,0,1]}]})",
             "warps[0]"}),
-    [](const auto& info) { return std::string(info.param.name); });
+    ::spacewarp::test::badRigName);
 
 struct BadFile {
   const char* name;

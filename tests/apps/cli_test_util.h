@@ -71,4 +71,33 @@ class CliFixture : public ::testing::Test {
   std::string prefix_;
 };
 
+/// A malformed rig and what `spacewarp deform` must do with it: exit with `exitCode` (3 for
+/// bad input, 4 for a numerical failure), print one line naming the rig file and containing
+/// `message`, and write no output. Every rig method's test file instantiates BadRigTest with
+/// its own list; the test itself is in cli_test.cpp.
+struct BadRig {
+  BadRig(std::string name, std::string json, std::string message)
+      : name(std::move(name)), json(std::move(json)), message(std::move(message)) {}
+  BadRig(std::string name, std::string json, int exitCode, std::string message)
+      : name(std::move(name)),
+        json(std::move(json)),
+        message(std::move(message)),
+        exitCode(exitCode) {}
+
+  std::string name;  ///< the test's name suffix
+  std::string json;
+  std::string message;
+  int exitCode = 3;
+};
+
+class BadRigTest : public CliFixture, public ::testing::WithParamInterface<BadRig> {
+ protected:
+  BadRigTest() : CliFixture("spacewarp_bad_rig_") {}
+};
+
+/// Names each instantiated case after its BadRig::name.
+inline std::string badRigName(const ::testing::TestParamInfo<BadRig>& info) {
+  return info.param.name;
+}
+
 }  // namespace spacewarp::test

@@ -24,6 +24,8 @@ using ::testing::HasSubstr;
 
 namespace {
 
+using ::spacewarp::test::BadRigTest;
+
 using test::CliResult;
 
 class FfdCliTest : public test::CliFixture {
@@ -175,83 +177,64 @@ TEST_F(FfdCliTest, WeightsThroughTheRigAreTheLatticeCoordinates) {
   EXPECT_EQ(rows, cloud.size());
 }
 
-struct BadFfdRig {
-  const char* name;
-  const char* json;
-  const char* message;
-};
-
-class FfdCliBadRigTest : public FfdCliTest, public ::testing::WithParamInterface<BadFfdRig> {};
-
-TEST_P(FfdCliBadRigTest, ExitsWith3AndWritesNothing) {
-  writeCloud(0.0, 1.0, 10);
-  write("rig.json", GetParam().json);
-  const CliResult r = deform("rig.json");
-  EXPECT_EQ(r.exitCode, 3) << r.err;
-  EXPECT_THAT(r.err, HasSubstr("rig.json"));
-  EXPECT_THAT(r.err, HasSubstr(GetParam().message));
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
-}
-
 #define SW_BOX R"("method": "ffd", "origin": [0,0,0], "size": [1,1,1], )"
 #define SW_CORNERS \
   R"("controlPoints": [[0,0,0],[1,0,0],[0,1,0],[1,1,0],[0,0,1],[1,0,1],[0,1,1],[1,1,1]])"
 
 INSTANTIATE_TEST_SUITE_P(
-    Rigs, FfdCliBadRigTest,
+    FfdRigs, BadRigTest,
     ::testing::Values(
-        BadFfdRig{"UnknownBasis",
-                  "{" SW_BOX R"("basis": "nurbs", "resolution": [2,2,2], )" SW_CORNERS "}",
-                  "'basis' 'nurbs' is not one of"},
-        BadFfdRig{"BSplineNeeds4",
-                  "{" SW_BOX R"("basis": "bspline", "resolution": [2,2,2], )" SW_CORNERS "}",
-                  "the cubic B-spline basis needs at least 4"},
-        BadFfdRig{"WrongControlCount",
-                  "{" SW_BOX R"("basis": "trilinear", "resolution": [2,2,3], )" SW_CORNERS "}",
-                  "'controlPoints' has 8 points, the resolution 2 x 2 x 3 needs 12"},
-        BadFfdRig{"FractionalResolution",
-                  "{" SW_BOX R"("basis": "trilinear", "resolution": [2,2.5,2], )" SW_CORNERS "}",
-                  "'resolution' must contain integers"},
-        BadFfdRig{
+        test::BadRig{"UnknownBasis",
+                     "{" SW_BOX R"("basis": "nurbs", "resolution": [2,2,2], )" SW_CORNERS "}",
+                     "'basis' 'nurbs' is not one of"},
+        test::BadRig{"BSplineNeeds4",
+                     "{" SW_BOX R"("basis": "bspline", "resolution": [2,2,2], )" SW_CORNERS "}",
+                     "the cubic B-spline basis needs at least 4"},
+        test::BadRig{"WrongControlCount",
+                     "{" SW_BOX R"("basis": "trilinear", "resolution": [2,2,3], )" SW_CORNERS "}",
+                     "'controlPoints' has 8 points, the resolution 2 x 2 x 3 needs 12"},
+        test::BadRig{"FractionalResolution",
+                     "{" SW_BOX R"("basis": "trilinear", "resolution": [2,2.5,2], )" SW_CORNERS "}",
+                     "'resolution' must contain integers"},
+        test::BadRig{
             "ZeroSize",
             R"({"method": "ffd", "origin": [0,0,0], "size": [1,0,1], "basis": "trilinear", "resolution": [2,2,2], )" SW_CORNERS
             "}",
             "extent 1"},
-        BadFfdRig{
+        test::BadRig{
             "SkewAxes",
             "{" SW_BOX
             R"("basis": "trilinear", "resolution": [2,2,2], "axes": [[1,0,0],[1,1,0],[0,0,1]], )" SW_CORNERS
             "}",
             "not orthogonal"},
-        BadFfdRig{"UnknownOutside",
-                  "{" SW_BOX
-                  R"("basis": "trilinear", "resolution": [2,2,2], "outside": "wrap", )" SW_CORNERS
-                  "}",
-                  "'outside' 'wrap'"},
-        BadFfdRig{"NoControls", "{" SW_BOX R"("basis": "trilinear", "resolution": [2,2,2]})",
-                  "'controlPoints' is missing"},
-        BadFfdRig{
+        test::BadRig{
+            "UnknownOutside",
+            "{" SW_BOX
+            R"("basis": "trilinear", "resolution": [2,2,2], "outside": "wrap", )" SW_CORNERS "}",
+            "'outside' 'wrap'"},
+        test::BadRig{"NoControls", "{" SW_BOX R"("basis": "trilinear", "resolution": [2,2,2]})",
+                     "'controlPoints' is missing"},
+        test::BadRig{
             "BothControlsAndConstraints",
             "{" SW_BOX
             R"("basis": "trilinear", "resolution": [2,2,2], "constraints": {"from": [[0.5,0.5,0.5]], "to": [[0.5,0.5,0.6]]}, )" SW_CORNERS
             "}",
             "'constraints' cannot be combined"},
-        BadFfdRig{
+        test::BadRig{
             "ConstraintSizes",
             "{" SW_BOX
             R"("basis": "trilinear", "resolution": [2,2,2], "constraints": {"from": [[0.5,0.5,0.5]], "to": [[0,0,0],[1,1,1]]}})",
             "1 points but 2 targets"},
-        BadFfdRig{
+        test::BadRig{
             "ConstraintTypo",
             "{" SW_BOX
             R"("basis": "trilinear", "resolution": [2,2,2], "constraints": {"from": [[0.5,0.5,0.5]], "to": [[0,0,0]], "too": 1}})",
             "constraints: 'too' is not a key"},
-        BadFfdRig{"SmoothnessWithControls",
-                  "{" SW_BOX
-                  R"("basis": "trilinear", "resolution": [2,2,2], "smoothness": 1, )" SW_CORNERS
-                  "}",
-                  "'smoothness' is not a key"}),
+        test::BadRig{"SmoothnessWithControls",
+                     "{" SW_BOX
+                     R"("basis": "trilinear", "resolution": [2,2,2], "smoothness": 1, )" SW_CORNERS
+                     "}",
+                     "'smoothness' is not a key"}),
     [](const auto& info) { return std::string(info.param.name); });
 
 #undef SW_BOX

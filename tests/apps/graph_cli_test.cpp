@@ -20,6 +20,8 @@ using ::testing::HasSubstr;
 
 namespace {
 
+using ::spacewarp::test::BadRigTest;
+
 class GraphCliTest : public test::CliFixture {
  protected:
   GraphCliTest() : test::CliFixture("spacewarp_graph_cli_") {}
@@ -88,54 +90,36 @@ TEST_F(GraphCliTest, GridNodesMoveTheHandlesToTheirTargets) {
     EXPECT_LE(glm::length(out.positions[i] - kTargets[i]), 0.02) << i;
 }
 
-struct BadGraphRig {
-  const char* name;
-  std::string json;
-  const char* message;
-};
-
-class GraphCliBadRigTest : public GraphCliTest,
-                           public ::testing::WithParamInterface<BadGraphRig> {};
-
-TEST_P(GraphCliBadRigTest, ExitsWithCode3AndNamesTheKey) {
-  writeCloud();
-  write("rig.json", GetParam().json);
-  const test::CliResult r = deform("rig.json");
-  EXPECT_EQ(r.exitCode, 3) << r.err;
-  EXPECT_THAT(r.err, HasSubstr("rig.json"));
-  EXPECT_THAT(r.err, HasSubstr(GetParam().message));
-}
-
 INSTANTIATE_TEST_SUITE_P(
-    Rigs, GraphCliBadRigTest,
+    GraphRigs, BadRigTest,
     ::testing::Values(
-        BadGraphRig{"MissingTargets",
-                    R"({"method": "graph", "spacing": 0.5, "handles": [[0, 0, 0]]})",
-                    "'targets' is missing"},
-        BadGraphRig{"MismatchedTargets",
-                    R"({"method": "graph", "spacing": 0.5, "handles": [[0, 0, 0]],
+        test::BadRig{"MissingTargets",
+                     R"({"method": "graph", "spacing": 0.5, "handles": [[0, 0, 0]]})",
+                     "'targets' is missing"},
+        test::BadRig{"MismatchedTargets",
+                     R"({"method": "graph", "spacing": 0.5, "handles": [[0, 0, 0]],
                         "targets": [[0, 0, 0], [1, 1, 1]]})",
-                    "'targets' must have as many points"},
-        BadGraphRig{"ZeroSpacing",
-                    R"({"method": "graph", "spacing": 0, "handles": [[0, 0, 0]],
+                     "'targets' must have as many points"},
+        test::BadRig{"ZeroSpacing",
+                     R"({"method": "graph", "spacing": 0, "handles": [[0, 0, 0]],
                         "targets": [[1, 0, 0]]})",
-                    "'spacing' must be > 0"},
-        BadGraphRig{"FractionalK",
-                    R"({"method": "graph", "spacing": 0.5, "k": 2.5, "handles": [[0, 0, 0]],
+                     "'spacing' must be > 0"},
+        test::BadRig{"FractionalK",
+                     R"({"method": "graph", "spacing": 0.5, "k": 2.5, "handles": [[0, 0, 0]],
                         "targets": [[1, 0, 0]]})",
-                    "'k' must be an integer"},
-        BadGraphRig{"KNotBelowNodeCount",
-                    R"({"method": "graph", "k": 3, "nodes": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                     "'k' must be an integer"},
+        test::BadRig{"KNotBelowNodeCount",
+                     R"({"method": "graph", "k": 3, "nodes": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
                         "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
-                    "'k' must be less than the number of nodes (3)"},
-        BadGraphRig{"NegativeWeight",
-                    R"({"method": "graph", "spacing": 0.5, "rotationWeight": -1,
+                     "'k' must be less than the number of nodes (3)"},
+        test::BadRig{"NegativeWeight",
+                     R"({"method": "graph", "spacing": 0.5, "rotationWeight": -1,
                         "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
-                    "'rotationWeight' must be >= 0"},
-        BadGraphRig{"UnknownKey",
-                    R"({"method": "graph", "spacing": 0.5, "handle": [[0, 0, 0]],
+                     "'rotationWeight' must be >= 0"},
+        test::BadRig{"UnknownKey",
+                     R"({"method": "graph", "spacing": 0.5, "handle": [[0, 0, 0]],
                         "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
-                    "'handle' is not a key of this method"}),
-    [](const ::testing::TestParamInfo<BadGraphRig>& info) { return info.param.name; });
+                     "'handle' is not a key of this method"}),
+    ::spacewarp::test::badRigName);
 
 }  // namespace

@@ -20,6 +20,8 @@ using ::testing::HasSubstr;
 
 namespace {
 
+using ::spacewarp::test::BadRigTest;
+
 // A fresh folder per test (see cli_test_util.h).
 class MlsCliTest : public test::CliFixture {
  protected:
@@ -64,65 +66,42 @@ TEST_F(MlsCliTest, DeformMatchesTheLibraryWarpInEveryMode) {
   }
 }
 
-struct BadMlsRig {
-  const char* name;
-  std::string json;
-  int exitCode;
-  const char* message;
-};
-
-class MlsCliBadRigTest : public MlsCliTest, public ::testing::WithParamInterface<BadMlsRig> {};
-
-TEST_P(MlsCliBadRigTest, FailsWithItsCodeAndMessage) {
-  PolygonSoup cloud;
-  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1), Vec3(1), 10, 11);
-  writeSoup(cloud, dir_ / "cloud.ply");
-  write("rig.json", GetParam().json);
-  const test::CliResult r =
-      run("deform --rig " + (dir_ / "rig.json").string() + " " + (dir_ / "cloud.ply").string() +
-          " -o " + (dir_ / "out.ply").string());
-  EXPECT_EQ(r.exitCode, GetParam().exitCode) << r.err;
-  EXPECT_THAT(r.err, HasSubstr("rig.json"));
-  EXPECT_THAT(r.err, HasSubstr(GetParam().message));
-  EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
-}
-
 const std::string kTet = "[[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,1,1]]";
 const std::string kPlane = "[[0,0,0],[1,0,0],[0,1,0],[1,1,0],[2,1,0]]";
 const std::string kLine = "[[0,0,0],[1,1,1],[2,2,2],[3,3,3],[4,4,4]]";
 
 INSTANTIATE_TEST_SUITE_P(
-    Rigs, MlsCliBadRigTest,
+    MlsRigs, BadRigTest,
     ::testing::Values(
-        BadMlsRig{"UnknownMode",
-                  R"({"method": "mls", "mode": "conformal", "handles": )" + kTet +
-                      R"(, "targets": )" + kTet + "}",
-                  3, "'mode' MLS mode 'conformal' is not one of: affine, similarity, rigid"},
-        BadMlsRig{"MissingTargets", R"({"method": "mls", "handles": )" + kTet + "}", 3,
-                  "'targets' is missing"},
-        BadMlsRig{"SizeMismatch",
-                  R"({"method": "mls", "handles": )" + kTet + R"(, "targets": [[0,0,0]]})", 3,
-                  "as many points as 'handles'"},
-        BadMlsRig{"NegativeAlpha",
-                  R"({"method": "mls", "alpha": -1, "handles": )" + kTet + R"(, "targets": )" +
-                      kTet + "}",
-                  3, "'alpha' must be > 0"},
-        BadMlsRig{
+        test::BadRig{"UnknownMode",
+                     R"({"method": "mls", "mode": "conformal", "handles": )" + kTet +
+                         R"(, "targets": )" + kTet + "}",
+                     3, "'mode' MLS mode 'conformal' is not one of: affine, similarity, rigid"},
+        test::BadRig{"MissingTargets", R"({"method": "mls", "handles": )" + kTet + "}", 3,
+                     "'targets' is missing"},
+        test::BadRig{"SizeMismatch",
+                     R"({"method": "mls", "handles": )" + kTet + R"(, "targets": [[0,0,0]]})", 3,
+                     "as many points as 'handles'"},
+        test::BadRig{"NegativeAlpha",
+                     R"({"method": "mls", "alpha": -1, "handles": )" + kTet + R"(, "targets": )" +
+                         kTet + "}",
+                     3, "'alpha' must be > 0"},
+        test::BadRig{
             "UnknownKey",
             R"({"method": "mls", "alpa": 1, "handles": )" + kTet + R"(, "targets": )" + kTet + "}",
             3, "'alpa' is not a key of this method"},
-        BadMlsRig{"CoplanarAffine",
-                  R"({"method": "mls", "mode": "affine", "handles": )" + kPlane +
-                      R"(, "targets": )" + kPlane + "}",
-                  3, "the handles are coplanar"},
-        BadMlsRig{"CollinearRigid",
-                  R"({"method": "mls", "handles": )" + kLine + R"(, "targets": )" + kTet + "}", 3,
-                  "the handles are collinear"},
-        BadMlsRig{"Coincident",
-                  R"({"method": "mls", "handles": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[0,0,0]],
+        test::BadRig{"CoplanarAffine",
+                     R"({"method": "mls", "mode": "affine", "handles": )" + kPlane +
+                         R"(, "targets": )" + kPlane + "}",
+                     3, "the handles are coplanar"},
+        test::BadRig{"CollinearRigid",
+                     R"({"method": "mls", "handles": )" + kLine + R"(, "targets": )" + kTet + "}",
+                     3, "the handles are collinear"},
+        test::BadRig{"Coincident",
+                     R"({"method": "mls", "handles": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[0,0,0]],
                       "targets": )" +
-                      kTet + "}",
-                  3, "handles 0 and 4 coincide"}),
-    [](const ::testing::TestParamInfo<BadMlsRig>& info) { return std::string(info.param.name); });
+                         kTet + "}",
+                     3, "handles 0 and 4 coincide"}),
+    ::spacewarp::test::badRigName);
 
 }  // namespace

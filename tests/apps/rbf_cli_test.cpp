@@ -24,6 +24,8 @@ using ::testing::HasSubstr;
 
 namespace {
 
+using ::spacewarp::test::BadRigTest;
+
 // A fresh folder per test (see cli_test_util.h).
 class RbfCliTest : public test::CliFixture {
  protected:
@@ -119,63 +121,41 @@ TEST_F(RbfCliTest, WeightsWriteTheRbfCoordinates) {
   EXPECT_EQ(row, cloud.size());
 }
 
-struct BadRbfRig {
-  const char* name;
-  std::string json;
-  int exitCode;
-  const char* message;
-};
-
-class RbfCliBadRigTest : public RbfCliTest, public ::testing::WithParamInterface<BadRbfRig> {};
-
-TEST_P(RbfCliBadRigTest, FailsWithItsCodeAndMessage) {
-  PolygonSoup cloud;
-  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1), Vec3(1), 10, 11);
-  writeSoup(cloud, dir_ / "cloud.ply");
-  write("rig.json", GetParam().json);
-  const test::CliResult r =
-      run("deform --rig " + (dir_ / "rig.json").string() + " " + (dir_ / "cloud.ply").string() +
-          " -o " + (dir_ / "out.ply").string());
-  EXPECT_EQ(r.exitCode, GetParam().exitCode) << r.err;
-  EXPECT_THAT(r.err, HasSubstr("rig.json"));
-  EXPECT_THAT(r.err, HasSubstr(GetParam().message));
-  EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
-}
-
 const std::string kTet = "[[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,1,1]]";
 const std::string kPlane = "[[0,0,0],[1,0,0],[0,1,0],[1,1,0],[2,1,0]]";
 
 INSTANTIATE_TEST_SUITE_P(
-    Rigs, RbfCliBadRigTest,
+    RbfRigs, BadRigTest,
     ::testing::Values(
-        BadRbfRig{"UnknownKernel",
-                  R"({"method": "rbf", "kernel": "cubic", "centers": )" + kTet +
-                      R"(, "targets": )" + kTet + "}",
-                  3, "'kernel' unknown RBF kernel 'cubic'"},
-        BadRbfRig{"MissingTargets", R"({"method": "rbf", "centers": )" + kTet + "}", 3,
-                  "'targets' is missing"},
-        BadRbfRig{"SizeMismatch",
-                  R"({"method": "rbf", "centers": )" + kTet + R"(, "targets": [[0,0,0]]})", 3,
-                  "as many points as 'centers'"},
-        BadRbfRig{
+        test::BadRig{"UnknownKernel",
+                     R"({"method": "rbf", "kernel": "cubic", "centers": )" + kTet +
+                         R"(, "targets": )" + kTet + "}",
+                     3, "'kernel' unknown RBF kernel 'cubic'"},
+        test::BadRig{"MissingTargets", R"({"method": "rbf", "centers": )" + kTet + "}", 3,
+                     "'targets' is missing"},
+        test::BadRig{"SizeMismatch",
+                     R"({"method": "rbf", "centers": )" + kTet + R"(, "targets": [[0,0,0]]})", 3,
+                     "as many points as 'centers'"},
+        test::BadRig{
             "ScaleOnTriharmonic",
             R"({"method": "rbf", "scale": 2, "centers": )" + kTet + R"(, "targets": )" + kTet + "}",
             3, "'scale' applies to the gaussian"},
-        BadRbfRig{"NegativeSmoothing",
-                  R"({"method": "rbf", "smoothing": -1, "centers": )" + kTet + R"(, "targets": )" +
-                      kTet + "}",
-                  3, "'smoothing' must be >= 0"},
-        BadRbfRig{"Coplanar",
-                  R"({"method": "rbf", "centers": )" + kPlane + R"(, "targets": )" + kPlane + "}",
-                  3, "4 affinely independent centres"},
-        BadRbfRig{"Conflict",
-                  R"({"method": "rbf", "centers": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[0,0,0]],
+        test::BadRig{"NegativeSmoothing",
+                     R"({"method": "rbf", "smoothing": -1, "centers": )" + kTet +
+                         R"(, "targets": )" + kTet + "}",
+                     3, "'smoothing' must be >= 0"},
+        test::BadRig{
+            "Coplanar",
+            R"({"method": "rbf", "centers": )" + kPlane + R"(, "targets": )" + kPlane + "}", 3,
+            "4 affinely independent centres"},
+        test::BadRig{"Conflict",
+                     R"({"method": "rbf", "centers": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[0,0,0]],
                       "targets": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,0,0]]})",
-                  3, "centre 0 and centre 4 coincide"},
-        BadRbfRig{"Singular",
-                  R"({"method": "rbf", "kernel": "gaussian", "scale": 1e6, "centers": )" + kTet +
-                      R"(, "targets": )" + kTet + "}",
-                  4, "singular"}),
-    [](const ::testing::TestParamInfo<BadRbfRig>& info) { return std::string(info.param.name); });
+                     3, "centre 0 and centre 4 coincide"},
+        test::BadRig{"Singular",
+                     R"({"method": "rbf", "kernel": "gaussian", "scale": 1e6, "centers": )" + kTet +
+                         R"(, "targets": )" + kTet + "}",
+                     4, "singular"}),
+    ::spacewarp::test::badRigName);
 
 }  // namespace
