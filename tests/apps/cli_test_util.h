@@ -6,14 +6,19 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <sstream>
 #include <string>
 #include <utility>
 
 #include <gtest/gtest.h>
+
+#include "core/io/mesh_io.h"
+#include "core/primitives.h"
 
 namespace spacewarp::test {
 
@@ -59,6 +64,20 @@ class CliFixture : public ::testing::Test {
     return r;
   }
 
+  /// n random points in the box [lo, hi) (deterministic for `seed`), written as cloud.ply.
+  PolygonSoup writeCloud(const Vec3& lo, const Vec3& hi, std::size_t n, std::uint64_t seed) {
+    PolygonSoup cloud;
+    static_cast<PointSet&>(cloud) = makeRandomPoints(lo, hi, n, seed);
+    writeSoup(cloud, dir_ / "cloud.ply");
+    return cloud;
+  }
+
+  /// `spacewarp deform --rig dir_/rig dir_/cloud.ply -o dir_/out.ply`.
+  CliResult deform(const std::string& rig) {
+    return run("deform --rig " + (dir_ / rig).string() + " " + (dir_ / "cloud.ply").string() +
+               " -o " + (dir_ / "out.ply").string());
+  }
+
   /// Writes `content` to dir_/name and returns that path.
   std::filesystem::path write(const std::string& name, const std::string& content) {
     std::ofstream(dir_ / name, std::ios::binary) << content;
@@ -70,6 +89,17 @@ class CliFixture : public ::testing::Test {
  private:
   std::string prefix_;
 };
+
+/// Points as a JSON array of [x, y, z] with full double precision, for writing rigs.
+inline std::string jsonPoints(std::span<const Vec3> points) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "[";
+  for (std::size_t i = 0; i < points.size(); ++i)
+    s << (i ? ", " : "") << "[" << points[i].x << ", " << points[i].y << ", " << points[i].z << "]";
+  s << "]";
+  return s.str();
+}
 
 /// A malformed rig and what `spacewarp deform` must do with it: exit with `exitCode` (3 for
 /// bad input, 4 for a numerical failure), print one line naming the rig file and containing

@@ -34,15 +34,7 @@ class FfdCliTest : public test::CliFixture {
 
   // A cloud of n points in [lo, hi)³ written as cloud.ply.
   PolygonSoup writeCloud(double lo, double hi, std::size_t n) {
-    PolygonSoup cloud;
-    static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(lo), Vec3(hi), n, 5);
-    writeSoup(cloud, dir_ / "cloud.ply");
-    return cloud;
-  }
-
-  CliResult deform(const std::string& rig) {
-    return run("deform --rig " + (dir_ / rig).string() + " " + (dir_ / "cloud.ply").string() +
-               " -o " + (dir_ / "out.ply").string());
+    return CliFixture::writeCloud(Vec3(lo), Vec3(hi), n, 5);
   }
 };
 

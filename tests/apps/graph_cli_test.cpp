@@ -26,16 +26,8 @@ class GraphCliTest : public test::CliFixture {
  protected:
   GraphCliTest() : test::CliFixture("spacewarp_graph_cli_") {}
 
-  test::CliResult deform(const std::string& rig) {
-    return run("deform --rig " + (dir_ / rig).string() + " " + (dir_ / "cloud.ply").string() +
-               " -o " + (dir_ / "out.ply").string());
-  }
-
   PolygonSoup writeCloud() {
-    PolygonSoup cloud;
-    static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(0.0), Vec3(2.0, 1.0, 1.0), 300, 3);
-    writeSoup(cloud, dir_ / "cloud.ply");
-    return cloud;
+    return CliFixture::writeCloud(Vec3(0.0), Vec3(2.0, 1.0, 1.0), 300, 3);
   }
 };
 

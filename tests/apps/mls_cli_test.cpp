@@ -28,15 +28,7 @@ class MlsCliTest : public test::CliFixture {
   MlsCliTest() : test::CliFixture("spacewarp_mls_cli_") {}
 };
 
-std::string jsonPoints(const std::vector<Vec3>& points) {
-  std::ostringstream s;
-  s.precision(17);
-  s << "[";
-  for (std::size_t i = 0; i < points.size(); ++i)
-    s << (i ? ", " : "") << "[" << points[i].x << ", " << points[i].y << ", " << points[i].z << "]";
-  s << "]";
-  return s.str();
-}
+using test::jsonPoints;
 
 TEST_F(MlsCliTest, DeformMatchesTheLibraryWarpInEveryMode) {
   const std::vector<Vec3> handles = makeRandomPoints(Vec3(-1.0), Vec3(1.0), 12, 5).positions;

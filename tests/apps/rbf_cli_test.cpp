@@ -32,15 +32,7 @@ class RbfCliTest : public test::CliFixture {
   RbfCliTest() : test::CliFixture("spacewarp_rbf_cli_") {}
 };
 
-std::string jsonPoints(const std::vector<Vec3>& points) {
-  std::ostringstream s;
-  s.precision(17);
-  s << "[";
-  for (std::size_t i = 0; i < points.size(); ++i)
-    s << (i ? ", " : "") << "[" << points[i].x << ", " << points[i].y << ", " << points[i].z << "]";
-  s << "]";
-  return s.str();
-}
+using test::jsonPoints;
 
 struct RbfSetup {
   std::vector<Vec3> centres, targets, fixed;
