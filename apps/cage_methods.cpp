@@ -12,17 +12,20 @@ namespace spacewarp::cli {
 
 namespace {
 
-using Factory = std::function<std::shared_ptr<const Coordinates>(std::shared_ptr<const Cage>)>;
+using Factory = std::function<std::shared_ptr<const Coordinates>(
+    std::shared_ptr<const Cage>, const CageMethodOptions&, const ProgressCallback&)>;
 
 const std::map<std::string, Factory>& factories() {
   static const std::map<std::string, Factory> table = {
-      {"mvc", [](auto cage) { return std::make_shared<MeanValueCoordinates>(cage); }},
-      {"green", [](auto cage) { return std::make_shared<GreenCoordinates>(cage); }},
+      {"mvc", [](auto cage, auto&, auto&) { return std::make_shared<MeanValueCoordinates>(cage); }},
+      {"green", [](auto cage, auto&, auto&) { return std::make_shared<GreenCoordinates>(cage); }},
   };
   return table;
 }
 
 }  // namespace
+
+void addCageMethodOptions(CLI::App*, CageMethodOptions&) {}
 
 std::vector<std::string> cageMethods() {
   std::vector<std::string> names;
@@ -31,21 +34,24 @@ std::vector<std::string> cageMethods() {
 }
 
 std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
-                                                   std::shared_ptr<const Cage> cage) {
+                                                   std::shared_ptr<const Cage> cage,
+                                                   const CageMethodOptions& options,
+                                                   const ProgressCallback& progress) {
   const auto it = factories().find(method);
   if (it == factories().end()) {
     std::string known;
     for (const std::string& m : cageMethods()) known += (known.empty() ? "" : ", ") + m;
     throw InvalidInput("unknown cage method '" + method + "' (one of: " + known + ")");
   }
-  return it->second(std::move(cage));
+  return it->second(std::move(cage), options, progress);
 }
 
 Rig cageRig(const std::string& method, const std::filesystem::path& cage,
-            const std::filesystem::path& pose) {
+            const std::filesystem::path& pose, const CageMethodOptions& options,
+            const ProgressCallback& progress) {
   auto rest = std::make_shared<const Cage>(Cage::fromFile(cage));
   const std::vector<Vec3> posed = rest->posedVerticesFromFile(pose);
-  auto coordinates = cageCoordinates(method, rest);
+  auto coordinates = cageCoordinates(method, rest, options, progress);
   return {std::make_shared<CoordinateWarp>(coordinates, posed), coordinates};
 }
 

@@ -1,0 +1,41 @@
+// spacewarp info FILE: counts and the bounding box of a soup or point cloud.
+
+#include <cstdio>
+#include <map>
+
+#include "apps/commands.h"
+#include "core/io/mesh_io.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+void printInfo(const std::filesystem::path& path) {
+  const PolygonSoup soup = readSoup(path);
+  std::map<std::size_t, std::size_t> sizes;
+  for (std::size_t p = 0; p < soup.polygonCount(); ++p) ++sizes[soup.polygon(p).size()];
+  const BoundingBox box = boundingBox(soup.positions);
+
+  std::printf("file:       %s\n", path.string().c_str());
+  std::printf("vertices:   %zu\n", soup.size());
+  std::printf("polygons:   %zu", soup.polygonCount());
+  for (const auto& [n, count] : sizes) std::printf("  (%zu with %zu sides)", count, n);
+  std::printf("\nnormals:    %s\n", soup.hasNormals() ? "per vertex" : "none");
+  for (const VertexAttribute& a : soup.attributes) std::printf("attribute:  %s\n", a.name.c_str());
+  if (!box.empty()) {
+    std::printf("bbox min:   %.17g %.17g %.17g\n", box.min.x, box.min.y, box.min.z);
+    std::printf("bbox max:   %.17g %.17g %.17g\n", box.max.x, box.max.y, box.max.z);
+    std::printf("diagonal:   %.17g\n", box.diagonal());
+  }
+}
+
+}  // namespace
+
+Command addInfoCommand(CLI::App& app, const CliContext&) {
+  auto path = std::make_shared<std::string>();
+  CLI::App* info = app.add_subcommand("info", "Print counts and the bounding box of a file");
+  info->add_option("FILE", *path, "OBJ, OFF or PLY file")->required();
+  return {info, [path] { printInfo(*path); }};
+}
+
+}  // namespace spacewarp::cli

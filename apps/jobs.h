@@ -1,0 +1,30 @@
+#pragma once
+// File-to-file work shared by the subcommands and the demo.
+
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "core/coordinates.h"
+#include "core/progress.h"
+#include "core/warp.h"
+
+namespace spacewarp::cli {
+
+/// Reads a soup or point cloud (OBJ, OFF, PLY), warps it and writes it atomically. The output
+/// format is checked before any work. `ascii` writes PLY as ASCII.
+void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
+                    const std::filesystem::path& output, bool ascii,
+                    const ProgressCallback& progress = {});
+
+/// The coordinate matrix of every point in `points` (any soup file; faces ignored), one row per
+/// point in input order and one column per coordinate, written atomically as CSV (a header of
+/// column names, full double precision) or NumPy .npy (float64, C order, rows × columns),
+/// chosen by the output's extension.
+void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::path& points,
+                      const std::filesystem::path& output);
+
+/// Writes `j` pretty-printed, atomically.
+void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path);
+
+}  // namespace spacewarp::cli
