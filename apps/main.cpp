@@ -28,9 +28,8 @@ int run(int argc, char** argv) {
   app.add_flag("-q,--quiet", context.quiet, "no progress display and no informational output");
 
   const std::vector<Command> commands = {
-      addInfoCommand(app, context),
-      addDeformCommand(app, context),
-      addWeightsCommand(app, context),
+      addInfoCommand(app, context),    addDeformCommand(app, context),
+      addWeightsCommand(app, context), addCompareCommand(app, context),
       addDemoCommand(app, context),
   };
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <string>
 #include <utility>
 
@@ -249,6 +250,19 @@ std::vector<Vec3> Cage::posedVertices(const PolygonSoup& posed, const std::strin
 
 std::vector<Vec3> Cage::posedVerticesFromFile(const std::filesystem::path& path) const {
   return posedVertices(readSoup(path), path.string());
+}
+
+double Cage::windingNumber(const Vec3& x) const {
+  double total = 0.0;
+  for (const Triangle& t : triangles_) {
+    const Vec3 a = vertices_[t.x] - x, b = vertices_[t.y] - x, c = vertices_[t.z] - x;
+    const double la = glm::length(a), lb = glm::length(b), lc = glm::length(c);
+    const double numerator = glm::dot(a, glm::cross(b, c));
+    const double denominator =
+        la * lb * lc + glm::dot(a, b) * lc + glm::dot(b, c) * la + glm::dot(c, a) * lb;
+    total += 2.0 * std::atan2(numerator, denominator);
+  }
+  return total / (4.0 * std::numbers::pi);
 }
 
 }  // namespace spacewarp

@@ -55,6 +55,13 @@ class Cage {
   Vec3 normal(std::size_t t) const;
   double area(std::size_t t) const;
 
+  /// The generalised winding number of the cage at x: the solid angle the cage subtends at x
+  /// over 4π (Van Oosterom-Strackee per triangle); 1 inside, 0 outside, about ½ on the surface.
+  double windingNumber(const Vec3& x) const;
+
+  /// True when x is strictly inside the cage (winding number above ½).
+  bool contains(const Vec3& x) const { return windingNumber(x) > 0.5; }
+
   /// The vertices of a posed cage, checked against this (rest) cage: the vertex count must
   /// match, and if the posed soup has polygons they must be the rest polygons. Throws
   /// InvalidInput saying which count differs, or naming a non-finite vertex.

@@ -22,25 +22,23 @@ std::vector<double> weightRows(const Coordinates& c, std::span<const Vec3> point
   return rows;
 }
 
-}  // namespace
-
-PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cage,
-                                 std::span<const Vec3> samples, const PropertyOptions& options) {
+// The sample-based checks, shared by both overloads. `centre` is the fixed point of the
+// similarity; `controls` the rest control points.
+PropertyReport measureSamples(const Coordinates& coordinates, std::span<const Vec3> controls,
+                              std::span<const Vec3> samples, double diagonal,
+                              const PropertyOptions& options) {
   const std::size_t nv = coordinates.controlPointCount();
   const std::size_t m = coordinates.columnCount();
-  if (nv != cage.vertexCount()) {
-    throw InvalidInput("measureProperties: the coordinates have " + std::to_string(nv) +
-                       " control points but the cage has " + std::to_string(cage.vertexCount()) +
-                       " vertices");
-  }
   if (samples.empty()) throw InvalidInput("measureProperties: no sample points");
-  const double diagonal = cage.diagonal();
+  if (!(diagonal > 0.0) || !std::isfinite(diagonal))
+    throw InvalidInput("measureProperties: the diagonal must be finite and positive");
 
   std::vector<Vec3> restColumns(m);
-  coordinates.columnControls(cage.vertices(), restColumns);
+  coordinates.columnControls(controls, restColumns);
 
-  // The similarity-posed cage and its column controls, as displacements.
-  const Vec3 centre = 0.5 * (boundingBox(cage.vertices()).min + boundingBox(cage.vertices()).max);
+  // The similarity-posed controls and their column controls, as displacements.
+  const BoundingBox box = boundingBox(controls);
+  const Vec3 centre = 0.5 * (box.min + box.max);
   Mat4 similarity = glm::translate(Mat4(1.0), centre + options.similarityTranslation * diagonal);
   similarity =
       glm::rotate(similarity, options.similarityAngle, glm::normalize(options.similarityAxis));
@@ -48,7 +46,7 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
   similarity = glm::translate(similarity, -centre);
   auto applySimilarity = [&](const Vec3& x) { return Vec3(similarity * glm::dvec4(x, 1.0)); };
   std::vector<Vec3> posed(nv), displacement(m);
-  for (std::size_t i = 0; i < nv; ++i) posed[i] = applySimilarity(cage.vertices()[i]);
+  for (std::size_t i = 0; i < nv; ++i) posed[i] = applySimilarity(controls[i]);
   coordinates.columnControls(posed, displacement);
   for (std::size_t c = 0; c < m; ++c) displacement[c] -= restColumns[c];
 
@@ -85,6 +83,31 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
       static_cast<double>(negative) / static_cast<double>(samples.size() * nv);
   report.samplesWithNegative =
       static_cast<double>(samplesNegative) / static_cast<double>(samples.size());
+  report.lagrange = std::numeric_limits<double>::quiet_NaN();
+  report.faceInterpolation = std::numeric_limits<double>::quiet_NaN();
+  return report;
+}
+
+}  // namespace
+
+PropertyReport measureProperties(const Coordinates& coordinates, std::span<const Vec3> samples,
+                                 double diagonal, const PropertyOptions& options) {
+  return measureSamples(coordinates, coordinates.restControlPoints(), samples, diagonal, options);
+}
+
+PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cage,
+                                 std::span<const Vec3> samples, const PropertyOptions& options) {
+  const std::size_t nv = coordinates.controlPointCount();
+  const std::size_t m = coordinates.columnCount();
+  if (nv != cage.vertexCount()) {
+    throw InvalidInput("measureProperties: the coordinates have " + std::to_string(nv) +
+                       " control points but the cage has " + std::to_string(cage.vertexCount()) +
+                       " vertices");
+  }
+  PropertyReport report =
+      measureSamples(coordinates, cage.vertices(), samples, cage.diagonal(), options);
+  report.lagrange = 0.0;
+  report.faceInterpolation = 0.0;
 
   // Lagrange property: w_i(v_j) = δ_ij.
   const std::vector<double> atVertices = weightRows(coordinates, cage.vertices());
@@ -121,6 +144,23 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
           std::max(report.faceInterpolation, std::abs(atFaces[f * m + i] - expected[i]));
   }
   return report;
+}
+
+std::vector<Vec3> interiorSamples(const Cage& cage, std::size_t count, std::uint64_t seed) {
+  const BoundingBox box = boundingBox(cage.vertices());
+  std::mt19937_64 rng(seed);
+  auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  std::vector<Vec3> samples;
+  samples.reserve(count);
+  // Cages fill a reasonable part of their box; the bound only stops a degenerate loop.
+  const std::size_t maxTries = 1000 * count + 1000;
+  for (std::size_t tries = 0; samples.size() < count; ++tries) {
+    if (tries == maxTries)
+      throw InvalidInput("interiorSamples: found no interior points; is the cage flat?");
+    const Vec3 x = box.min + Vec3(unit(), unit(), unit()) * (box.max - box.min);
+    if (cage.contains(x)) samples.push_back(x);
+  }
+  return samples;
 }
 
 }  // namespace spacewarp

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "coords/cage.h"
 #include "core/coordinates.h"
@@ -36,9 +37,10 @@ struct PropertyReport {
   double negativeFraction = 0.0;     ///< fraction of (sample, vertex) weights below zero
   double samplesWithNegative = 0.0;  ///< fraction of samples with at least one negative weight
   /// max |w_i(v_j) − δ_ij| over the cage vertices v_j (interpolating coordinates have 0).
+  /// NaN when the controls are not the cage's vertices (the check does not apply).
   double lagrange = 0.0;
   /// max |w(x) − barycentric(x)| at random points on cage triangles (interpolating coordinates
-  /// are linear on faces).
+  /// are linear on faces). NaN when the controls are not the cage's vertices.
   double faceInterpolation = 0.0;
   /// max |x' − S(x)| / diagonal, where the cage is posed by the similarity S (rotation, uniform
   /// scale, translation) and x' is the deformed sample. 0 for coordinates that reproduce
@@ -53,5 +55,17 @@ struct PropertyReport {
 PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cage,
                                  std::span<const Vec3> samples,
                                  const PropertyOptions& options = {});
+
+/// The properties that do not need the controls to be cage vertices (partition of unity,
+/// linear and similarity reproduction, signs), for coordinates with any controls (a lattice,
+/// RBF handles): lengths relative to `diagonal` (world units, > 0), the similarity about the
+/// centre of the controls' bounding box. lagrange and faceInterpolation are NaN. Throws
+/// InvalidInput if `samples` is empty or `diagonal` is not positive.
+PropertyReport measureProperties(const Coordinates& coordinates, std::span<const Vec3> samples,
+                                 double diagonal, const PropertyOptions& options = {});
+
+/// `count` points drawn uniformly inside `cage` (rejection sampling in its bounding box with the
+/// winding number), deterministic for a given seed: the sample set the comparison report uses.
+std::vector<Vec3> interiorSamples(const Cage& cage, std::size_t count, std::uint64_t seed = 1);
 
 }  // namespace spacewarp

@@ -13,7 +13,7 @@ packages=(
   libnanoflann-dev libxsimd-dev
   # CHOLMOD (the deformation graph's sparse Cholesky) and an optimised BLAS for its
   # supernodal kernels: with the reference BLAS CHOLMOD runs ~3x slower.
-  libsuitesparse-dev libopenblas0-pthread
+  libsuitesparse-dev libstb-dev libopenblas0-pthread
   clang libclang-rt-14-dev clang-format
 )
 

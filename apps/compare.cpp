@@ -1,0 +1,378 @@
+#include "apps/compare.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "apps/heat_map.h"
+#include "apps/jobs.h"
+#include "coords/cage.h"
+#include "coords/properties.h"
+#include "core/errors.h"
+#include "core/io/atomic_file.h"
+#include "ffd/lattice.h"
+#include "ffd/lattice_coordinates.h"
+#include "rbf/rbf_coordinates.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// A method of the comparison: how to build its coordinates for a cage, and whether its
+// controls are the cage's vertices (then the whole property kit applies and control I is
+// vertex I; otherwise control I is the control point nearest to vertex I).
+struct Method {
+  std::string description;
+  std::function<std::shared_ptr<const Coordinates>(
+      std::shared_ptr<const Cage>, const CageMethodOptions&, const ProgressCallback&)>
+      make;
+  bool cageControls = true;
+};
+
+std::map<std::string, Method> methodTable() {
+  std::map<std::string, Method> table;
+  for (const std::string& name : cageMethods()) {
+    table[name] = {name + " cage coordinates",
+                   [name](auto cage, const auto& options, const auto& progress) {
+                     return cageCoordinates(name, cage, options, progress);
+                   }};
+  }
+  table["rbf"] = {"triharmonic RBF coordinates, one handle per cage vertex",
+                  [](auto cage, const auto&, const auto&) {
+                    return std::make_shared<RbfCoordinates>(cage->vertices());
+                  }};
+  table["ffd"] = {"Bernstein FFD lattice (4 x 4 x 4) around the cage, padded by 5%",
+                  [](auto cage, const auto&, const auto&) {
+                    const BoundingBox box = boundingBox(cage->vertices());
+                    const Vec3 pad(0.05 * cage->diagonal());
+                    LatticeParams params;
+                    params.origin = box.min - pad;
+                    params.extents = box.max - box.min + 2.0 * pad;
+                    params.resolution = {4, 4, 4};
+                    params.basis = LatticeBasis::Bernstein;
+                    return std::make_shared<LatticeCoordinates>(Lattice(params));
+                  },
+                  false};
+  return table;
+}
+
+// The slice plane's frame and the rectangle of the cage's projection onto it.
+struct Slice {
+  Vec3 origin, normal, u, v;
+  double uMin = 0, uMax = 0, vMin = 0, vMax = 0;
+  int width = 0, height = 0;
+
+  Vec3 pixelCentre(int i, int j) const {
+    const double a = uMin + (uMax - uMin) * (i + 0.5) / width;
+    const double b = vMax - (vMax - vMin) * (j + 0.5) / height;  // row 0 at the top
+    return origin + a * u + b * v;
+  }
+  // Fractional pixel coordinates of a point of the plane.
+  std::pair<double, double> toPixel(const Vec3& p) const {
+    const Vec3 d = p - origin;
+    return {(glm::dot(d, u) - uMin) / (uMax - uMin) * width - 0.5,
+            (vMax - glm::dot(d, v)) / (vMax - vMin) * height - 0.5};
+  }
+};
+
+// The cage's cross-section with the plane, as segments.
+std::vector<std::pair<Vec3, Vec3>> crossSection(const Cage& cage, const Slice& s) {
+  std::vector<std::pair<Vec3, Vec3>> segments;
+  for (const Triangle& t : cage.triangles()) {
+    const Vec3 p[3] = {cage.vertices()[t.x], cage.vertices()[t.y], cage.vertices()[t.z]};
+    double d[3];
+    for (int k = 0; k < 3; ++k) d[k] = glm::dot(p[k] - s.origin, s.normal);
+    std::vector<Vec3> hits;
+    for (int k = 0; k < 3; ++k) {
+      const int l = (k + 1) % 3;
+      if (d[k] == 0.0) hits.push_back(p[k]);
+      if ((d[k] < 0.0 && d[l] > 0.0) || (d[k] > 0.0 && d[l] < 0.0))
+        hits.push_back(p[k] + (p[l] - p[k]) * (d[k] / (d[k] - d[l])));
+    }
+    if (hits.size() >= 2) segments.emplace_back(hits[0], hits[1]);
+  }
+  return segments;
+}
+
+Slice makeSlice(const Cage& cage, const Vec3& point, const Vec3& normal, int resolution) {
+  Slice s;
+  s.origin = point;
+  s.normal = glm::normalize(normal);
+  // In-plane axes: for axis-aligned planes the two other world axes in order (x-y, x-z, y-z),
+  // so images read like the usual views; otherwise any orthonormal pair.
+  const Vec3 n = s.normal;
+  const Vec3 helper = std::abs(n.x) > 0.9 ? Vec3(0, 1, 0) : Vec3(1, 0, 0);
+  s.u = glm::normalize(helper - glm::dot(helper, n) * n);
+  s.v = glm::cross(n, s.u);
+  if (std::abs(n.z) > 1.0 - 1e-12) s.u = Vec3(1, 0, 0), s.v = Vec3(0, 1, 0);
+  if (std::abs(n.y) > 1.0 - 1e-12) s.u = Vec3(1, 0, 0), s.v = Vec3(0, 0, 1);
+  if (std::abs(n.x) > 1.0 - 1e-12) s.u = Vec3(0, 1, 0), s.v = Vec3(0, 0, 1);
+  s.uMin = s.vMin = std::numeric_limits<double>::infinity();
+  s.uMax = s.vMax = -std::numeric_limits<double>::infinity();
+  // Frame the cross-section (the whole cage's shadow when the plane misses it).
+  std::vector<Vec3> framed;
+  for (const auto& [a, b] : crossSection(cage, s)) framed.push_back(a), framed.push_back(b);
+  if (framed.empty()) framed.assign(cage.vertices().begin(), cage.vertices().end());
+  for (const Vec3& p : framed) {
+    const double a = glm::dot(p - point, s.u), b = glm::dot(p - point, s.v);
+    s.uMin = std::min(s.uMin, a), s.uMax = std::max(s.uMax, a);
+    s.vMin = std::min(s.vMin, b), s.vMax = std::max(s.vMax, b);
+  }
+  const double pad = 0.04 * std::max(s.uMax - s.uMin, s.vMax - s.vMin);
+  s.uMin -= pad, s.uMax += pad, s.vMin -= pad, s.vMax += pad;
+  const double aspect = (s.uMax - s.uMin) / (s.vMax - s.vMin);
+  s.width =
+      aspect >= 1.0 ? resolution : std::max(1, static_cast<int>(std::lround(resolution * aspect)));
+  s.height =
+      aspect >= 1.0 ? std::max(1, static_cast<int>(std::lround(resolution / aspect))) : resolution;
+  return s;
+}
+
+json vec(const Vec3& v) { return json::array({v.x, v.y, v.z}); }
+
+json propertiesJson(const PropertyReport& r) {
+  return {{"sampleCount", r.sampleCount},
+          {"partitionOfUnity", r.partitionOfUnity},
+          {"linearReproduction", r.linearReproduction},
+          {"similarityReproduction", r.similarityReproduction},
+          {"minWeight", r.minWeight},
+          {"negativeFraction", r.negativeFraction},
+          {"samplesWithNegative", r.samplesWithNegative},
+          {"lagrange", r.lagrange},
+          {"faceInterpolation", r.faceInterpolation}};
+}
+
+std::string number(const json& j) {
+  if (j.is_null() || std::isnan(j.get<double>())) return "n/a";
+  std::ostringstream s;
+  s.precision(3);
+  s << j.get<double>();
+  return s.str();
+}
+
+std::string markdown(const json& report) {
+  std::ostringstream md;
+  md << "# Coordinate comparison\n\n"
+     << "Cage `" << report["cage"].get<std::string>() << "` (" << report["cageVertices"]
+     << " vertices, " << report["cageTriangles"] << " triangles, diagonal "
+     << number(report["diagonal"]) << "). Coordinate function of cage vertex " << report["control"]
+     << " on the plane through " << report["slice"]["point"].dump() << " with normal "
+     << report["slice"]["normal"].dump() << ".\n\n"
+     << "![side by side](compare.png)\n\n"
+     << "Left to right:";
+  for (const json& m : report["methods"]) md << " " << m["name"].get<std::string>();
+  md << ". One colour scale for all, from " << number(report["colourScale"]["min"]) << " to "
+     << number(report["colourScale"]["max"])
+     << ": viridis for values ≥ 0, pink to red for negative values, grey outside the cage, "
+        "the cage's cross-section in black.\n\n"
+     << "Properties at " << report["samples"]["count"] << " random interior points (seed "
+     << report["samples"]["seed"]
+     << "); errors are maxima, lengths relative to the cage diagonal.\n\n"
+     << "| method | setup s | bind s | points/s | partition of unity | linear reproduction | "
+        "min weight | negative fraction | Lagrange | face interpolation | slice min | slice max "
+        "|\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const json& m : report["methods"]) {
+    const json& p = m["properties"];
+    md << "| " << m["name"].get<std::string>() << " | " << number(m["setupSeconds"]) << " | "
+       << number(m["bindSeconds"]) << " | " << number(m["bindPointsPerSecond"]) << " | "
+       << number(p["partitionOfUnity"]) << " | " << number(p["linearReproduction"]) << " | "
+       << number(p["minWeight"]) << " | " << number(p["negativeFraction"]) << " | "
+       << number(p["lagrange"]) << " | " << number(p["faceInterpolation"]) << " | "
+       << number(m["slice"]["min"]) << " | " << number(m["slice"]["max"]) << " |\n";
+  }
+  md << "\n";
+  for (const json& m : report["methods"])
+    md << "- **" << m["name"].get<std::string>() << "**: " << m["description"].get<std::string>()
+       << " (control " << m["controlIndex"] << " of " << m["controlCount"] << "); image `"
+       << m["image"].get<std::string>() << "`\n";
+  return md.str();
+}
+
+}  // namespace
+
+std::vector<std::string> compareMethods() {
+  std::vector<std::string> names;
+  for (const auto& [name, method] : methodTable()) names.push_back(name);
+  return names;
+}
+
+json runComparison(const CompareRequest& request, const CliContext& context) {
+  const std::map<std::string, Method> table = methodTable();
+  const std::vector<std::string> methods =
+      request.methods.empty() ? compareMethods() : request.methods;
+  for (const std::string& name : methods) {
+    if (!table.count(name)) {
+      std::string known;
+      for (const std::string& m : compareMethods()) known += (known.empty() ? "" : ", ") + m;
+      throw InvalidInput("unknown method '" + name + "' (one of: " + known + ")");
+    }
+  }
+  if (request.resolution < 8 || request.resolution > 8192)
+    throw InvalidInput("the resolution must be between 8 and 8192 pixels");
+  if (!isFinite(request.planePoint) || !isFinite(request.planeNormal) ||
+      glm::length(request.planeNormal) == 0.0)
+    throw InvalidInput("the slice plane needs a finite point and a non-zero normal");
+
+  auto cage = std::make_shared<const Cage>(Cage::fromFile(request.cage));
+  if (request.control >= cage->vertexCount())
+    throw InvalidInput(request.cage.string() + ": control " + std::to_string(request.control) +
+                       " is out of range (the cage has " + std::to_string(cage->vertexCount()) +
+                       " vertices)");
+  const Slice slice = makeSlice(*cage, request.planePoint, request.planeNormal, request.resolution);
+
+  // Pixels inside the cage: the only places where every method is defined.
+  std::vector<Vec3> inside;
+  std::vector<std::size_t> insidePixel;
+  for (int j = 0; j < slice.height; ++j)
+    for (int i = 0; i < slice.width; ++i) {
+      const Vec3 x = slice.pixelCentre(i, j);
+      if (cage->contains(x)) {
+        inside.push_back(x);
+        insidePixel.push_back(std::size_t(j) * slice.width + i);
+      }
+    }
+  if (inside.empty())
+    throw InvalidInput(request.cage.string() + ": the slice plane does not cut the cage");
+  const std::vector<Vec3> samples = interiorSamples(*cage, request.samples, request.seed);
+
+  struct Result {
+    std::string name;
+    std::size_t control = 0, controlCount = 0;
+    std::vector<double> values;  // per inside pixel
+    json entry;
+  };
+  std::vector<Result> results;
+  const ProgressCallback progress = context.progress();
+  for (const std::string& name : methods) {
+    const Method& method = table.at(name);
+    Result r;
+    r.name = name;
+    const auto start = Clock::now();
+    const auto coordinates = method.make(cage, request.cageOptions, progress);
+    const double setup = std::chrono::duration<double>(Clock::now() - start).count();
+
+    r.controlCount = coordinates->controlPointCount();
+    r.control = request.control;
+    if (!method.cageControls) {
+      const Vec3 target = cage->vertices()[request.control];
+      const auto controls = coordinates->restControlPoints();
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t c = 0; c < controls.size(); ++c)
+        if (const double d = glm::length(controls[c] - target); d < best) best = d, r.control = c;
+    }
+
+    // The weights of every inside pixel, in blocks to bound memory: the bind.
+    const std::size_t m = coordinates->columnCount();
+    const std::size_t block = std::max<std::size_t>(1, (std::size_t{1} << 22) / m);
+    std::vector<double> rows;
+    r.values.resize(inside.size());
+    const auto bindStart = Clock::now();
+    ProgressTracker tracker(progress, "bind " + name, inside.size());
+    for (std::size_t begin = 0; begin < inside.size(); begin += block) {
+      const std::size_t count = std::min(block, inside.size() - begin);
+      rows.resize(count * m);
+      coordinates->weightsBatch(std::span(inside).subspan(begin, count), rows);
+      for (std::size_t k = 0; k < count; ++k) r.values[begin + k] = rows[k * m + r.control];
+      tracker.advance(count);
+    }
+    tracker.finish();
+    const double bind = std::chrono::duration<double>(Clock::now() - bindStart).count();
+
+    const PropertyReport properties =
+        method.cageControls ? measureProperties(*coordinates, *cage, samples)
+                            : measureProperties(*coordinates, samples, cage->diagonal());
+    const auto [lo, hi] = std::minmax_element(r.values.begin(), r.values.end());
+    const auto negative =
+        std::count_if(r.values.begin(), r.values.end(), [](double v) { return v < 0.0; });
+    r.entry = {{"name", name},
+               {"description", method.description},
+               {"controlIndex", r.control},
+               {"controlCount", r.controlCount},
+               {"columns", m},
+               {"setupSeconds", setup},
+               {"bindSeconds", bind},
+               {"bindPoints", inside.size()},
+               {"bindPointsPerSecond", bind > 0.0 ? inside.size() / bind : 0.0},
+               {"slice", {{"min", *lo}, {"max", *hi}, {"negativePixels", negative}}},
+               {"properties", propertiesJson(properties)},
+               {"image", name + ".png"}};
+    results.push_back(std::move(r));
+  }
+
+  ColourScale scale{0.0, 0.0};
+  for (const Result& r : results)
+    for (double v : r.values)
+      scale.min = std::min(scale.min, v), scale.max = std::max(scale.max, v);
+  if (scale.max <= 0.0) scale.max = 1.0;
+
+  // Images: one per method, then all side by side with the colour bar underneath.
+  const auto segments = crossSection(*cage, slice);
+  const Vec3 controlPoint = cage->vertices()[request.control];
+  const double controlDistance = glm::dot(controlPoint - slice.origin, slice.normal);
+  std::vector<Image> images;
+  for (const Result& r : results) {
+    Image image(slice.width, slice.height, kOutside);
+    for (std::size_t k = 0; k < insidePixel.size(); ++k)
+      image.pixels[insidePixel[k]] = scale(r.values[k]);
+    for (const auto& [a, b] : segments) {
+      const auto [x0, y0] = slice.toPixel(a);
+      const auto [x1, y1] = slice.toPixel(b);
+      image.line(x0, y0, x1, y1, Rgb{0, 0, 0});
+    }
+    // Mark the control vertex when it lies near the plane.
+    if (std::abs(controlDistance) <= 0.05 * cage->diagonal()) {
+      const auto [cx, cy] = slice.toPixel(controlPoint - controlDistance * slice.normal);
+      image.line(cx - 4, cy, cx + 4, cy, Rgb{255, 255, 255});
+      image.line(cx, cy - 4, cx, cy + 4, Rgb{255, 255, 255});
+    }
+    images.push_back(std::move(image));
+  }
+  const int gap = 8, barHeight = 16;
+  const int totalWidth = static_cast<int>(results.size()) * (slice.width + gap) - gap;
+  Image strip(totalWidth, slice.height + gap + barHeight, Rgb{255, 255, 255});
+  for (std::size_t k = 0; k < images.size(); ++k)
+    strip.paste(images[k], static_cast<int>(k) * (slice.width + gap), 0);
+  const Image bar = colourBar(scale, totalWidth, barHeight);
+  strip.paste(bar, 0, slice.height + gap);
+
+  json report = {{"cage", request.cage.string()},
+                 {"cageVertices", cage->vertexCount()},
+                 {"cageTriangles", cage->triangleCount()},
+                 {"diagonal", cage->diagonal()},
+                 {"control", request.control},
+                 {"slice",
+                  {{"point", vec(slice.origin)},
+                   {"normal", vec(slice.normal)},
+                   {"u", vec(slice.u)},
+                   {"v", vec(slice.v)},
+                   {"uRange", {slice.uMin, slice.uMax}},
+                   {"vRange", {slice.vMin, slice.vMax}}}},
+                 {"resolution", {slice.width, slice.height}},
+                 {"insidePixels", inside.size()},
+                 {"colourScale", {{"min", scale.min}, {"max", scale.max}}},
+                 {"samples", {{"count", samples.size()}, {"seed", request.seed}}},
+                 {"images", {{"sideBySide", "compare.png"}, {"colourBar", "colour_bar.png"}}},
+                 {"methods", json::array()}};
+  for (const Result& r : results) report["methods"].push_back(r.entry);
+
+  // Everything is computed: only now touch the output folder.
+  fs::create_directories(request.output);
+  for (std::size_t k = 0; k < images.size(); ++k)
+    writePng(images[k], request.output / (results[k].name + ".png"));
+  writePng(strip, request.output / "compare.png");
+  writePng(colourBar(scale, 512, 24), request.output / "colour_bar.png");
+  writeJsonFile(report, request.output / "report.json");
+  const std::string md = markdown(report);
+  writeFileAtomically(request.output / "report.md", [&](std::ostream& out) { out << md; });
+  return report;
+}
+
+}  // namespace spacewarp::cli

@@ -1,0 +1,41 @@
+#pragma once
+// `spacewarp compare`: heat maps of one control's coordinate function on a slice plane for
+// several methods, with one colour scale, and a report of every method's properties.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/cage_methods.h"
+#include "apps/cli_context.h"
+#include "core/math.h"
+
+namespace spacewarp::cli {
+
+/// The coordinate methods compare knows: every cage method plus "rbf" (triharmonic RBF
+/// coordinates with the cage vertices as handles) and "ffd" (a Bernstein lattice around the
+/// cage), sorted. Adding a method is one line in compare.cpp (cage methods come automatically).
+std::vector<std::string> compareMethods();
+
+struct CompareRequest {
+  std::filesystem::path cage;        ///< rest cage file
+  std::vector<std::string> methods;  ///< names from compareMethods(); empty = all of them
+  Vec3 planePoint{0.0};              ///< a point of the slice plane, world units
+  Vec3 planeNormal{0.0, 0.0, 1.0};   ///< its normal (any length > 0)
+  std::size_t control = 0;           ///< the cage vertex whose coordinate function is drawn
+  int resolution = 256;              ///< pixels along the longer side of each image
+  std::size_t samples = 2000;        ///< interior points for the property kit
+  std::uint64_t seed = 1;            ///< seed of those points (coords/properties.h)
+  CageMethodOptions cageOptions;     ///< options of the cage methods
+  std::filesystem::path output;      ///< folder for the images and reports
+};
+
+/// Computes every method, then writes into `request.output`: <method>.png per method,
+/// compare.png (all side by side, colour bar underneath), colour_bar.png, report.md and
+/// report.json. Returns the JSON report. Throws InvalidInput for an unknown method, a control
+/// index out of range, or a plane that misses the cage; nothing is written then.
+nlohmann::json runComparison(const CompareRequest& request, const CliContext& context);
+
+}  // namespace spacewarp::cli

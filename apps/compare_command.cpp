@@ -1,0 +1,121 @@
+// spacewarp compare --cage CAGE [--methods a,b,...] (--slice AXIS=VALUE | --point X,Y,Z
+// --normal X,Y,Z) [--control I] [--resolution N] -o DIR
+
+#include <charconv>
+
+#include "apps/commands.h"
+#include "apps/compare.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+struct CompareArgs {
+  CompareRequest request;
+  std::string cage, methods, slice, output;
+  std::vector<double> point, normal;
+};
+
+// "z=0.25" → axis 2, 0.25; false if malformed.
+bool parseSlice(const std::string& text, int& axis, double& value) {
+  if (text.size() < 3 || text[1] != '=') return false;
+  const std::string axes = "xyz";
+  const auto found = axes.find(text[0]);
+  if (found == std::string::npos) return false;
+  axis = static_cast<int>(found);
+  const char* end = text.data() + text.size();
+  const auto result = std::from_chars(text.data() + 2, end, value);
+  return result.ec == std::errc() && result.ptr == end && std::isfinite(value);
+}
+
+std::vector<std::string> split(const std::string& list) {
+  std::vector<std::string> parts;
+  std::size_t start = 0;
+  while (start <= list.size()) {
+    const std::size_t comma = std::min(list.find(',', start), list.size());
+    if (comma > start) parts.push_back(list.substr(start, comma - start));
+    start = comma + 1;
+  }
+  return parts;
+}
+
+}  // namespace
+
+Command addCompareCommand(CLI::App& app, const CliContext& context) {
+  auto args = std::make_shared<CompareArgs>();
+  std::string known;
+  for (const std::string& m : compareMethods()) known += (known.empty() ? "" : ",") + m;
+
+  CLI::App* cmd = app.add_subcommand(
+      "compare",
+      "Heat maps of one control's coordinate function on a slice, per method, and a report of "
+      "their properties");
+  cmd->add_option("--cage", args->cage, "rest cage (closed mesh)")->required();
+  cmd->add_option("--methods", args->methods,
+                  "comma-separated methods (default: all of " + known + ")")
+      ->check([known](const std::string& list) -> std::string {
+        const auto names = split(list);
+        if (names.empty()) return "expected a comma-separated list of methods";
+        for (const std::string& name : names)
+          if (("," + known + ",").find("," + name + ",") == std::string::npos)
+            return "unknown method '" + name + "' (one of: " + known + ")";
+        return {};
+      });
+  auto* sliceOption =
+      cmd->add_option("--slice", args->slice, "axis-aligned plane, e.g. z=0.5 (world units)")
+          ->check([](const std::string& text) -> std::string {
+            int axis;
+            double value;
+            return parseSlice(text, axis, value) ? "" : "expected AXIS=VALUE with AXIS x, y or z";
+          });
+  auto* pointOption = cmd->add_option("--point", args->point, "a point of the plane: X,Y,Z")
+                          ->delimiter(',')
+                          ->expected(3);
+  auto* normalOption = cmd->add_option("--normal", args->normal, "the plane's normal: X,Y,Z")
+                           ->delimiter(',')
+                           ->expected(3);
+  sliceOption->excludes(pointOption)->excludes(normalOption);
+  pointOption->needs(normalOption);
+  normalOption->needs(pointOption);
+  cmd->add_option("--control", args->request.control, "cage vertex whose function is drawn")
+      ->capture_default_str();
+  cmd->add_option("--resolution", args->request.resolution,
+                  "pixels along the longer side of each image")
+      ->check(CLI::Range(8, 8192))
+      ->capture_default_str();
+  cmd->add_option("--samples", args->request.samples,
+                  "random interior points for the property figures")
+      ->check(CLI::Range(1, 10000000))
+      ->capture_default_str();
+  addCageMethodOptions(cmd, args->request.cageOptions);
+  cmd->add_option("-o,--output", args->output, "output folder")->required();
+  cmd->callback([args] {
+    if (args->slice.empty() && args->point.empty())
+      throw CLI::RequiredError("--slice or --point and --normal");
+  });
+
+  return {cmd, [args, &context] {
+            CompareRequest request = args->request;
+            request.cage = args->cage;
+            request.methods = split(args->methods);
+            request.output = args->output;
+            if (!args->slice.empty()) {
+              int axis = 0;
+              double value = 0.0;
+              parseSlice(args->slice, axis, value);
+              request.planeNormal = Vec3(0.0);
+              request.planeNormal[axis] = 1.0;
+              request.planePoint = Vec3(0.0);
+              request.planePoint[axis] = value;
+            } else {
+              request.planePoint = Vec3(args->point[0], args->point[1], args->point[2]);
+              request.planeNormal = Vec3(args->normal[0], args->normal[1], args->normal[2]);
+            }
+            const nlohmann::json report = runComparison(request, context);
+            context.say("compare: wrote " + std::to_string(report["methods"].size()) +
+                        " heat maps, compare.png, report.md and report.json to " +
+                        request.output.string());
+          }};
+}
+
+}  // namespace spacewarp::cli
