@@ -56,7 +56,8 @@ class Cage {
   double area(std::size_t t) const;
 
   /// The generalised winding number of the cage at x: the solid angle the cage subtends at x
-  /// over 4π (Van Oosterom-Strackee per triangle); 1 inside, 0 outside, about ½ on the surface.
+  /// over 4π (Van Oosterom-Strackee per triangle); 1 inside, 0 outside (on the surface itself
+  /// it jumps, and either value may come out).
   double windingNumber(const Vec3& x) const;
 
   /// True when x is strictly inside the cage (winding number above ½).

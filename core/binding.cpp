@@ -1,5 +1,6 @@
 #include "core/binding.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -77,7 +78,8 @@ void adviseHugePages([[maybe_unused]] void* data, [[maybe_unused]] std::size_t b
 
 }  // namespace
 
-Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const Vec3> points)
+Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const Vec3> points,
+                 const ProgressCallback& progress)
     : coordinates_(std::move(coordinates)), restPoints_(points.begin(), points.end()) {
   if (!coordinates_) throw InvalidInput("Binding: the coordinates are null");
   for (std::size_t i = 0; i < restPoints_.size(); ++i) {
@@ -91,10 +93,19 @@ Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const
 
   const std::size_t k = coordinates_->maxNonZeros();
   sparse_ = 4 * k <= m;
+  ProgressTracker tracker(progress, "bind", n);
   if (!sparse_) {
     dense_.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m));
     adviseHugePages(dense_.data(), n * m * sizeof(double));
-    coordinates_->weightsBatch(restPoints_, std::span<double>(dense_.data(), n * m));
+    // Without a display, one batch; with one, blocks big enough to keep every core busy.
+    const std::size_t block = progress ? std::size_t{1} << 14 : std::max<std::size_t>(n, 1);
+    for (std::size_t begin = 0; begin < n; begin += block) {
+      const std::size_t count = std::min(block, n - begin);
+      coordinates_->weightsBatch(std::span(restPoints_).subspan(begin, count),
+                                 std::span<double>(dense_.data() + begin * m, count * m));
+      tracker.advance(count);
+    }
+    tracker.finish();
     return;
   }
   // Sparse: every row gets k slots, filled in parallel, then compacted into CSR.
@@ -103,7 +114,9 @@ Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const
   forRowBlocks(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i)
       counts[i] = coordinates_->sparseWeights(restPoints_[i], std::span(slots).subspan(i * k, k));
+    tracker.advance(end - begin);
   });
+  tracker.finish();
   std::vector<Eigen::Triplet<double, std::int64_t>> triplets;
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = 0; j < counts[i]; ++j) {

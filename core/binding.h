@@ -10,6 +10,7 @@
 #include <Eigen/SparseCore>
 
 #include "core/coordinates.h"
+#include "core/progress.h"
 
 namespace spacewarp {
 
@@ -24,7 +25,9 @@ class Binding {
   /// depend on the thread count. Storage is sparse (CSR) when the coordinates have at most a
   /// quarter of their columns non-zero per point, dense row-major otherwise. Throws
   /// InvalidInput if `coordinates` is null or a point is not finite (naming its index).
-  Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const Vec3> points);
+  /// Reports the stage "bind" to `progress`; a cancel throws Cancelled.
+  Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const Vec3> points,
+          const ProgressCallback& progress = {});
 
   std::size_t pointCount() const { return restPoints_.size(); }
   std::size_t columnCount() const { return coordinates_->columnCount(); }

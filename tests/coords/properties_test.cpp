@@ -1,10 +1,14 @@
 #include "coords/properties.h"
 
+#include <cmath>
 #include <random>
+#include <string_view>
 
 #include <gtest/gtest.h>
 
 #include "coords_test_shapes.h"
+#include "coords/mean_value.h"
+#include "core/binding.h"
 #include "core/errors.h"
 
 namespace spacewarp {
@@ -101,6 +105,67 @@ TEST(Properties, RejectsMismatchedCageAndEmptySamples) {
   const auto samples = samplesInBox(Vec3(0), Vec3(0.3), 10);
   EXPECT_THROW(measureProperties(TetBarycentric(tet), star, samples), InvalidInput);
   EXPECT_THROW(measureProperties(TetBarycentric(tet), tet, std::span<const Vec3>()), InvalidInput);
+}
+
+}  // namespace
+}  // namespace spacewarp
+
+namespace spacewarp {
+namespace {
+
+TEST(WindingNumber, IsOneInsideAndZeroOutside) {
+  const Cage cage(test::lPrism());
+  EXPECT_NEAR(cage.windingNumber(Vec3(0.5, 0.5, 0.5)), 1.0, 1e-12);
+  EXPECT_NEAR(cage.windingNumber(Vec3(1.5, 1.5, 0.5)), 0.0, 1e-12);  // the L's notch
+  EXPECT_NEAR(cage.windingNumber(Vec3(5, -3, 2)), 0.0, 1e-12);
+  EXPECT_TRUE(cage.contains(Vec3(1.5, 0.5, 0.5)));
+  EXPECT_FALSE(cage.contains(Vec3(1.5, 1.5, 0.5)));
+}
+
+TEST(InteriorSamples, AreInsideDeterministicAndFillTheShape) {
+  const Cage cage(test::lPrism());
+  const std::vector<Vec3> a = interiorSamples(cage, 3000, 9);
+  EXPECT_EQ(a, interiorSamples(cage, 3000, 9));
+  EXPECT_NE(a, interiorSamples(cage, 3000, 10));
+  std::size_t inArm = 0;
+  for (const Vec3& x : a) {
+    ASSERT_TRUE(cage.contains(x));
+    inArm += x.y > 1.0;
+  }
+  // The upper arm is a third of the L's volume.
+  EXPECT_NEAR(static_cast<double>(inArm) / a.size(), 1.0 / 3.0, 0.03);
+}
+
+TEST(MeasureProperties, WithoutACageMeasuresOnlyWhatApplies) {
+  auto cage = std::make_shared<const Cage>(test::lPrism());
+  const MeanValueCoordinates mvc(cage);
+  const std::vector<Vec3> samples = interiorSamples(*cage, 200, 2);
+  const PropertyReport withCage = measureProperties(mvc, *cage, samples);
+  const PropertyReport without = measureProperties(mvc, samples, cage->diagonal());
+  EXPECT_EQ(without.partitionOfUnity, withCage.partitionOfUnity);
+  EXPECT_EQ(without.linearReproduction, withCage.linearReproduction);
+  EXPECT_EQ(without.minWeight, withCage.minWeight);
+  EXPECT_EQ(without.similarityReproduction, withCage.similarityReproduction);
+  EXPECT_TRUE(std::isnan(without.lagrange));
+  EXPECT_TRUE(std::isnan(without.faceInterpolation));
+  EXPECT_THROW(measureProperties(mvc, samples, 0.0), InvalidInput);
+}
+
+TEST(Binding, ProgressDoesNotChangeTheWeightsAndCancelThrows) {
+  auto cage = std::make_shared<const Cage>(test::lPrism());
+  auto mvc = std::make_shared<const MeanValueCoordinates>(cage);
+  const std::vector<Vec3> points = interiorSamples(*cage, 40000, 3);
+  int calls = 0;
+  const Binding reported(mvc, points, [&](std::string_view stage, double) {
+    EXPECT_EQ(stage, "bind");
+    ++calls;
+    return true;
+  });
+  const Binding plain(mvc, points);
+  EXPECT_GE(calls, 3);
+  EXPECT_TRUE(reported.dense() == plain.dense());
+  EXPECT_THROW(Binding(mvc, points, [](std::string_view, double f) { return f < 0.2; }),
+               Cancelled);
 }
 
 }  // namespace

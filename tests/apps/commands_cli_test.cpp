@@ -1,0 +1,125 @@
+// End-to-end tests of what every subcommand shares (--threads, --quiet) and of the .npy
+// export of `spacewarp weights`.
+
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <regex>
+
+#include <gtest/gtest.h>
+
+#include "apps/cli_test_util.h"
+#include "core/io/mesh_io.h"
+#include "core/primitives.h"
+
+namespace spacewarp {
+namespace {
+
+namespace fs = std::filesystem;
+using test::CliResult;
+
+class CommandsTest : public test::CliFixture {
+ protected:
+  CommandsTest() : CliFixture("spacewarp_commands_") {}
+};
+
+// The matrix in a .npy file (float64, C order); fails the test on a malformed header.
+struct Npy {
+  std::size_t rows = 0, columns = 0;
+  std::vector<double> values;
+};
+
+Npy readNpy(const fs::path& path) {
+  const std::string bytes = test::slurp(path);
+  Npy npy;
+  EXPECT_GE(bytes.size(), 10u);
+  if (bytes.size() < 10) return npy;
+  EXPECT_EQ(bytes.compare(0, 8, std::string("\x93NUMPY\x01\x00", 8)), 0);
+  const std::size_t headerLength =
+      static_cast<unsigned char>(bytes[8]) | static_cast<unsigned char>(bytes[9]) << 8;
+  EXPECT_EQ((10 + headerLength) % 64, 0u) << "the data must start 64-byte aligned";
+  const std::string header = bytes.substr(10, headerLength);
+  std::smatch match;
+  EXPECT_TRUE(std::regex_search(
+      header, match,
+      std::regex(R"(\{'descr': '<f8', 'fortran_order': False, 'shape': \((\d+), (\d+)\), \} *\n)")))
+      << header;
+  if (match.size() != 3) return npy;
+  npy.rows = std::stoul(match[1]);
+  npy.columns = std::stoul(match[2]);
+  const std::size_t data = 10 + headerLength;
+  EXPECT_EQ(bytes.size() - data, npy.rows * npy.columns * sizeof(double));
+  npy.values.resize(npy.rows * npy.columns);
+  std::memcpy(npy.values.data(), bytes.data() + data,
+              std::min(bytes.size() - data, npy.values.size() * sizeof(double)));
+  return npy;
+}
+
+TEST_F(CommandsTest, WeightsNpyHoldsTheSameNumbersAsCsv) {
+  writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1}), dir_ / "cage.obj");
+  writeCloud(Vec3(-0.9), Vec3(0.9), 57, 3);
+  for (const std::string method : {"mvc", "green"}) {
+    const std::string base = "weights --method " + method + " --cage " +
+                             (dir_ / "cage.obj").string() + " " +
+                             (dir_ / "cloud.ply").string() + " -o ";
+    ASSERT_EQ(run(base + (dir_ / "w.npy").string()).exitCode, 0);
+    ASSERT_EQ(run(base + (dir_ / "w.csv").string()).exitCode, 0);
+    const Npy npy = readNpy(dir_ / "w.npy");
+    EXPECT_EQ(npy.rows, 57u);
+    EXPECT_EQ(npy.columns, method == "mvc" ? 8u : 8u + 12u);  // Green: one column per face
+    std::istringstream csv(test::slurp(dir_ / "w.csv"));
+    std::string line;
+    std::getline(csv, line);  // header
+    std::size_t k = 0;
+    while (std::getline(csv, line)) {
+      std::istringstream row(line);
+      std::string cell;
+      while (std::getline(row, cell, ','))
+        ASSERT_EQ(std::stod(cell), npy.values.at(k++)) << method << " entry " << k;
+    }
+    EXPECT_EQ(k, npy.values.size());
+  }
+}
+
+TEST_F(CommandsTest, WeightsRejectAnUnknownExtensionBeforeAnyWork) {
+  writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1}), dir_ / "cage.obj");
+  writeCloud(Vec3(-0.9), Vec3(0.9), 5, 3);
+  const CliResult r = run("weights --method mvc --cage " + (dir_ / "cage.obj").string() + " " +
+                          (dir_ / "cloud.ply").string() + " -o " + (dir_ / "w.txt").string());
+  EXPECT_EQ(r.exitCode, 3);
+  EXPECT_NE(r.err.find("w.txt"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "w.txt"));
+}
+
+TEST_F(CommandsTest, ThreadCountDoesNotChangeTheOutput) {
+  writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1}), dir_ / "cage.obj");
+  PolygonSoup pose = makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1});
+  for (Vec3& p : pose.positions) p += Vec3(0.3 * p.z * p.z, 0.0, 0.1 * p.x);
+  writeSoup(pose, dir_ / "pose.obj");
+  writeCloud(Vec3(-0.9), Vec3(0.9), 5000, 4);
+  const std::string args = "deform --method green --cage " + (dir_ / "cage.obj").string() +
+                           " --pose " + (dir_ / "pose.obj").string() + " " +
+                           (dir_ / "cloud.ply").string() + " -o ";
+  ASSERT_EQ(run("--threads 1 " + args + (dir_ / "one.ply").string()).exitCode, 0);
+  ASSERT_EQ(run(args + (dir_ / "two.ply").string() + " --threads 2").exitCode, 0);
+  EXPECT_EQ(test::slurp(dir_ / "one.ply"), test::slurp(dir_ / "two.ply"));
+  EXPECT_EQ(run("--threads -1 info " + (dir_ / "cage.obj").string()).exitCode, 2);
+}
+
+TEST_F(CommandsTest, QuietSilencesInformationalOutputOnly) {
+  const CliResult loud = run("demo " + (dir_ / "a").string());
+  ASSERT_EQ(loud.exitCode, 0) << loud.err;
+  EXPECT_FALSE(loud.out.empty());
+  const CliResult quiet = run("demo --quiet " + (dir_ / "b").string());
+  ASSERT_EQ(quiet.exitCode, 0) << quiet.err;
+  EXPECT_TRUE(quiet.out.empty()) << quiet.out;
+  EXPECT_TRUE(fs::exists(dir_ / "b" / "bar_twist.obj"));
+  // Errors still speak.
+  const CliResult error = run("-q info " + (dir_ / "missing.obj").string());
+  EXPECT_EQ(error.exitCode, 3);
+  EXPECT_NE(error.err.find("missing.obj"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace spacewarp
