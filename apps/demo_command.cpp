@@ -1,10 +1,17 @@
-// spacewarp demo DIR: the README's main job on built-in example geometry.
+// spacewarp demo DIR: the README's main job. Builds procedural inputs (a detailed polygon
+// soup, a point cloud, and controls around them: a cage, a lattice, handles), deforms them
+// with every method through rigs written next to them (exactly as `spacewarp deform --rig`
+// would), and compares the cage coordinate functions on a slice.
 
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <numbers>
 
+#include "apps/cage_methods.h"
 #include "apps/commands.h"
+#include "apps/compare.h"
 #include "apps/jobs.h"
 #include "apps/rig.h"
 #include "core/io/mesh_io.h"
@@ -15,22 +22,59 @@ namespace spacewarp::cli {
 namespace {
 
 namespace fs = std::filesystem;
+using nlohmann::json;
 
-// A subdivided bar and a point cloud in the same box, twisted, bent, tapered and deformed by
-// a posed cage (mean-value and Green coordinates) through rigs written next to them, exactly
-// as `spacewarp deform --rig` would do it.
+json points(std::span<const Vec3> ps) {
+  json array = json::array();
+  for (const Vec3& p : ps) array.push_back({p.x, p.y, p.z});
+  return array;
+}
+
+// The pose every control-based method is given: the bar sways sideways and turns, more
+// towards the top (z = 2), so all their results can be compared with each other.
+Vec3 sway(const Vec3& p) {
+  const double t = std::clamp((p.z + 2.1) / 4.2, 0.0, 1.0);  // 0 at the bottom, 1 at the top
+  const double angle = 0.6 * t;
+  return Vec3(std::cos(angle) * p.x - std::sin(angle) * p.y + 0.8 * t * t,
+              std::sin(angle) * p.x + std::cos(angle) * p.y, p.z);
+}
+
 void runDemo(const fs::path& dir, const CliContext& context) {
-  fs::create_directories(dir);
+  const auto start = std::chrono::steady_clock::now();
+  fs::create_directories(dir / "compare");
   const Vec3 lo(-0.5, -0.5, -2.0), hi(0.5, 0.5, 2.0);
-  const PolygonSoup bar = makeBoxSurface(lo, hi, {8, 8, 32});
+  const PolygonSoup bar = makeBoxSurface(lo, hi, {24, 24, 96});
   const PointSet cloud = makeRandomPoints(lo, hi, 20000, 7);
   PolygonSoup cloudSoup;
   static_cast<PointSet&>(cloudSoup) = cloud;
   writeSoup(bar, dir / "bar.obj");
   writeSoup(cloudSoup, dir / "cloud.ply");
 
+  // A cage around the bar with a pinched waist (so it is concave, where coordinate functions
+  // differ most), and its swayed pose.
+  PolygonSoup cage = makeBoxSurface(lo - 0.1, hi + 0.1, {1, 1, 4});
+  for (Vec3& p : cage.positions)
+    if (std::abs(p.z) < 1e-9) p.x *= 0.88, p.y *= 0.88;
+  PolygonSoup pose = cage;
+  for (Vec3& p : pose.positions) p = sway(p);
+  writeSoup(cage, dir / "cage.obj");
+  writeSoup(pose, dir / "cage_pose.obj");
+
+  // A Bernstein lattice on the cage's box and handles at the cage's vertices, swayed alike.
+  const Vec3 boxLo = lo - 0.1, boxHi = hi + 0.1;
+  const std::array<int, 3> resolution{3, 3, 5};
+  std::vector<Vec3> lattice;
+  for (int k = 0; k < resolution[2]; ++k)
+    for (int j = 0; j < resolution[1]; ++j)
+      for (int i = 0; i < resolution[0]; ++i)
+        lattice.push_back(sway(boxLo + (boxHi - boxLo) * Vec3(i / (resolution[0] - 1.0),
+                                                              j / (resolution[1] - 1.0),
+                                                              k / (resolution[2] - 1.0))));
+  std::vector<Vec3> handles(cage.positions.begin(), cage.positions.end()), targets;
+  for (const Vec3& h : handles) targets.push_back(sway(h));
+
   const double pi = std::numbers::pi;
-  std::map<std::string, nlohmann::json> rigs = {
+  std::map<std::string, json> rigs = {
       {"twist",
        {{"method", "twist"}, {"origin", {0, 0, 0}}, {"axis", {0, 0, 1}}, {"rate", pi / 4}}},
       {"bend",
@@ -45,21 +89,29 @@ void runDemo(const fs::path& dir, const CliContext& context) {
         {"axis", {0, 0, 1}},
         {"rate", 0.2},
         {"limits", {-2, 2}}}},
+      {"ffd",
+       {{"method", "ffd"},
+        {"basis", "bernstein"},
+        {"origin", {boxLo.x, boxLo.y, boxLo.z}},
+        {"size", {boxHi.x - boxLo.x, boxHi.y - boxLo.y, boxHi.z - boxLo.z}},
+        {"resolution", resolution},
+        {"controlPoints", points(lattice)}}},
+      {"rbf", {{"method", "rbf"}, {"centers", points(handles)}, {"targets", points(targets)}}},
+      {"mls",
+       {{"method", "mls"},
+        {"mode", "rigid"},
+        {"handles", points(handles)},
+        {"targets", points(targets)}}},
+      {"graph",
+       {{"method", "graph"},
+        {"spacing", 0.35},
+        {"handles", points(handles)},
+        {"targets", points(targets)}}},
   };
-  // A cage around the bar, posed by swaying its rings sideways, for the cage methods.
-  const PolygonSoup cage = makeBoxSurface(lo - 0.1, hi + 0.1, {1, 1, 4});
-  PolygonSoup pose = cage;
-  for (Vec3& p : pose.positions) {
-    const double t = (p.z - lo.z + 0.1) / (hi.z - lo.z + 0.2);  // 0 at the bottom, 1 at the top
-    const double angle = 0.6 * t;
-    p = Vec3(std::cos(angle) * p.x - std::sin(angle) * p.y + 0.8 * t * t,
-             std::sin(angle) * p.x + std::cos(angle) * p.y, p.z);
-  }
-  writeSoup(cage, dir / "cage.obj");
-  writeSoup(pose, dir / "cage_pose.obj");
-  rigs["mvc"] = {{"method", "mvc"}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
-  rigs["green"] = {{"method", "green"}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
+  for (const std::string& method : cageMethods())
+    rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
 
+  const ProgressCallback progress = context.progress();
   for (const auto& [name, rig] : rigs) {
     const fs::path rigPath = dir / (name + ".json");
     writeJsonFile(rig, rigPath);
@@ -67,22 +119,47 @@ void runDemo(const fs::path& dir, const CliContext& context) {
     for (const char* input : {"bar.obj", "cloud.ply"}) {
       const fs::path in = dir / input;
       const fs::path out = dir / (in.stem().string() + "_" + name + in.extension().string());
-      deformSoupFile(*warp, in, out, false, context.progress());
+      deformSoupFile(*warp, in, out, false, progress);
       context.say("spacewarp deform --rig " + rigPath.string() + " " + in.string() + " -o " +
                   out.string());
     }
   }
-  context.say("demo: wrote " + std::to_string(bar.size()) + "-vertex bar and " +
-              std::to_string(cloud.size()) + "-point cloud, " + std::to_string(rigs.size()) +
-              " rigs, to " + dir.string());
+
+  // The coordinate functions of one vertex of the waist, on the diagonal plane x = y through
+  // the bar's axis and that vertex.
+  CompareRequest request;
+  request.cage = dir / "cage.obj";
+  request.planePoint = Vec3(0.0);
+  request.planeNormal = Vec3(1.0, -1.0, 0.0);
+  request.control = 0;
+  for (std::size_t v = 0; v < cage.positions.size(); ++v) {
+    const Vec3& p = cage.positions[v];
+    if (std::abs(p.z) < 1e-9 && p.x > 0.0 && p.y > 0.0) request.control = v;
+  }
+  request.resolution = 400;
+  request.output = dir / "compare";
+  runComparison(request, context);
+  context.say("spacewarp compare --cage " + request.cage.string() +
+              " --point 0,0,0 --normal 1,-1,0 --control " + std::to_string(request.control) +
+              " --resolution 400 -o " + request.output.string());
+
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  char summary[160];
+  std::snprintf(summary, sizeof summary,
+                "demo: %zu-vertex bar and %zu-point cloud deformed by %zu rigs in %.1f s",
+                bar.size(), cloud.size(), rigs.size(), seconds);
+  context.say(summary);
+  context.say("look at: " + dir.string() + " (bar_<method>.obj, cloud_<method>.ply) and " +
+              (dir / "compare" / "report.md").string() + " with compare.png");
 }
 
 }  // namespace
 
 Command addDemoCommand(CLI::App& app, const CliContext& context) {
   auto dir = std::make_shared<std::string>("out/demo");
-  CLI::App* demo =
-      app.add_subcommand("demo", "Twist, bend, taper and cage-deform built-in example geometry");
+  CLI::App* demo = app.add_subcommand(
+      "demo", "Deform built-in example geometry with every method and compare the coordinates");
   demo->add_option("DIR", *dir, "output folder")->capture_default_str();
   return {demo, [dir, &context] { runDemo(*dir, context); }};
 }

@@ -13,6 +13,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "apps/cli_test_util.h"
 #include "core/io/mesh_io.h"
@@ -190,12 +191,23 @@ TEST_F(CliTest, BadInputDoesNotReplaceAnExistingOutput) {
 TEST_F(CliTest, DemoWritesEveryResult) {
   const CliResult r = run("demo " + (dir_ / "demo").string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  for (const char* name :
-       {"bar_twist.obj", "bar_bend.obj", "bar_taper.obj", "cloud_twist.ply", "cloud_bend.ply",
-        "cloud_taper.ply", "bar_mvc.obj", "bar_green.obj", "cloud_mvc.ply", "cloud_green.ply"}) {
-    const PolygonSoup soup = readSoup(dir_ / "demo" / name);
-    EXPECT_GT(soup.size(), 0u) << name;
+  const PolygonSoup bar = readSoup(dir_ / "demo" / "bar.obj");
+  const PolygonSoup cloud = readSoup(dir_ / "demo" / "cloud.ply");
+  for (const std::string method :
+       {"twist", "bend", "taper", "mvc", "green", "ffd", "rbf", "mls", "graph"}) {
+    const PolygonSoup deformedBar = readSoup(dir_ / "demo" / ("bar_" + method + ".obj"));
+    const PolygonSoup deformedCloud = readSoup(dir_ / "demo" / ("cloud_" + method + ".ply"));
+    EXPECT_EQ(deformedBar.size(), bar.size()) << method;
+    EXPECT_EQ(deformedBar.faceIndices, bar.faceIndices) << method;
+    EXPECT_EQ(deformedCloud.size(), cloud.size()) << method;
+    EXPECT_NE(deformedBar.positions, bar.positions) << method << " moved nothing";
+    EXPECT_NE(r.out.find("bar_" + method + ".obj"), std::string::npos) << method;
   }
+  const nlohmann::json report =
+      nlohmann::json::parse(slurp(dir_ / "demo" / "compare" / "report.json"));
+  EXPECT_GE(report["methods"].size(), 4u);
+  EXPECT_TRUE(fs::exists(dir_ / "demo" / "compare" / "compare.png"));
+  EXPECT_NE(r.out.find("report.md"), std::string::npos) << "the demo says where to look";
 }
 
 }  // namespace
