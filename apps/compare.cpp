@@ -8,6 +8,8 @@
 #include <map>
 #include <sstream>
 
+#include <tbb/parallel_for.h>
+
 #include "apps/heat_map.h"
 #include "apps/jobs.h"
 #include "coords/cage.h"
@@ -228,17 +230,21 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
                        " vertices)");
   const Slice slice = makeSlice(*cage, request.planePoint, request.planeNormal, request.resolution);
 
-  // Pixels inside the cage: the only places where every method is defined.
+  // Pixels inside the cage: the only places where every method is defined. The winding
+  // number costs one atan2 per cage triangle, so rows go in parallel.
+  std::vector<char> isInside(std::size_t(slice.width) * slice.height);
+  tbb::parallel_for(0, slice.height, [&](int j) {
+    for (int i = 0; i < slice.width; ++i)
+      isInside[std::size_t(j) * slice.width + i] = cage->contains(slice.pixelCentre(i, j));
+  });
   std::vector<Vec3> inside;
   std::vector<std::size_t> insidePixel;
   for (int j = 0; j < slice.height; ++j)
-    for (int i = 0; i < slice.width; ++i) {
-      const Vec3 x = slice.pixelCentre(i, j);
-      if (cage->contains(x)) {
-        inside.push_back(x);
+    for (int i = 0; i < slice.width; ++i)
+      if (isInside[std::size_t(j) * slice.width + i]) {
+        inside.push_back(slice.pixelCentre(i, j));
         insidePixel.push_back(std::size_t(j) * slice.width + i);
       }
-    }
   if (inside.empty())
     throw InvalidInput(request.cage.string() + ": the slice plane does not cut the cage");
   const std::vector<Vec3> samples = interiorSamples(*cage, request.samples, request.seed);
