@@ -370,7 +370,7 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
   for (const Result& r : results) report["methods"].push_back(r.entry);
 
   // Everything is computed: only now touch the output folder.
-  fs::create_directories(request.output);
+  createOutputFolder(request.output);
   for (std::size_t k = 0; k < images.size(); ++k)
     writePng(images[k], request.output / (results[k].name + ".png"));
   writePng(strip, request.output / "compare.png");

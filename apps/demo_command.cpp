@@ -41,7 +41,7 @@ Vec3 sway(const Vec3& p) {
 
 void runDemo(const fs::path& dir, const CliContext& context) {
   const auto start = std::chrono::steady_clock::now();
-  fs::create_directories(dir / "compare");
+  createOutputFolder(dir / "compare");
   const Vec3 lo(-0.5, -0.5, -2.0), hi(0.5, 0.5, 2.0);
   const PolygonSoup bar = makeBoxSurface(lo, hi, {24, 24, 96});
   const PointSet cloud = makeRandomPoints(lo, hi, 20000, 7);

@@ -89,6 +89,12 @@ void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::pat
   });
 }
 
+void createOutputFolder(const std::filesystem::path& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) throw IoError(dir.string() + ": cannot create the output folder: " + error.message());
+}
+
 void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path) {
   writeFileAtomically(path, [&](std::ostream& out) { out << j.dump(2) << '\n'; });
 }

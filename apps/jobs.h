@@ -24,6 +24,10 @@ void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
 void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::path& points,
                       const std::filesystem::path& output);
 
+/// Creates `dir` and its parents if needed. Throws IoError naming it if that fails (a file in
+/// the way, no permission).
+void createOutputFolder(const std::filesystem::path& dir);
+
 /// Writes `j` pretty-printed, atomically.
 void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path);
 

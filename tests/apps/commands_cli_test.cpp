@@ -1,6 +1,7 @@
 // End-to-end tests of what every subcommand shares (--threads, --quiet) and of the .npy
 // export of `spacewarp weights`.
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -61,8 +62,8 @@ TEST_F(CommandsTest, WeightsNpyHoldsTheSameNumbersAsCsv) {
   writeCloud(Vec3(-0.9), Vec3(0.9), 57, 3);
   for (const std::string method : {"mvc", "green"}) {
     const std::string base = "weights --method " + method + " --cage " +
-                             (dir_ / "cage.obj").string() + " " +
-                             (dir_ / "cloud.ply").string() + " -o ";
+                             (dir_ / "cage.obj").string() + " " + (dir_ / "cloud.ply").string() +
+                             " -o ";
     ASSERT_EQ(run(base + (dir_ / "w.npy").string()).exitCode, 0);
     ASSERT_EQ(run(base + (dir_ / "w.csv").string()).exitCode, 0);
     const Npy npy = readNpy(dir_ / "w.npy");
@@ -119,6 +120,57 @@ TEST_F(CommandsTest, QuietSilencesInformationalOutputOnly) {
   const CliResult error = run("-q info " + (dir_ / "missing.obj").string());
   EXPECT_EQ(error.exitCode, 3);
   EXPECT_NE(error.err.find("missing.obj"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace spacewarp
+
+namespace spacewarp {
+namespace {
+
+TEST_F(CommandsTest, EverySubcommandReportsAMissingFileWithExit3AndNoOutput) {
+  writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1}), dir_ / "cage.obj");
+  writeCloud(Vec3(-0.9), Vec3(0.9), 5, 3);
+  const std::string missing = (dir_ / "missing.obj").string();
+  const std::string cage = (dir_ / "cage.obj").string();
+  const std::string cloud = (dir_ / "cloud.ply").string();
+  const std::string out = (dir_ / "out").string();
+  const std::vector<std::string> commands = {
+      "info " + missing,
+      "deform --method mvc --cage " + missing + " --pose " + cage + " " + cloud + " -o " + out +
+          ".ply",
+      "deform --method mvc --cage " + cage + " --pose " + cage + " " + missing + " -o " + out +
+          ".ply",
+      "weights --method green --cage " + missing + " " + cloud + " -o " + out + ".csv",
+      "weights --method green --cage " + cage + " " + missing + " -o " + out + ".npy",
+      "weights --rig " + (dir_ / "missing.json").string() + " " + cloud + " -o " + out + ".csv",
+      "compare --cage " + missing + " --slice z=0 -o " + out,
+  };
+  for (const std::string& command : commands) {
+    const CliResult r = run(command);
+    EXPECT_EQ(r.exitCode, 3) << command;
+    EXPECT_NE(r.err.find("missing."), std::string::npos) << command << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    for (const char* suffix : {"", ".ply", ".csv", ".npy"})
+      EXPECT_FALSE(fs::exists(out + suffix)) << command;
+  }
+}
+
+TEST_F(CommandsTest, MalformedRigForWeightsExits3WithoutOutput) {
+  writeCloud(Vec3(-0.9), Vec3(0.9), 5, 3);
+  write("rig.json", R"({"method": "mvc", "cage": "cage.obj", "pose": )");
+  const CliResult r = run("weights --rig " + (dir_ / "rig.json").string() + " " +
+                          (dir_ / "cloud.ply").string() + " -o " + (dir_ / "w.npy").string());
+  EXPECT_EQ(r.exitCode, 3);
+  EXPECT_NE(r.err.find("rig.json"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "w.npy"));
+}
+
+TEST_F(CommandsTest, AnUnwritableOutputFolderIsAnIoError) {
+  write("occupied", "a file where the demo wants a folder");
+  const CliResult r = run("demo " + (dir_ / "occupied").string());
+  EXPECT_EQ(r.exitCode, 3);
+  EXPECT_NE(r.err.find("occupied"), std::string::npos) << r.err;
 }
 
 }  // namespace
