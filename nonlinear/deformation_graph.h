@@ -18,20 +18,39 @@ namespace spacewarp {
 
 namespace detail {
 struct GraphIndex;   // nodes, KD-tree and lookup grid (deformation_graph.cpp)
-struct SolverCache;  // the Cholesky analysis kept between solves (deformation_graph.cpp)
+struct SolverCache;  // the normal equations' pattern and factor kept between solves (.cpp)
 }  // namespace detail
+
+/// How DeformationGraph(positions, options) picks its nodes among the positions.
+enum class NodeSampling {
+  /// The positions are binned into cubic cells of edge `spacing` (cell (0,0,0) has its corner
+  /// at the origin) and each occupied cell gives one node: its input point nearest the
+  /// centroid of its input points (ties: the lower index). Nodes come in lexicographic order
+  /// of their cells' integer coordinates (x, then y, then z). Two nodes may be closer than
+  /// `spacing` across a cell face.
+  Voxel,
+  /// A maximal Poisson-disk subset of the positions (greedy dart throwing over the input
+  /// points): the points are visited in a fixed pseudo-random order (a hash of their index)
+  /// and one becomes a node unless a node already lies closer than `spacing`. Hence no two
+  /// nodes are closer than `spacing`, and every input point lies within `spacing` of a node
+  /// (strictly closer, unless it is a node). Deterministic: the same positions give the same
+  /// nodes, listed in ascending input index. Fewer nodes than Voxel for the same spacing,
+  /// spread more evenly (677 against 1,000 for 20,000 random points in a 10³ box at spacing 1).
+  PoissonDisk,
+};
 
 /// How a graph is built.
 struct DeformationGraphOptions {
-  /// Node sampling spacing (world units): the positions are binned into cubic cells of this
-  /// edge length and each occupied cell gives one node, the input point nearest the cell's
-  /// centroid (ties: the lower index). Must be > 0 when nodes are sampled; ignored when the
-  /// nodes are given explicitly.
+  /// Node sampling spacing (world units); see `sampling` for what it means. Must be > 0 when
+  /// nodes are sampled; ignored when the nodes are given explicitly.
   double spacing = 0.0;
   /// Nodes influencing each point: its k nearest (default 4, as in the paper). The weight
   /// cut-off d_max is the distance to the (k+1)-th nearest node, so the graph needs at least
   /// k + 1 nodes.
   int k = 4;
+  /// Node sampling scheme (default: voxel grid, the behaviour before the option existed).
+  /// Ignored when the nodes are given explicitly.
+  NodeSampling sampling = NodeSampling::Voxel;
 };
 
 /// Parameters of DeformationGraph::solve(). Defaults are the paper's.
@@ -98,7 +117,8 @@ class DeformationGraphWarp final : public Warp {
 class DeformationGraph {
  public:
   /// Samples nodes from `positions` (n points, world units: a PointSet's or PolygonSoup's
-  /// positions, or the centres of a volume's active voxels) at options.spacing; edges join
+  /// positions, or the centres of a volume's active voxels) at options.spacing with
+  /// options.sampling; edges join
   /// nodes that influence a common position. Throws InvalidInput for empty or non-finite
   /// positions, spacing <= 0 or not finite, k < 1, or k >= the number of nodes.
   DeformationGraph(std::span<const Vec3> positions, const DeformationGraphOptions& options);
@@ -126,6 +146,18 @@ class DeformationGraph {
   /// that no handle's nodes reach keep A = I, t = 0 and are listed in the report. Throws
   /// InvalidInput for mismatched sizes, non-finite points or invalid options, SolverError if
   /// the normal equations cannot be factorised.
+  ///
+  /// The result is bit-identical for any TBB or BLAS thread count: the assembly is serial and
+  /// the sparse Cholesky runs its BLAS single-threaded (OpenBLAS's process-wide thread count
+  /// is set to 1 during the solve and restored after it; concurrent solve() calls on
+  /// different graphs are serialised by a process-wide lock).
+  ///
+  /// Cost: the normal equations' sparsity pattern, their constant (regulariser and
+  /// constraint) part, the Cholesky analysis and the last numeric factor are kept between
+  /// calls while the handles, their nodes and w_reg, w_con stay the same; so a solve from the
+  /// rest state with the same handles (only the targets moved) starts from the kept factor
+  /// instead of factorising again. The first solve with new handles pays the analysis and a
+  /// factorisation (about 0.2-0.4 s for 1,000 nodes). Results never depend on what was kept.
   DeformationGraphReport solve(std::span<const Vec3> handles, std::span<const Vec3> targets,
                                const DeformationGraphSolveOptions& options = {});
 
@@ -142,8 +174,8 @@ class DeformationGraph {
   std::shared_ptr<const detail::GraphIndex> index_;
   std::vector<Mat3> a_;
   std::vector<Vec3> t_;
-  /// The Cholesky factorisation's symbolic analysis, reused by later solve() calls whose
-  /// normal equations have the same sparsity (same constrained components).
+  /// Kept between solve() calls with the same handles and weights: the normal equations'
+  /// pattern and constant part, the Cholesky analysis and the last numeric factor.
   std::unique_ptr<detail::SolverCache> cache_;
 };
 

@@ -1,13 +1,26 @@
-// Tests of nonlinear/deformation_graph.h: node sampling, weights, the Gauss-Newton solve
-// (identity, rigid motions, bending, disconnected graphs), the Warp view, invalid input.
+// Tests of nonlinear/deformation_graph.h: node sampling (voxel grid, Poisson disk), weights,
+// the Gauss-Newton solve (identity, rigid motions, bending, disconnected graphs, bit-identical
+// results for any TBB or BLAS thread count, the kept factorisation), the Warp view, invalid
+// input.
 
 #include "nonlinear/deformation_graph.h"
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <limits>
 #include <random>
+#include <sstream>
+#include <string>
 #include <vector>
+
+#include <dlfcn.h>
+
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -58,6 +71,84 @@ DeformationGraphOptions spacingOf(double s, int k = 4) {
   o.k = k;
   return o;
 }
+
+DeformationGraphOptions poissonDiskOf(double s, int k = 4) {
+  DeformationGraphOptions o = spacingOf(s, k);
+  o.sampling = NodeSampling::PoissonDisk;
+  return o;
+}
+
+// A bending edit of the box [0, n]³ sampled at spacing 1 (about n³ nodes): the face x < 1 is
+// held, the face x > n − 1 lifted and turned. Large enough for OpenBLAS to split the
+// factorisation's kernels between threads.
+struct BendingEdit {
+  std::vector<Vec3> points, handles, targets;
+};
+
+BendingEdit bendingEdit(double n, std::size_t count) {
+  BendingEdit e;
+  e.points = boxPoints(Vec3(0.0), Vec3(n), count, 21);
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  for (std::size_t i = 0; i < e.points.size(); i += 10) {
+    const Vec3& p = e.points[i];
+    if (p.x < 1.0) {
+      e.handles.push_back(p);
+      e.targets.push_back(p);
+    } else if (p.x > n - 1.0) {
+      const Vec3 d = p - Vec3(n - 0.5, 0.5 * n, 0.5 * n);
+      e.handles.push_back(p);
+      e.targets.push_back(Vec3(n - 0.5, 0.5 * n + 1.0, 0.5 * n) +
+                          Vec3(c * d.x - s * d.y, s * d.x + c * d.y, d.z));
+    }
+  }
+  return e;
+}
+
+// The solved maps and translations, bit for bit.
+struct SolvedState {
+  std::vector<Mat3> a;
+  std::vector<Vec3> t;
+  std::vector<double> energies;
+  bool operator==(const SolvedState& o) const {
+    return a.size() == o.a.size() && t.size() == o.t.size() &&
+           std::memcmp(a.data(), o.a.data(), a.size() * sizeof(Mat3)) == 0 &&
+           std::memcmp(t.data(), o.t.data(), t.size() * sizeof(Vec3)) == 0 &&
+           energies.size() == o.energies.size() &&
+           std::memcmp(energies.data(), o.energies.data(), energies.size() * sizeof(double)) == 0;
+  }
+};
+
+// Builds the graph (voxel nodes at spacing 1) and solves the edit from scratch.
+SolvedState solveFresh(const BendingEdit& e) {
+  DeformationGraph graph(e.points, spacingOf(1.0));
+  const DeformationGraphReport report = graph.solve(e.handles, e.targets);
+  return {{graph.affineMaps().begin(), graph.affineMaps().end()},
+          {graph.translations().begin(), graph.translations().end()},
+          report.energies};
+}
+
+// FNV-1a over the state's bytes.
+std::uint64_t hashOf(const SolvedState& s) {
+  std::uint64_t h = 1469598103934665603ull;
+  const auto mix = [&h](const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  mix(s.a.data(), s.a.size() * sizeof(Mat3));
+  mix(s.t.data(), s.t.size() * sizeof(Vec3));
+  mix(s.energies.data(), s.energies.size() * sizeof(double));
+  return h;
+}
+
+// OpenBLAS's thread-count controls, if OpenBLAS is the BLAS in this process.
+struct OpenBlasThreads {
+  int (*get)() = nullptr;
+  void (*set)(int) = nullptr;
+  OpenBlasThreads()
+      : get(reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"))),
+        set(reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) {}
+  bool available() const { return get && set; }
+};
 
 }  // namespace
 
@@ -360,4 +451,179 @@ TEST(DeformationGraphWarp, DeformCarriesNormalsThroughTheJacobian) {
   deform(graph.warp(), cloud);
   // A rigid edit: normals turn with the rotation.
   for (const Vec3& n : cloud.normals) EXPECT_LE(glm::length(n - r * Vec3(1.0, 0.0, 0.0)), 1e-5);
+}
+
+TEST(DeformationGraph, PoissonDiskNodesAreSeparatedAndCoverEveryPoint) {
+  const std::vector<Vec3> points = boxPoints(Vec3(0.0), Vec3(2.0, 1.5, 1.0), 6000, 31);
+  const double spacing = 0.3;
+  const DeformationGraph graph(points, poissonDiskOf(spacing));
+  const std::span<const Vec3> nodes = graph.nodes();
+  ASSERT_GT(nodes.size(), 5u);
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    // Each node is an input point ...
+    EXPECT_NE(std::find(points.begin(), points.end(), nodes[i]), points.end());
+    // ... and no two nodes are closer than the spacing.
+    for (std::size_t j = i + 1; j < nodes.size(); ++j)
+      EXPECT_GE(glm::length(nodes[i] - nodes[j]), spacing) << i << " " << j;
+  }
+  // Every input point lies within the spacing of a node.
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vec3& g : nodes) nearest = std::min(nearest, glm::length(points[p] - g));
+    EXPECT_LT(nearest, spacing) << p;
+  }
+  // Fewer, evenly spread nodes: less than the voxel grid gives at the same spacing.
+  const DeformationGraph voxel(points, spacingOf(spacing));
+  EXPECT_LT(nodes.size(), voxel.nodeCount());
+}
+
+TEST(DeformationGraph, PoissonDiskSamplingIsDeterministicAndIgnoresThreadCount) {
+  // A scan-line ordered input (a regular lattice, x fastest) with duplicated points.
+  std::vector<Vec3> points;
+  for (int k = 0; k < 12; ++k)
+    for (int j = 0; j < 12; ++j)
+      for (int i = 0; i < 12; ++i) points.emplace_back(0.1 * i, 0.1 * j, 0.1 * k);
+  points.insert(points.end(), points.begin(), points.begin() + 300);
+  const auto build = [&](int threads) {
+    tbb::task_arena arena(threads);
+    std::vector<Vec3> nodes;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+    arena.execute([&] {
+      const DeformationGraph g(points, poissonDiskOf(0.25));
+      nodes.assign(g.nodes().begin(), g.nodes().end());
+      edges = g.edges();
+    });
+    return std::make_pair(nodes, edges);
+  };
+  const auto one = build(1);
+  const auto two = build(2);
+  const auto again = build(2);
+  ASSERT_EQ(one.first.size(), two.first.size());
+  for (std::size_t i = 0; i < one.first.size(); ++i) {
+    EXPECT_TRUE(test::bitEqual(one.first[i], two.first[i])) << i;
+    EXPECT_TRUE(test::bitEqual(one.first[i], again.first[i])) << i;
+  }
+  EXPECT_EQ(one.second, two.second);
+  // The properties hold on the lattice too (its points are exactly 0.1 apart).
+  for (std::size_t i = 0; i < one.first.size(); ++i)
+    for (std::size_t j = i + 1; j < one.first.size(); ++j)
+      EXPECT_GE(glm::length(one.first[i] - one.first[j]), 0.25);
+  for (const Vec3& p : points) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vec3& g : one.first) nearest = std::min(nearest, glm::length(p - g));
+    EXPECT_LT(nearest, 0.25);
+  }
+  // Invalid spacing is rejected as for the voxel grid.
+  EXPECT_THAT(
+      test::messageOf<InvalidInput>([&] { DeformationGraph g(points, poissonDiskOf(0.0)); }),
+      HasSubstr("spacing"));
+}
+
+TEST(DeformationGraph, PoissonDiskGraphSolvesARigidMotion) {
+  const std::vector<Vec3> points = boxPoints(Vec3(0.0), Vec3(2.0, 1.0, 1.0), 4000, 32);
+  DeformationGraph graph(points, poissonDiskOf(0.3));
+  const Mat3 r = rotation(Vec3(0.5, 1.0, 2.0), 0.4);
+  const Vec3 shift(0.2, 0.1, -0.3);
+  std::vector<Vec3> handles, targets;
+  for (std::size_t i = 0; i < points.size(); i += 100) {
+    handles.push_back(points[i]);
+    targets.push_back(r * points[i] + shift);
+  }
+  DeformationGraphSolveOptions options;
+  options.tolerance = 1e-12;
+  const DeformationGraphReport report = graph.solve(handles, targets, options);
+  EXPECT_TRUE(report.converged);
+  EXPECT_LT(report.energies.back(), 1e-16);
+  const DeformationGraphWarp warp = graph.warp();
+  for (std::size_t i = 0; i < points.size(); i += 7)
+    EXPECT_LE(test::relativeError(warp.apply(points[i]), r * points[i] + shift), 1e-6);
+}
+
+TEST(DeformationGraph, SolveIsBitIdenticalForAnyTbbThreadCount) {
+  const BendingEdit edit = bendingEdit(8.0, 10'000);
+  SolvedState one, two;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = solveFresh(edit);
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    two = solveFresh(edit);
+  }
+  SolvedState arena;
+  tbb::task_arena(2).execute([&] { arena = solveFresh(edit); });
+  EXPECT_GT(one.energies.size(), 2u);
+  EXPECT_TRUE(one == two);
+  EXPECT_TRUE(one == arena);
+}
+
+TEST(DeformationGraph, SolveIsBitIdenticalForAnyBlasThreadCount) {
+  const OpenBlasThreads blas;
+  if (!blas.available()) GTEST_SKIP() << "the BLAS in this process is not OpenBLAS";
+  const int previous = blas.get();
+  const BendingEdit edit = bendingEdit(8.0, 10'000);
+  blas.set(1);
+  const SolvedState one = solveFresh(edit);
+  EXPECT_EQ(blas.get(), 1);  // solve() restores the caller's setting
+  blas.set(2);
+  const SolvedState two = solveFresh(edit);
+  EXPECT_EQ(blas.get(), 2);
+  blas.set(4);
+  const SolvedState four = solveFresh(edit);
+  EXPECT_EQ(blas.get(), 4);
+  blas.set(previous);
+  EXPECT_TRUE(one == two);
+  EXPECT_TRUE(one == four);
+}
+
+// Run by ctest twice, with OPENBLAS_NUM_THREADS=1 (writing the hash) and =2 (comparing it):
+// see tests/CMakeLists.txt. Skipped when run without SPACEWARP_GRAPH_HASH_FILE.
+TEST(DeformationGraph, SolveHashIsTheSameInProcessesWithOtherBlasSettings) {
+  const char* file = std::getenv("SPACEWARP_GRAPH_HASH_FILE");
+  const char* mode = std::getenv("SPACEWARP_GRAPH_HASH_MODE");
+  if (!file || !mode) GTEST_SKIP() << "SPACEWARP_GRAPH_HASH_FILE / _MODE not set";
+  std::ostringstream hash;
+  hash << std::hex << hashOf(solveFresh(bendingEdit(8.0, 10'000)));
+  if (std::string(mode) == "write") {
+    std::ofstream(file) << hash.str() << "\n";
+  } else {
+    std::ifstream in(file);
+    std::string expected;
+    ASSERT_TRUE(in >> expected) << "cannot read " << file;
+    EXPECT_EQ(hash.str(), expected);
+  }
+}
+
+TEST(DeformationGraph, KeptFactorisationNeverChangesTheResult) {
+  // Solves with other handles, other weights and from a non-rest state in between must not
+  // leak into a later solve: it equals a fresh graph's bit for bit.
+  const BendingEdit edit = bendingEdit(5.0, 4000);
+  const SolvedState fresh = solveFresh(edit);
+  DeformationGraph graph(edit.points, spacingOf(1.0));
+  graph.solve(edit.handles, edit.targets);  // keeps the rest-state factor
+  std::vector<Vec3> moved = edit.targets;
+  for (Vec3& t : moved) t += Vec3(0.0, 0.0, 0.3);
+  graph.solve(edit.handles, moved);  // from the solved state: other matrices
+  graph.reset();
+  const std::vector<Vec3> fewer(edit.handles.begin(), edit.handles.begin() + 20);
+  graph.solve(fewer, std::vector<Vec3>(fewer));  // other handles: other pattern
+  graph.reset();
+  DeformationGraphSolveOptions heavier;
+  heavier.regularizationWeight = 20.0;
+  graph.solve(edit.handles, edit.targets, heavier);  // other constant part
+  graph.reset();
+  graph.solve(edit.handles, moved);
+  graph.reset();
+  const DeformationGraphReport report = graph.solve(edit.handles, edit.targets);
+  const SolvedState kept{{graph.affineMaps().begin(), graph.affineMaps().end()},
+                         {graph.translations().begin(), graph.translations().end()},
+                         report.energies};
+  EXPECT_TRUE(kept == fresh);
+  // And once more straight after an identical solve (the kept factor is current).
+  graph.reset();
+  const DeformationGraphReport again = graph.solve(edit.handles, edit.targets);
+  const SolvedState repeated{{graph.affineMaps().begin(), graph.affineMaps().end()},
+                             {graph.translations().begin(), graph.translations().end()},
+                             again.energies};
+  EXPECT_TRUE(repeated == fresh);
 }
