@@ -1,9 +1,14 @@
 #include "apps/cage_methods.h"
 
+#include <cmath>
 #include <functional>
 #include <map>
 
 #include "coords/green.h"
+#ifdef SPACEWARP_HAVE_HARMONIC
+#include "coords/harmonic.h"
+#include "coords/harmonic_warp.h"
+#endif
 #include "coords/mean_value.h"
 #include "core/coordinate_warp.h"
 #include "core/errors.h"
@@ -12,6 +17,37 @@ namespace spacewarp::cli {
 
 namespace {
 
+#ifdef SPACEWARP_HAVE_HARMONIC
+// Harmonic coordinates, through the cache file when one is given.
+std::shared_ptr<const Coordinates> harmonicCoordinates(std::shared_ptr<const Cage> cage,
+                                                       const CageMethodOptions& options,
+                                                       const ProgressCallback& progress) {
+  HarmonicOptions harmonic;
+  if (options.harmonicTets > 0) harmonic.targetTetCount = options.harmonicTets;
+  if (options.harmonicOutside == "nearest") {
+    harmonic.outside = HarmonicOutsidePolicy::NearestPoint;
+  } else if (options.harmonicOutside != "raise") {
+    throw InvalidInput("--outside must be 'raise' or 'nearest', not '" + options.harmonicOutside +
+                       "'");
+  }
+  const std::filesystem::path& cache = options.harmonicCache;
+  if (!cache.empty() && std::filesystem::exists(cache)) {
+    // Not a coordinate file at all: an error (IoError), never overwritten.
+    const HarmonicCoordinates::FileInfo info = HarmonicCoordinates::readFileInfo(cache);
+    if (info.cageHash == HarmonicCoordinates::cageHash(*cage) &&
+        info.cageVertexCount == cage->vertexCount() &&
+        info.cageTriangleCount == cage->triangleCount() &&
+        info.maxTetVolume == HarmonicCoordinates::tetVolumeBound(*cage, harmonic) &&
+        info.radiusEdgeRatio == harmonic.radiusEdgeRatio) {
+      return HarmonicCoordinates::load(cache, cage, harmonic);
+    }
+  }
+  auto coordinates = std::make_shared<const HarmonicCoordinates>(cage, harmonic, progress);
+  if (!cache.empty()) coordinates->save(cache);
+  return coordinates;
+}
+#endif
+
 using Factory = std::function<std::shared_ptr<const Coordinates>(
     std::shared_ptr<const Cage>, const CageMethodOptions&, const ProgressCallback&)>;
 
@@ -19,13 +55,34 @@ const std::map<std::string, Factory>& factories() {
   static const std::map<std::string, Factory> table = {
       {"mvc", [](auto cage, auto&, auto&) { return std::make_shared<MeanValueCoordinates>(cage); }},
       {"green", [](auto cage, auto&, auto&) { return std::make_shared<GreenCoordinates>(cage); }},
+#ifdef SPACEWARP_HAVE_HARMONIC
+      {"harmonic", harmonicCoordinates},
+#endif
   };
   return table;
 }
 
 }  // namespace
 
-void addCageMethodOptions(CLI::App*, CageMethodOptions&) {}
+void addCageMethodOptions(CLI::App* command, CageMethodOptions& options) {
+#ifdef SPACEWARP_HAVE_HARMONIC
+  command
+      ->add_option("--tets", options.harmonicTets,
+                   "harmonic: target tet count of the cage's tetrahedralisation (default 200000)")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--harmonic-cache", options.harmonicCache,
+                      "harmonic: solved-coordinate file, loaded if it matches the cage and --tets, "
+                      "otherwise solved and written");
+  command
+      ->add_option("--outside", options.harmonicOutside,
+                   "harmonic: points outside the cage raise an error or take the coordinates of "
+                   "the nearest cage point")
+      ->check(CLI::IsMember({"raise", "nearest"}));
+#else
+  (void)command;
+  (void)options;
+#endif
+}
 
 std::vector<std::string> cageMethods() {
   std::vector<std::string> names;
@@ -52,7 +109,36 @@ Rig cageRig(const std::string& method, const std::filesystem::path& cage,
   auto rest = std::make_shared<const Cage>(Cage::fromFile(cage));
   const std::vector<Vec3> posed = rest->posedVerticesFromFile(pose);
   auto coordinates = cageCoordinates(method, rest, options, progress);
+#ifdef SPACEWARP_HAVE_HARMONIC
+  // Harmonic coordinates have a faster Warp view (a 4-term mix per point).
+  if (auto harmonic = std::dynamic_pointer_cast<const HarmonicCoordinates>(coordinates))
+    return {std::make_shared<HarmonicWarp>(harmonic, posed), coordinates};
+#endif
   return {std::make_shared<CoordinateWarp>(coordinates, posed), coordinates};
+}
+
+Rig harmonicRig(RigReader& reader) {
+#ifdef SPACEWARP_HAVE_HARMONIC
+  const std::filesystem::path cage = reader.path("cage"), pose = reader.path("pose");
+  CageMethodOptions options;
+  if (reader.has("tets")) {
+    const double tets = reader.number("tets");
+    if (!(tets >= 1.0 && tets <= 1e9 && tets == std::floor(tets)))
+      reader.fail("tets", "must be a whole number in [1, 1e9]");
+    options.harmonicTets = static_cast<std::size_t>(tets);
+  }
+  if (reader.has("cache")) options.harmonicCache = reader.path("cache");
+  if (reader.has("outside")) {
+    options.harmonicOutside = reader.string("outside");
+    if (options.harmonicOutside != "raise" && options.harmonicOutside != "nearest")
+      reader.fail("outside", "must be \"raise\" or \"nearest\"");
+  }
+  return cageRig("harmonic", cage, pose, options);
+#else
+  reader.fail("method",
+              "'harmonic' is not available: spacewarp was built without TetGen "
+              "(SPACEWARP_WITH_TETGEN=OFF)");
+#endif
 }
 
 }  // namespace spacewarp::cli

@@ -21,7 +21,19 @@ namespace spacewarp::cli {
 std::vector<std::string> cageMethods();
 
 /// Options of the cage methods that have any, set from the command line.
-struct CageMethodOptions {};
+struct CageMethodOptions {
+  /// harmonic (--tets): the target tet count of the tetrahedralisation; 0 keeps the library's
+  /// default (HarmonicOptions::targetTetCount, about 200k tets).
+  std::size_t harmonicTets = 0;
+  /// harmonic (--harmonic-cache): a file of solved coordinates (see HarmonicCoordinates::save).
+  /// If it exists and was solved for the same cage at the same resolution it is loaded;
+  /// otherwise the coordinates are solved and saved there. A file that is not a valid
+  /// coordinate file (corrupt, truncated, another version) is an error. Empty: no cache.
+  std::filesystem::path harmonicCache;
+  /// harmonic (--outside): what points outside the cage get: "raise" (an error counting them)
+  /// or "nearest" (the coordinates of the nearest point on the cage).
+  std::string harmonicOutside = "raise";
+};
 
 /// Adds the cage methods' options to a subcommand that takes --method.
 void addCageMethodOptions(CLI::App* command, CageMethodOptions& options);
@@ -38,5 +50,10 @@ std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
 Rig cageRig(const std::string& method, const std::filesystem::path& cage,
             const std::filesystem::path& pose, const CageMethodOptions& options = {},
             const ProgressCallback& progress = {});
+
+/// The "harmonic" rig: keys "cage", "pose" (paths), optional "tets" (target tet count) and
+/// "cache" (a coordinate cache file, as --harmonic-cache) and "outside" ("raise" or "nearest").
+/// Throws InvalidInput if spacewarp was built without TetGen.
+Rig harmonicRig(RigReader& reader);
 
 }  // namespace spacewarp::cli

@@ -59,6 +59,7 @@ const std::map<std::string, RigFactory>& factories() {
        [](RigReader& r) { return warpOnly(std::make_shared<AffineWarp>(r.matrix4("matrix"))); }},
       {"mvc", [](RigReader& r) { return cageRig("mvc", r.path("cage"), r.path("pose")); }},
       {"green", [](RigReader& r) { return cageRig("green", r.path("cage"), r.path("pose")); }},
+      {"harmonic", harmonicRig},
       {"ffd", ffdRig},
       {"graph", graphRig},
       {"mls", mlsRig},

@@ -5,10 +5,17 @@
 
 #include "bench/bench.h"
 
+#ifdef SPACEWARP_HAVE_HARMONIC
+void registerHarmonicBenchmarks();  // harmonic_bench.cpp
+#endif
+
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   registerCoordsBenchmarks();
+#ifdef SPACEWARP_HAVE_HARMONIC
+  registerHarmonicBenchmarks();
+#endif
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   printCoordsSummary();

@@ -1,0 +1,127 @@
+#include "coords/harmonic_warp.h"
+
+#include <algorithm>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+
+HarmonicWarp::HarmonicWarp(std::shared_ptr<const HarmonicCoordinates> coordinates,
+                           std::span<const Vec3> posed)
+    : coordinates_(std::move(coordinates)) {
+  if (!coordinates_) throw InvalidInput("HarmonicWarp: the coordinates are null");
+  const std::size_t k = coordinates_->controlPointCount();
+  cageDisplacement_.resize(k);
+  coordinates_->columnControls(posed, cageDisplacement_);  // checks size and finiteness
+  for (std::size_t c = 0; c < k; ++c) cageDisplacement_[c] -= coordinates_->restControlPoints()[c];
+  const std::span<const double> values = coordinates_->vertexValues();
+  const std::size_t n = coordinates_->mesh().vertices.size();
+  vertexDisplacement_.resize(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                        Vec3 d(0.0);
+                        for (std::size_t c = 0; c < k; ++c)
+                          d += values[v * k + c] * cageDisplacement_[c];
+                        vertexDisplacement_[v] = d;
+                      }
+                    });
+}
+
+bool HarmonicWarp::displacement(const Vec3& x, Vec3& d) const {
+  const HarmonicCoordinates::Location at = coordinates_->locate(x);
+  if (at.inside) {
+    const auto& tet = coordinates_->mesh().tets[at.tet];
+    d = at.barycentric[0] * vertexDisplacement_[tet[0]] +
+        at.barycentric[1] * vertexDisplacement_[tet[1]] +
+        at.barycentric[2] * vertexDisplacement_[tet[2]] +
+        at.barycentric[3] * vertexDisplacement_[tet[3]];
+    return true;
+  }
+  if (coordinates_->options().outside != HarmonicOutsidePolicy::NearestPoint) return false;
+  std::vector<double> w(cageDisplacement_.size());
+  coordinates_->weights(x, w);
+  d = Vec3(0.0);
+  for (std::size_t c = 0; c < w.size(); ++c) d += w[c] * cageDisplacement_[c];
+  return true;
+}
+
+Vec3 HarmonicWarp::apply(const Vec3& x) const {
+  if (!isFinite(x)) throw InvalidInput("HarmonicWarp: the point is not finite");
+  Vec3 d;
+  if (!displacement(x, d)) {
+    throw InvalidInput("HarmonicWarp: 1 point is outside the cage: (" + std::to_string(x.x) + ", " +
+                       std::to_string(x.y) + ", " + std::to_string(x.z) + ")");
+  }
+  return x + d;
+}
+
+void HarmonicWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
+  if (in.size() != out.size()) {
+    throw InvalidInput("HarmonicWarp::applyBatch: input has " + std::to_string(in.size()) +
+                       " points but output has " + std::to_string(out.size()));
+  }
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    if (!isFinite(in[i]))
+      throw InvalidInput("HarmonicWarp: point " + std::to_string(i) + " is not finite");
+  }
+  // (count, first index) of the outside points. `in` and `out` may alias: each point is read
+  // before it is written.
+  using Outside = std::pair<std::size_t, std::size_t>;
+  const Outside none{0, std::numeric_limits<std::size_t>::max()};
+  const Outside outside = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, in.size(), 1024), none,
+      [&](const tbb::blocked_range<std::size_t>& r, Outside acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Vec3 x = in[i];
+          Vec3 d;
+          if (displacement(x, d)) {
+            out[i] = x + d;
+          } else {
+            out[i] = x;
+            acc = {acc.first + 1, std::min(acc.second, i)};
+          }
+        }
+        return acc;
+      },
+      [](const Outside& a, const Outside& b) {
+        return Outside{a.first + b.first, std::min(a.second, b.second)};
+      });
+  if (outside.first > 0) {
+    throw InvalidInput(
+        "HarmonicWarp: " + std::to_string(outside.first) + " of " + std::to_string(in.size()) +
+        " points are outside the cage (the first is point " + std::to_string(outside.second) + ")");
+  }
+}
+
+Mat3 HarmonicWarp::jacobian(const Vec3& x) const {
+  if (!isFinite(x)) throw InvalidInput("HarmonicWarp: the point is not finite");
+  const HarmonicCoordinates::Location at = coordinates_->locate(x);
+  if (!at.inside) {
+    if (coordinates_->options().outside != HarmonicOutsidePolicy::NearestPoint)
+      throw InvalidInput("HarmonicWarp: 1 point is outside the cage");
+    return Warp::jacobian(x);
+  }
+  const TetMesh& mesh = coordinates_->mesh();
+  const auto& tet = mesh.tets[at.tet];
+  const Vec3 p0 = mesh.vertices[tet[0]];
+  const Mat3 inv = glm::inverse(
+      Mat3(mesh.vertices[tet[1]] - p0, mesh.vertices[tet[2]] - p0, mesh.vertices[tet[3]] - p0));
+  Vec3 g[4];
+  for (int i = 0; i < 3; ++i) g[i + 1] = Vec3(inv[0][i], inv[1][i], inv[2][i]);
+  g[0] = -(g[1] + g[2] + g[3]);
+  Mat3 j(1.0);
+  for (int a = 0; a < 4; ++a)
+    for (int c = 0; c < 3; ++c)
+      j[c] += vertexDisplacement_[tet[static_cast<std::size_t>(a)]] * g[a][c];
+  return j;
+}
+
+}  // namespace spacewarp
