@@ -55,7 +55,7 @@ class Coordinates {
   virtual void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const;
 
   /// At most how many weights of one point are non-zero: columnCount() for dense coordinates
-  /// (cages, RBF); 8 for a trilinear lattice, 4 for harmonic coordinates on tets.
+  /// (cages, harmonic coordinates included, RBF); 8 for a trilinear lattice.
   virtual std::size_t maxNonZeros() const { return columnCount(); }
 
   /// The non-zero weights of one point, into `out` (at least maxNonZeros() entries), sorted by
