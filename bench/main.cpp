@@ -5,6 +5,11 @@
 
 #include "bench/bench.h"
 
+#ifdef SPACEWARP_WITH_OPENVDB
+/// Prints the warpVolume / OpenVDB GridResampler ratio measured by the volume benchmarks.
+void printVolumeSummary();
+#endif
+
 #ifdef SPACEWARP_HAVE_HARMONIC
 void registerHarmonicBenchmarks();  // harmonic_bench.cpp
 #endif
@@ -19,5 +24,8 @@ int main(int argc, char** argv) {
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   printCoordsSummary();
+#ifdef SPACEWARP_WITH_OPENVDB
+  printVolumeSummary();
+#endif
   return 0;
 }

@@ -1,0 +1,36 @@
+#include "core/volume/warp_grid.h"
+
+#include "core/errors.h"
+#include "core/volume/warp_points.h"
+
+namespace spacewarp {
+
+namespace {
+
+template <typename GridT>
+WarpedGrid<openvdb::GridBase> erase(WarpedGrid<GridT>&& warped) {
+  return {warped.grid, warped.report};
+}
+
+}  // namespace
+
+bool isWarpableGrid(const openvdb::GridBase& grid) {
+  return grid.isType<openvdb::FloatGrid>() || grid.isType<openvdb::DoubleGrid>() ||
+         grid.isType<openvdb::Vec3SGrid>() || grid.isType<openvdb::points::PointDataGrid>();
+}
+
+WarpedGrid<openvdb::GridBase> warpGrid(const Warp& warp, const openvdb::GridBase& grid,
+                                       const WarpVolumeOptions& options) {
+  if (const auto* g = dynamic_cast<const openvdb::FloatGrid*>(&grid))
+    return erase(warpVolume(warp, *g, options));
+  if (const auto* g = dynamic_cast<const openvdb::DoubleGrid*>(&grid))
+    return erase(warpVolume(warp, *g, options));
+  if (const auto* g = dynamic_cast<const openvdb::Vec3SGrid*>(&grid))
+    return erase(warpVolume(warp, *g, options));
+  if (const auto* g = dynamic_cast<const openvdb::points::PointDataGrid*>(&grid))
+    return erase(warpPoints(warp, *g, options));
+  throw InvalidInput("warpGrid: grid '" + grid.getName() + "' has the unsupported type " +
+                     grid.type() + " (supported: float, double, vec3s and point data grids)");
+}
+
+}  // namespace spacewarp

@@ -1,0 +1,24 @@
+#pragma once
+// Warping a grid of any supported type, chosen at run time (files hold grids of many types):
+// dispatches to warpVolume() or warpPoints().
+
+#include <string>
+
+#include <openvdb/openvdb.h>
+
+#include "core/volume/warp_volume.h"
+#include "core/warp.h"
+
+namespace spacewarp {
+
+/// True for the grid types warpGrid() handles: float, double and float-vector grids (level
+/// sets, fog volumes, fields) and point data grids.
+bool isWarpableGrid(const openvdb::GridBase& grid);
+
+/// Warps `grid` with warpVolume() or warpPoints(), whichever its type needs. Throws
+/// InvalidInput naming the grid and its type if isWarpableGrid() is false, and whatever the
+/// chosen function throws.
+WarpedGrid<openvdb::GridBase> warpGrid(const Warp& warp, const openvdb::GridBase& grid,
+                                       const WarpVolumeOptions& options = {});
+
+}  // namespace spacewarp

@@ -1,0 +1,750 @@
+#include "core/volume/warp_volume.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include <openvdb/tools/ChangeBackground.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/LevelSetRebuild.h>
+#include <openvdb/tools/LevelSetTracker.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "core/errors.h"
+
+namespace spacewarp {
+
+namespace {
+
+using openvdb::Coord;
+using openvdb::CoordBBox;
+
+Vec3 toVec3(const openvdb::Vec3d& v) { return {v[0], v[1], v[2]}; }
+openvdb::Vec3d toVdb(const Vec3& v) { return {v.x, v.y, v.z}; }
+
+std::int32_t floorDiv(std::int32_t a, std::int32_t b) {
+  return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
+
+Coord roundToCoord(const Vec3& x) {
+  return Coord(static_cast<std::int32_t>(std::floor(x.x + 0.5)),
+               static_cast<std::int32_t>(std::floor(x.y + 0.5)),
+               static_cast<std::int32_t>(std::floor(x.z + 0.5)));
+}
+
+bool coordLess(const Coord& a, const Coord& b) {
+  if (a.x() != b.x()) return a.x() < b.x();
+  if (a.y() != b.y()) return a.y() < b.y();
+  return a.z() < b.z();
+}
+
+// The largest singular value of m (power iteration on mᵀ m).
+double spectralNorm(const Mat3& m) {
+  const Mat3 g = glm::transpose(m) * m;
+  Vec3 v(1.0, 0.7, 0.4);
+  double lambda = 0.0;
+  for (int i = 0; i < 30; ++i) {
+    const Vec3 w = g * v;
+    const double n = glm::length(w);
+    if (!(n > 0.0)) return 0.0;
+    lambda = n / glm::length(v);
+    v = w / n;
+  }
+  return std::sqrt(lambda);
+}
+
+bool isSingular(const Mat3& j) {
+  const double det = glm::determinant(j);
+  const double scale = glm::length(j[0]) * glm::length(j[1]) * glm::length(j[2]);
+  return !std::isfinite(det) || std::abs(det) <= 1e-14 * scale;
+}
+
+// The linear (affine) voxel transform as world = a i + t, and its inverse.
+struct IndexFrame {
+  Mat3 a{1.0}, aInverse{1.0};
+  Vec3 t{0.0};
+  double voxelSize = 1.0;  // cube root of the voxel volume
+
+  Vec3 toWorld(const Vec3& i) const { return a * i + t; }
+  Vec3 toIndex(const Vec3& w) const { return aInverse * (w - t); }
+};
+
+IndexFrame indexFrame(const openvdb::GridBase& grid) {
+  const openvdb::math::Transform& xform = grid.transform();
+  if (!xform.isLinear()) {
+    throw InvalidInput("warpVolume: grid '" + grid.getName() + "' has a non-linear transform (" +
+                       xform.mapType() + "); only linear (affine) voxel transforms are supported");
+  }
+  IndexFrame f;
+  f.t = toVec3(xform.indexToWorld(openvdb::Vec3d(0.0)));
+  for (int c = 0; c < 3; ++c) {
+    openvdb::Vec3d e(0.0);
+    e[c] = 1.0;
+    f.a[c] = toVec3(xform.indexToWorld(e)) - f.t;
+  }
+  const double det = glm::determinant(f.a);
+  if (!(std::abs(det) > 0.0) || !std::isfinite(det)) {
+    throw InvalidInput("warpVolume: grid '" + grid.getName() + "' has a singular transform");
+  }
+  f.aInverse = glm::inverse(f.a);
+  f.voxelSize = std::cbrt(std::abs(det));
+  return f;
+}
+
+// Damped Newton for warp(x) = y from the seed x (world units), backtracking on the residual.
+struct Solve {
+  Vec3 x{0.0};
+  int iterations = 0;
+  bool converged = false;
+};
+
+// Solves warp(x) = y from the seed x (world units). Steps first use `chordInverse`, the
+// inverse Jacobian of the seed's cell (a chord method: no Jacobian evaluation), while they
+// reduce the residual at least fourfold; then damped Newton with the warp's Jacobian,
+// backtracking on the residual.
+Solve solveInverse(const Warp& warp, const Vec3& y, const Vec3& seed, const Mat3& chordInverse,
+                   double tolerance, int maxIterations) {
+  Solve s;
+  s.x = seed;
+  Vec3 fx = warp.apply(s.x);
+  double residual = glm::length(fx - y);
+  if (!std::isfinite(residual)) return s;
+  bool chord = true;
+  for (;;) {
+    if (residual <= tolerance) {
+      s.converged = true;
+      return s;
+    }
+    if (s.iterations >= maxIterations) return s;
+    if (chord) {
+      const Vec3 candidate = s.x - chordInverse * (fx - y);
+      const Vec3 fc = warp.apply(candidate);
+      const double r = glm::length(fc - y);
+      if (r <= 0.25 * residual) {  // false for NaN
+        s.x = candidate;
+        fx = fc;
+        residual = r;
+        ++s.iterations;
+        continue;
+      }
+      chord = false;
+    }
+    const Mat3 j = warp.jacobian(s.x);
+    if (isSingular(j)) return s;
+    const Vec3 dx = -(glm::inverse(j) * (fx - y));
+    bool accepted = false;
+    for (double t = 1.0; t > 1e-6; t *= 0.5) {
+      const Vec3 candidate = s.x + t * dx;
+      const Vec3 fc = warp.apply(candidate);
+      const double r = glm::length(fc - y);
+      if (r < residual) {  // false for NaN
+        s.x = candidate;
+        fx = fc;
+        residual = r;
+        accepted = true;
+        break;
+      }
+    }
+    ++s.iterations;
+    if (!accepted) return s;
+  }
+}
+
+// True when a voxel within `radius` (per axis) of x (index space) is active.
+template <typename AccessorT>
+bool nearActive(AccessorT& acc, const Vec3& x, double radius) {
+  const Coord lo = roundToCoord(x - Vec3(radius));
+  const Coord hi = roundToCoord(x + Vec3(radius));
+  for (int i = lo.x(); i <= hi.x(); ++i)
+    for (int j = lo.y(); j <= hi.y(); ++j)
+      for (int k = lo.z(); k <= hi.z(); ++k)
+        if (acc.isValueOn(Coord(i, j, k))) return true;
+  return false;
+}
+
+// A cell of the input's index space: input voxels lo .. lo + size - 1 per axis, the cube
+// [lo - 1/2, lo + size - 1/2]. Its image is approximated by the affine map
+// F(centre) + J (i - centre) (index space to index space).
+struct Cell {
+  Coord lo;
+  int size = 1;
+  Vec3 centre{0.0};  // input index space
+  Vec3 image{0.0};   // F(centre), output index space
+  Mat3 jacobianInverse{1.0};
+  Mat3 worldJacobianInverse{1.0};  // the same in world units
+  double slack = 0.0;              // accepted distance outside the cell, input voxels
+  CoordBBox outBox;                // output voxels that may have their preimage in the cell
+  bool valid = false;              // false where the warp or its Jacobian is not usable
+  bool poor = false;               // the affine model is off by more than half a voxel
+};
+
+struct CoordHash {
+  std::size_t operator()(const Coord& k) const {
+    return (static_cast<std::size_t>(static_cast<std::uint32_t>(k.x())) * 73856093u) ^
+           (static_cast<std::size_t>(static_cast<std::uint32_t>(k.y())) * 19349663u) ^
+           (static_cast<std::size_t>(static_cast<std::uint32_t>(k.z())) * 83492791u);
+  }
+};
+
+// The key of corner d (bits: x, y, z) of a cell.
+Coord cornerKey(const Cell& cell, int d) {
+  return cell.lo +
+         Coord((d & 1) * cell.size, ((d >> 1) & 1) * cell.size, ((d >> 2) & 1) * cell.size);
+}
+
+// Fills in a cell from the warp at its centre and the images of its corners; returns whether
+// the warp is rigid (Jᵀ J = I within 1e-9) at the centre.
+bool evaluateCell(const Warp& warp, const IndexFrame& frame,
+                  const std::unordered_map<Coord, Vec3, CoordHash>& cornerImages, Cell& cell) {
+  cell.centre = Vec3(cell.lo.x(), cell.lo.y(), cell.lo.z()) + Vec3(0.5 * (cell.size - 1));
+  const Vec3 centreWorld = frame.toWorld(cell.centre);
+  const Vec3 imageWorld = warp.apply(centreWorld);
+  const Mat3 jWorld = warp.jacobian(centreWorld);
+  const Mat3 g = glm::transpose(jWorld) * jWorld;
+  double dev = 0.0;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) dev = std::max(dev, std::abs(g[a][b] - (a == b ? 1.0 : 0.0)));
+  const bool rigid = dev <= 1e-9;
+
+  cell.image = frame.toIndex(imageWorld);
+  const Mat3 j = frame.aInverse * jWorld * frame.a;
+  if (!isFinite(cell.image) || isSingular(j)) return rigid;
+  cell.jacobianInverse = glm::inverse(j);
+  cell.worldJacobianInverse = frame.a * cell.jacobianInverse * frame.aInverse;
+  // Deviation of the corners from the affine model, in output and input voxels.
+  Vec3 lo = cell.image, hi = cell.image;
+  double devOut = 0.0, devIn = 0.0;
+  for (int d = 0; d < 8; ++d) {
+    const Coord key = cornerKey(cell, d);
+    const Vec3& p = cornerImages.at(key);
+    if (!isFinite(p)) return rigid;
+    const Vec3 corner = Vec3(key.x(), key.y(), key.z()) - Vec3(0.5);
+    const Vec3 err = p - (cell.image + j * (corner - cell.centre));
+    devOut = std::max(devOut, maxAbs(err));
+    devIn = std::max(devIn, maxAbs(cell.jacobianInverse * err));
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  cell.poor = !(devIn <= 0.5 && devOut <= 0.5 * cell.size + 0.5);
+  // Single voxels whose model stays poor (the warp is not smooth at the voxel scale) get a
+  // bounded margin: their images are then approximate.
+  // The model puts a preimage at most about devIn from where it is, and an image at most
+  // devOut: twice that (and a little more) keeps the region complete.
+  cell.slack = 0.05 + 2.0 * devIn;
+  double grow = 0.5 + 2.0 * devOut;
+  if (cell.poor) {
+    cell.slack = std::min(cell.slack, 2.0);
+    grow = std::min(grow, 2.0);
+  }
+  const double limit = 1e9;  // keeps coordinates inside int32 for wild warps
+  if (!(maxAbs(lo) < limit) || !(maxAbs(hi) < limit)) return rigid;
+  cell.outBox = CoordBBox(Coord(static_cast<std::int32_t>(std::ceil(lo.x - grow)),
+                                static_cast<std::int32_t>(std::ceil(lo.y - grow)),
+                                static_cast<std::int32_t>(std::ceil(lo.z - grow))),
+                          Coord(static_cast<std::int32_t>(std::floor(hi.x + grow)),
+                                static_cast<std::int32_t>(std::floor(hi.y + grow)),
+                                static_cast<std::int32_t>(std::floor(hi.z + grow))));
+  cell.valid = true;
+  return rigid;
+}
+
+// The warp replaced by the trilinear interpolant of its displacement, sampled at the nodes
+// k h (input index space, h = `spacing` voxels) of every lattice cell near the given coarse
+// cells. Points outside the sampled lattice use the exact warp.
+class CachedWarp final : public Warp {
+ public:
+  CachedWarp(const Warp& exact, const IndexFrame& frame, double spacing,
+             const std::vector<Coord>& cellKeys, int cellSize)
+      : exact_(exact), frame_(frame), h_(spacing), nodes_(openvdb::Vec3d(0.0)) {
+    // Nodes of the lattice cells that overlap the coarse cells widened by 2 voxels + h.
+    openvdb::MaskTree mask(false);
+    const double margin = 2.0 + h_;
+    for (const Coord& k : cellKeys) {
+      const Vec3 lo = Vec3(k.x(), k.y(), k.z()) * double(cellSize) - Vec3(0.5 + margin);
+      const Vec3 hi = lo + Vec3(double(cellSize) + 2.0 * margin);
+      const CoordBBox box(Coord(static_cast<std::int32_t>(std::floor(lo.x / h_)),
+                                static_cast<std::int32_t>(std::floor(lo.y / h_)),
+                                static_cast<std::int32_t>(std::floor(lo.z / h_))),
+                          Coord(static_cast<std::int32_t>(std::ceil(hi.x / h_)),
+                                static_cast<std::int32_t>(std::ceil(hi.y / h_)),
+                                static_cast<std::int32_t>(std::ceil(hi.z / h_))));
+      mask.sparseFill(box, true, true);
+    }
+    mask.voxelizeActiveTiles();
+    std::vector<Coord> keys;
+    keys.reserve(static_cast<std::size_t>(mask.activeVoxelCount()));
+    for (auto it = mask.cbeginValueOn(); it; ++it) keys.push_back(it.getCoord());
+    std::vector<Vec3> world(keys.size()), images(keys.size());
+    for (std::size_t i = 0; i < keys.size(); ++i) world[i] = nodeWorld(keys[i]);
+    exact_.applyBatch(world, images);
+    openvdb::tree::ValueAccessor<openvdb::Vec3DTree> acc(nodes_);
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const Vec3 d = images[i] - world[i];
+      acc.setValueOn(keys[i], openvdb::Vec3d(d.x, d.y, d.z));
+    }
+    // The deviation from the exact warp at the centre of every complete lattice cell.
+    std::vector<Vec3> centres;
+    centres.reserve(keys.size());
+    for (const Coord& k : keys) {
+      const Vec3 centre = nodeWorld(k) + frame_.a * Vec3(0.5 * h_);
+      if (sampled(centre)) centres.push_back(centre);
+    }
+    std::vector<Vec3> exactImages(centres.size());
+    exact_.applyBatch(centres, exactImages);
+    for (std::size_t i = 0; i < centres.size(); ++i)
+      error_ = std::max(error_, glm::length(apply(centres[i]) - exactImages[i]));
+  }
+
+  Vec3 apply(const Vec3& x) const override {
+    Vec3 d[8], frac;
+    if (!gather(x, d, frac)) return exact_.apply(x);
+    return x + trilinear(d, frac);
+  }
+
+  Mat3 jacobian(const Vec3& x) const override {
+    Vec3 d[8], f;
+    if (!gather(x, d, f)) return exact_.jacobian(x);
+    // ∂(displacement)/∂k along each lattice axis, then the chain rule to world units.
+    const Vec3 dx = (d[1] - d[0]) * (1 - f.y) * (1 - f.z) + (d[3] - d[2]) * f.y * (1 - f.z) +
+                    (d[5] - d[4]) * (1 - f.y) * f.z + (d[7] - d[6]) * f.y * f.z;
+    const Vec3 dy = (d[2] - d[0]) * (1 - f.x) * (1 - f.z) + (d[3] - d[1]) * f.x * (1 - f.z) +
+                    (d[6] - d[4]) * (1 - f.x) * f.z + (d[7] - d[5]) * f.x * f.z;
+    const Vec3 dz = (d[4] - d[0]) * (1 - f.x) * (1 - f.y) + (d[5] - d[1]) * f.x * (1 - f.y) +
+                    (d[6] - d[2]) * (1 - f.x) * f.y + (d[7] - d[3]) * f.x * f.y;
+    return Mat3(1.0) + Mat3(dx, dy, dz) * (frame_.aInverse / h_);
+  }
+
+  /// Largest deviation from the exact warp at the lattice cell centres, world units.
+  double error() const { return error_; }
+
+ private:
+  Vec3 nodeWorld(const Coord& k) const { return frame_.toWorld(Vec3(k.x(), k.y(), k.z()) * h_); }
+
+  bool sampled(const Vec3& x) const {
+    Vec3 d[8], f;
+    return gather(x, d, f);
+  }
+
+  // The displacements at the 8 nodes around x (bit 0: +x, 1: +y, 2: +z) and x's fraction
+  // in that lattice cell; false if x is outside the sampled lattice.
+  bool gather(const Vec3& x, Vec3 (&d)[8], Vec3& frac) const {
+    const Vec3 k = frame_.toIndex(x) / h_;
+    if (!(maxAbs(k) < 1e9)) return false;
+    const Vec3 base = glm::floor(k);
+    frac = k - base;
+    const Coord b(static_cast<std::int32_t>(base.x), static_cast<std::int32_t>(base.y),
+                  static_cast<std::int32_t>(base.z));
+    openvdb::tree::ValueAccessor<const openvdb::Vec3DTree, false> acc(nodes_);
+    for (int n = 0; n < 8; ++n) {
+      openvdb::Vec3d v;
+      if (!acc.probeValue(b + Coord(n & 1, (n >> 1) & 1, (n >> 2) & 1), v)) return false;
+      d[n] = Vec3(v[0], v[1], v[2]);
+    }
+    return true;
+  }
+
+  static Vec3 trilinear(const Vec3 (&d)[8], const Vec3& f) {
+    const Vec3 x00 = d[0] + (d[1] - d[0]) * f.x, x10 = d[2] + (d[3] - d[2]) * f.x;
+    const Vec3 x01 = d[4] + (d[5] - d[4]) * f.x, x11 = d[6] + (d[7] - d[6]) * f.x;
+    const Vec3 y0 = x00 + (x10 - x00) * f.y, y1 = x01 + (x11 - x01) * f.y;
+    return y0 + (y1 - y0) * f.z;
+  }
+
+  const Warp& exact_;
+  IndexFrame frame_;
+  double h_;
+  openvdb::Vec3DTree nodes_;
+  double error_ = 0.0;
+};
+
+template <typename GridT>
+WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
+                           const WarpVolumeOptions& options) {
+  using TreeT = typename GridT::TreeType;
+  using ValueT = typename GridT::ValueType;
+  using LeafT = typename TreeT::LeafNodeType;
+  constexpr bool kScalar = std::is_floating_point_v<ValueT>;
+
+  if (!(options.cacheSpacing >= 0.0) || !std::isfinite(options.cacheSpacing)) {
+    throw InvalidInput("warpVolume: cacheSpacing must be finite and >= 0, got " +
+                       std::to_string(options.cacheSpacing));
+  }
+  if (options.normCount < 0) {
+    throw InvalidInput("warpVolume: normCount must be >= 0, got " +
+                       std::to_string(options.normCount));
+  }
+  if (options.seedSpacing < 1) {
+    throw InvalidInput("warpVolume: seedSpacing must be at least 1 voxel, got " +
+                       std::to_string(options.seedSpacing));
+  }
+  if (options.maxNewtonIterations < 1 || !(options.inverseTolerance > 0.0)) {
+    throw InvalidInput("warpVolume: maxNewtonIterations must be >= 1 and inverseTolerance > 0");
+  }
+  const bool levelSet = kScalar && in.getGridClass() == openvdb::GRID_LEVEL_SET;
+  const IndexFrame frame = indexFrame(in);
+  if (levelSet && !in.transform().hasUniformScale()) {
+    throw InvalidInput("warpVolume: level set '" + in.getName() +
+                       "' has non-cubic voxels; level sets need a uniform voxel scale");
+  }
+  const bool conserveMass = kScalar && !levelSet && options.conserveMass;
+  const TreeT& inTree = in.tree();
+  const int c = options.seedSpacing;
+
+  WarpedGrid<GridT> result;
+  WarpVolumeReport& report = result.report;
+  report.inputActiveVoxels = static_cast<std::size_t>(in.activeVoxelCount());
+  const double voxelVolume = std::abs(glm::determinant(frame.a));
+  if constexpr (kScalar) {
+    if (!levelSet) {
+      double mass = 0.0;
+      for (auto it = inTree.cbeginValueOn(); it; ++it)
+        mass += static_cast<double>(*it) * static_cast<double>(it.getVoxelCount());
+      report.massBefore = mass * voxelVolume;
+    }
+    if (levelSet) report.halfWidth = static_cast<double>(in.background()) / frame.voxelSize;
+  }
+
+  // 1. The coarse cells that hold active voxels or tiles, sorted.
+  std::vector<Coord> cellKeys;
+  {
+    std::vector<const LeafT*> leaves;
+    leaves.reserve(inTree.leafCount());
+    for (auto it = inTree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+    std::vector<std::vector<Coord>> perLeaf(leaves.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 16),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                          std::vector<Coord>& keys = perLeaf[l];
+                          for (auto v = leaves[l]->cbeginValueOn(); v; ++v) {
+                            const Coord ijk = v.getCoord();
+                            keys.emplace_back(floorDiv(ijk.x(), c), floorDiv(ijk.y(), c),
+                                              floorDiv(ijk.z(), c));
+                          }
+                          std::sort(keys.begin(), keys.end(), coordLess);
+                          keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+                        }
+                      });
+    for (const auto& keys : perLeaf) cellKeys.insert(cellKeys.end(), keys.begin(), keys.end());
+    typename TreeT::ValueOnCIter tiles = inTree.cbeginValueOn();
+    tiles.setMaxDepth(TreeT::ValueOnCIter::LEAF_DEPTH - 1);
+    for (; tiles; ++tiles) {
+      if (!tiles.isTileValue()) continue;
+      const CoordBBox box = tiles.getBoundingBox();
+      const Coord lo(floorDiv(box.min().x(), c), floorDiv(box.min().y(), c),
+                     floorDiv(box.min().z(), c));
+      const Coord hi(floorDiv(box.max().x(), c), floorDiv(box.max().y(), c),
+                     floorDiv(box.max().z(), c));
+      for (int x = lo.x(); x <= hi.x(); ++x)
+        for (int y = lo.y(); y <= hi.y(); ++y)
+          for (int z = lo.z(); z <= hi.z(); ++z) cellKeys.emplace_back(x, y, z);
+    }
+    std::sort(cellKeys.begin(), cellKeys.end(), coordLess);
+    cellKeys.erase(std::unique(cellKeys.begin(), cellKeys.end()), cellKeys.end());
+  }
+
+  // The warp itself, or its displacement sampled on a lattice over the cells.
+  std::unique_ptr<CachedWarp> cached;
+  if (options.cacheSpacing > 0.0) {
+    cached = std::make_unique<CachedWarp>(exactWarp, frame, options.cacheSpacing, cellKeys, c);
+    report.cacheError = cached->error();
+  }
+  const Warp& warp = cached ? static_cast<const Warp&>(*cached) : exactWarp;
+
+  // 2. Forward images: the warp at every cell corner and centre, the Jacobian at centres.
+  // Cells whose affine model is poor (the corners deviate from it by more than half a voxel)
+  // are split until it is good or they are single voxels.
+  std::unordered_map<Coord, Vec3, CoordHash> cornerImages;  // key m: index position m - 1/2
+  auto addCornerImages = [&](const std::vector<Cell>& batch) {
+    std::vector<Coord> need;
+    for (const Cell& cell : batch)
+      for (int d = 0; d < 8; ++d) {
+        const Coord key = cornerKey(cell, d);
+        if (cornerImages.find(key) == cornerImages.end()) need.push_back(key);
+      }
+    std::sort(need.begin(), need.end(), coordLess);
+    need.erase(std::unique(need.begin(), need.end()), need.end());
+    std::vector<Vec3> world(need.size()), images(need.size());
+    for (std::size_t i = 0; i < need.size(); ++i)
+      world[i] = frame.toWorld(Vec3(need[i].x(), need[i].y(), need[i].z()) - Vec3(0.5));
+    warp.applyBatch(world, images);
+    for (std::size_t i = 0; i < need.size(); ++i)
+      cornerImages.emplace(need[i], frame.toIndex(images[i]));
+  };
+
+  std::vector<Cell> cells;
+  std::vector<Cell> pending(cellKeys.size());
+  for (std::size_t i = 0; i < cellKeys.size(); ++i) {
+    pending[i].lo = Coord(cellKeys[i].x() * c, cellKeys[i].y() * c, cellKeys[i].z() * c);
+    pending[i].size = c;
+  }
+  bool rigid = true;
+  while (!pending.empty()) {
+    addCornerImages(pending);
+    std::vector<char> cellRigid(pending.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pending.size(), 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i)
+                          cellRigid[i] = evaluateCell(warp, frame, cornerImages, pending[i]);
+                      });
+    rigid = rigid && std::all_of(cellRigid.begin(), cellRigid.end(), [](char x) { return x != 0; });
+    std::vector<Cell> next;
+    openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
+    for (const Cell& cell : pending) {
+      if (!cell.poor || cell.size == 1) {
+        cells.push_back(cell);
+        continue;
+      }
+      // Children of half the size (single voxels for odd sizes) that hold active values.
+      const int s = cell.size % 2 == 0 ? cell.size / 2 : 1;
+      for (int x = 0; x < cell.size; x += s)
+        for (int y = 0; y < cell.size; y += s)
+          for (int z = 0; z < cell.size; z += s) {
+            Cell child;
+            child.lo = cell.lo + Coord(x, y, z);
+            child.size = s;
+            bool active = false;
+            const CoordBBox box(child.lo, child.lo + Coord(s - 1));
+            for (auto ijk = box.begin(); ijk && !active; ++ijk) active = acc.isValueOn(*ijk);
+            if (active) next.push_back(child);
+          }
+    }
+    pending = std::move(next);
+  }
+  {
+    openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
+    for (const Cell& cell : cells) {
+      if (cell.valid) continue;
+      const CoordBBox box(cell.lo, cell.lo + Coord(cell.size - 1));
+      for (auto ijk = box.begin(); ijk; ++ijk)
+        if (acc.isValueOn(*ijk)) ++report.unmappedVoxels;
+    }
+  }
+
+  // 3. Which cells may reach which output leaf: (leaf origin, cell) pairs, sorted.
+  using Pair = std::pair<Coord, std::uint32_t>;
+  std::vector<Pair> pairs;
+  {
+    std::vector<std::vector<Pair>> perCell(cells.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 64),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          if (!cells[i].valid) continue;
+                          const CoordBBox& b = cells[i].outBox;
+                          const Coord lo = b.min() & ~(LeafT::DIM - 1);
+                          const Coord hi = b.max() & ~(LeafT::DIM - 1);
+                          for (int x = lo.x(); x <= hi.x(); x += LeafT::DIM)
+                            for (int y = lo.y(); y <= hi.y(); y += LeafT::DIM)
+                              for (int z = lo.z(); z <= hi.z(); z += LeafT::DIM)
+                                perCell[i].emplace_back(Coord(x, y, z),
+                                                        static_cast<std::uint32_t>(i));
+                        }
+                      });
+    for (const auto& p : perCell) pairs.insert(pairs.end(), p.begin(), p.end());
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+      if (a.first != b.first) return coordLess(a.first, b.first);
+      return a.second < b.second;
+    });
+  }
+  std::vector<std::size_t> groupStart;  // pairs[groupStart[g] .. groupStart[g+1]) share a leaf
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    if (i == 0 || pairs[i].first != pairs[i - 1].first) groupStart.push_back(i);
+  const std::size_t groups = groupStart.size();
+  groupStart.push_back(pairs.size());
+
+  // 4. Every output leaf: seed, solve, test, sample.
+  struct LeafResult {
+    std::unique_ptr<LeafT> leaf;
+    std::size_t solved = 0, failures = 0, iterations = 0;
+    int maxIterations = 0;
+    double mass = 0.0;
+  };
+  std::vector<LeafResult> leafResults(groups);
+  ProgressTracker tracker(options.progress, "warp volume", groups);
+  const double tolerance = options.inverseTolerance * frame.voxelSize;
+  const ValueT background = in.background();
+  const bool toDistance = levelSet && options.redistance == LevelSetRedistance::Normalize && !rigid;
+
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, groups, 4), [&](const tbb::blocked_range<std::size_t>& r) {
+        openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
+        constexpr int kSize = static_cast<int>(LeafT::SIZE);
+        std::vector<double> best(kSize);
+        std::vector<Vec3> seeds(kSize);
+        std::vector<std::uint32_t> seedCellOf(kSize);
+        for (std::size_t g = r.begin(); g != r.end(); ++g) {
+          tracker.advance();
+          const Coord origin = pairs[groupStart[g]].first;
+          const CoordBBox leafBox = CoordBBox::createCube(origin, LeafT::DIM);
+          std::fill(best.begin(), best.end(), std::numeric_limits<double>::infinity());
+          for (std::size_t p = groupStart[g]; p < groupStart[g + 1]; ++p) {
+            const Cell& cell = cells[pairs[p].second];
+            CoordBBox box = cell.outBox;
+            box.intersect(leafBox);
+            if (box.empty()) continue;
+            const double half = 0.5 * cell.size;
+            const Vec3 stepZ = cell.jacobianInverse[2];
+            for (int x = box.min().x(); x <= box.max().x(); ++x)
+              for (int y = box.min().y(); y <= box.max().y(); ++y) {
+                Vec3 offset = cell.jacobianInverse * (Vec3(x, y, box.min().z()) - cell.image);
+                for (int z = box.min().z(); z <= box.max().z(); ++z, offset += stepZ) {
+                  const double outside = maxAbs(offset) - half;
+                  if (outside > cell.slack) continue;
+                  const int n = static_cast<int>(LeafT::coordToOffset(Coord(x, y, z)));
+                  if (outside < best[n]) {
+                    best[n] = outside;
+                    seeds[n] = cell.centre + offset;
+                    seedCellOf[n] = pairs[p].second;
+                  }
+                }
+              }
+          }
+          LeafResult& out = leafResults[g];
+          for (int n = 0; n < kSize; ++n) {
+            if (!(best[n] < std::numeric_limits<double>::infinity())) continue;
+            // The preimage is within the cell's slack of the seed; it must be in an active voxel.
+            const Cell& seedCell = cells[seedCellOf[n]];
+            if (!nearActive(acc, seeds[n], seedCell.slack)) continue;
+            const Coord ijk = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(n));
+            const Vec3 y = frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
+            const Solve s =
+                solveInverse(warp, y, frame.toWorld(seeds[n]), seedCell.worldJacobianInverse,
+                             tolerance, options.maxNewtonIterations);
+            ++out.solved;
+            out.iterations += static_cast<std::size_t>(s.iterations);
+            out.maxIterations = std::max(out.maxIterations, s.iterations);
+            if (!s.converged) {
+              ++out.failures;
+              continue;
+            }
+            const Vec3 xIndex = frame.toIndex(s.x);
+            if (!acc.isValueOn(roundToCoord(xIndex))) continue;
+            ValueT value;
+            if (options.sampler == VolumeSampler::Triquadratic) {
+              value = openvdb::tools::QuadraticSampler::sample(acc, toVdb(xIndex));
+            } else {
+              value = openvdb::tools::BoxSampler::sample(acc, toVdb(xIndex));
+            }
+            if constexpr (kScalar) {
+              if (conserveMass) {
+                const double det = std::abs(glm::determinant(warp.jacobian(s.x)));
+                if (!(det > 0.0) || !std::isfinite(det)) {
+                  ++out.failures;
+                  continue;
+                }
+                value = static_cast<ValueT>(static_cast<double>(value) / det);
+              }
+              if (toDistance) {
+                // ψ = φ∘F⁻¹ has gradient J⁻ᵀ∇φ: dividing by its relative length makes the
+                // resampled values distances to first order, so the band is trimmed right.
+                const Coord i = roundToCoord(xIndex);
+                const Vec3 g(double(acc.getValue(i.offsetBy(1, 0, 0))) -
+                                 double(acc.getValue(i.offsetBy(-1, 0, 0))),
+                             double(acc.getValue(i.offsetBy(0, 1, 0))) -
+                                 double(acc.getValue(i.offsetBy(0, -1, 0))),
+                             double(acc.getValue(i.offsetBy(0, 0, 1))) -
+                                 double(acc.getValue(i.offsetBy(0, 0, -1))));
+                const double warped =
+                    glm::length(glm::transpose(cells[seedCellOf[n]].jacobianInverse) * g);
+                const double plain = glm::length(g);
+                if (warped > 0.0 && plain > 0.0) {
+                  value = static_cast<ValueT>(static_cast<double>(value) *
+                                              std::clamp(plain / warped, 0.2, 5.0));
+                }
+              }
+              if (!levelSet) out.mass += static_cast<double>(value);
+            }
+            if (!out.leaf) out.leaf = std::make_unique<LeafT>(origin, background, false);
+            out.leaf->setValueOn(static_cast<openvdb::Index>(n), value);
+          }
+        }
+      });
+  tracker.check();
+
+  auto tree = std::make_shared<TreeT>(background);
+  double massAfter = 0.0;
+  for (LeafResult& lr : leafResults) {
+    report.solvedVoxels += lr.solved;
+    report.inverseFailures += lr.failures;
+    report.totalNewtonIterations += lr.iterations;
+    report.maxNewtonIterations = std::max(report.maxNewtonIterations, lr.maxIterations);
+    massAfter += lr.mass;
+    if (lr.leaf) tree->addLeaf(lr.leaf.release());
+  }
+  typename GridT::Ptr grid = GridT::create(tree);
+  grid->setTransform(in.transform().copy());
+  for (auto it = in.beginMeta(); it != in.endMeta(); ++it) {
+    if (it->first.rfind("file_", 0) == 0) continue;  // stale statistics of the input file
+    grid->insertMeta(it->first, *it->second);
+  }
+  grid->setName(in.getName());
+  grid->setGridClass(in.getGridClass());
+
+  if constexpr (kScalar) {
+    if (levelSet) {
+      openvdb::tools::signedFloodFill(grid->tree());
+      if (options.redistance == LevelSetRedistance::Rebuild && !rigid) {
+        const float w = static_cast<float>(report.halfWidth);
+        typename GridT::Ptr rebuilt = openvdb::tools::levelSetRebuild(*grid, 0.0f, w, w);
+        rebuilt->setTransform(in.transform().copy());
+        for (auto it = grid->beginMeta(); it != grid->endMeta(); ++it)
+          rebuilt->insertMeta(it->first, *it->second);
+        grid = rebuilt;
+        report.redistanced = true;
+      } else if (options.redistance == LevelSetRedistance::Normalize && !rigid) {
+        // Where the warp compresses by σ, the resampled band is σ times as wide: grow it.
+        double sigmaMin = 1.0;
+        for (const Cell& cell : cells)
+          if (cell.valid) sigmaMin = std::min(sigmaMin, 1.0 / spectralNorm(cell.jacobianInverse));
+        const double w = report.halfWidth;
+        const int layers = static_cast<int>(std::clamp(
+            std::ceil(w / std::max(sigmaMin, 1e-3) - w - 1e-6), 0.0, 2.0 * std::ceil(w)));
+        openvdb::tools::LevelSetTracker<GridT> redistance(*grid);
+        redistance.setNormCount(options.normCount);
+        redistance.setSpatialScheme(openvdb::math::FIRST_BIAS);
+        redistance.setTemporalScheme(openvdb::math::TVD_RK1);
+        if (layers > 0) redistance.dilate(layers);
+        redistance.normalize();
+        if (layers > 0) {
+          openvdb::tools::changeLevelSetBackground(grid->tree(), background);
+        }
+        redistance.prune();
+        report.redistanced = true;
+        report.bandLayersAdded = layers;
+      }
+    } else {
+      report.massAfter = massAfter * voxelVolume;
+    }
+  }
+  tracker.finish();
+  report.outputActiveVoxels = static_cast<std::size_t>(grid->activeVoxelCount());
+  result.grid = grid;
+  return result;
+}
+
+}  // namespace
+
+WarpedGrid<openvdb::FloatGrid> warpVolume(const Warp& warp, const openvdb::FloatGrid& grid,
+                                          const WarpVolumeOptions& options) {
+  return warpGrid(warp, grid, options);
+}
+
+WarpedGrid<openvdb::DoubleGrid> warpVolume(const Warp& warp, const openvdb::DoubleGrid& grid,
+                                           const WarpVolumeOptions& options) {
+  return warpGrid(warp, grid, options);
+}
+
+WarpedGrid<openvdb::Vec3SGrid> warpVolume(const Warp& warp, const openvdb::Vec3SGrid& grid,
+                                          const WarpVolumeOptions& options) {
+  return warpGrid(warp, grid, options);
+}
+
+}  // namespace spacewarp

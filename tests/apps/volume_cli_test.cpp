@@ -1,0 +1,296 @@
+// End-to-end tests of `spacewarp deform` on OpenVDB files: every rig method warps every grid
+// of a file, keeping grid names and metadata; bad files exit 3 with a message naming them and
+// leave no output behind.
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <openvdb/io/File.h>
+#include <openvdb/openvdb.h>
+#include <openvdb/points/PointConversion.h>
+#include <openvdb/points/PointCount.h>
+#include <openvdb/tools/LevelSetSphere.h>
+
+#include "apps/cli_test_util.h"
+#include "core/io/mesh_io.h"
+#include "core/primitives.h"
+#include "core/twist.h"
+#include "core/volume/warp_volume.h"
+
+namespace fs = std::filesystem;
+using namespace spacewarp;
+using ::testing::HasSubstr;
+
+namespace {
+
+using test::CliResult;
+
+constexpr double kVoxel = 0.1;
+
+class VolumeCliTest : public test::CliFixture {
+ protected:
+  VolumeCliTest() : CliFixture("spacewarp_volume_cli_") {}
+
+  // A file with a level set sphere "surface" (metadata "author"), a fog volume "density" and
+  // file metadata "scene".
+  void writeInput() {
+    openvdb::initialize();
+    sphere_ = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+        0.6f, openvdb::Vec3f(0.1f, 0.0f, 0.05f), float(kVoxel), 3.0f);
+    sphere_->setName("surface");
+    sphere_->insertMeta("author", openvdb::StringMetadata("spacewarp tests"));
+    fog_ = openvdb::FloatGrid::create(0.0f);
+    fog_->setName("density");
+    fog_->setGridClass(openvdb::GRID_FOG_VOLUME);
+    fog_->setTransform(openvdb::math::Transform::createLinearTransform(kVoxel));
+    for (int i = -4; i <= 4; ++i)
+      for (int j = -4; j <= 4; ++j)
+        for (int k = -4; k <= 4; ++k)
+          fog_->tree().setValue(openvdb::Coord(i, j, k),
+                                float(std::exp(-(i * i + j * j + k * k) / 9.0)));
+    openvdb::MetaMap meta;
+    meta.insertMeta("scene", openvdb::StringMetadata("unit test"));
+    openvdb::io::File file((dir_ / "in.vdb").string());
+    file.write({sphere_, fog_}, meta);
+    file.close();
+  }
+
+  struct Output {
+    openvdb::GridPtrVec grids;
+    openvdb::MetaMap::Ptr meta;
+
+    // The float grid called `name` (null if none); files do not keep the order of grids.
+    openvdb::FloatGrid::Ptr grid(const std::string& name) const {
+      for (const auto& g : grids)
+        if (g->getName() == name) return openvdb::gridPtrCast<openvdb::FloatGrid>(g);
+      return nullptr;
+    }
+  };
+  Output readOutput() {
+    openvdb::io::File file((dir_ / "out.vdb").string());
+    file.open();
+    Output out{*file.getGrids(), file.getMetadata()};
+    file.close();
+    return out;
+  }
+
+  CliResult deformVolume(const std::string& flags, const std::string& input = "in.vdb") {
+    return run("deform " + flags + " " + (dir_ / input).string() + " -o " +
+               (dir_ / "out.vdb").string());
+  }
+
+  void expectNoOutput() {
+    EXPECT_FALSE(fs::exists(dir_ / "out.vdb"));
+    for (const auto& entry : fs::directory_iterator(dir_))
+      EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp")));
+  }
+
+  openvdb::FloatGrid::Ptr sphere_, fog_;
+};
+
+TEST_F(VolumeCliTest, TwistRigWarpsEveryGridKeepingNamesAndMetadata) {
+  writeInput();
+  // Add a point data grid to the file.
+  const std::vector<openvdb::Vec3R> positions = {
+      {0.1, 0.2, 0.3}, {-0.4, 0.0, 0.5}, {0.0, -0.3, 0.0}};
+  {
+    const auto xform = openvdb::math::Transform::createLinearTransform(kVoxel);
+    auto points =
+        openvdb::points::createPointDataGrid<openvdb::points::NullCodec,
+                                             openvdb::points::PointDataGrid>(positions, *xform);
+    points->setName("particles");
+    openvdb::io::File file((dir_ / "in.vdb").string());
+    file.write({sphere_, fog_, points});
+    file.close();
+  }
+  write("twist.json",
+        R"({"method": "twist", "origin": [0, 0, 0], "axis": [0, 1, 0], "rate": 0.8})");
+  const CliResult r = deformVolume("--rig " + (dir_ / "twist.json").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("'surface'"));
+  const Output out = readOutput();
+  ASSERT_EQ(out.grids.size(), 3u);
+  openvdb::points::PointDataGrid::Ptr particles;
+  for (const auto& g : out.grids)
+    if (g->getName() == "particles")
+      particles = openvdb::gridPtrCast<openvdb::points::PointDataGrid>(g);
+  ASSERT_TRUE(particles);
+  EXPECT_EQ(openvdb::points::pointCount(particles->tree()), positions.size());
+  TwistParams tp;
+  tp.axis = Vec3(0, 1, 0);
+  tp.rate = 0.8;
+  for (auto leaf = particles->tree().cbeginLeaf(); leaf; ++leaf) {
+    openvdb::points::AttributeHandle<openvdb::Vec3f> handle(leaf->constAttributeArray("P"));
+    for (auto idx = leaf->beginIndexOn(); idx; ++idx) {
+      const openvdb::Vec3d w =
+          particles->transform().indexToWorld(handle.get(*idx) + idx.getCoord().asVec3d());
+      double nearest = 1e300;  // some input point must warp onto it
+      for (const auto& p : positions)
+        nearest = std::min(nearest, glm::length(TwistWarp(tp).apply(Vec3(p[0], p[1], p[2])) -
+                                                Vec3(w[0], w[1], w[2])));
+      EXPECT_LT(nearest, 1e-6);
+    }
+  }
+  auto surface = out.grid("surface");
+  auto density = out.grid("density");
+  ASSERT_TRUE(surface && density);
+  EXPECT_EQ(surface->getName(), "surface");
+  EXPECT_EQ(surface->getGridClass(), openvdb::GRID_LEVEL_SET);
+  EXPECT_EQ(surface->metaValue<std::string>("author"), "spacewarp tests");
+  EXPECT_EQ(density->getName(), "density");
+  EXPECT_EQ(density->getGridClass(), openvdb::GRID_FOG_VOLUME);
+
+  // The same as the library's result.
+  TwistParams p;
+  p.axis = Vec3(0, 1, 0);
+  p.rate = 0.8;
+  const TwistWarp twist(p);
+  const auto expected = warpVolume(twist, *sphere_);
+  EXPECT_EQ(surface->activeVoxelCount(), expected.grid->activeVoxelCount());
+  auto acc = surface->getConstAccessor();
+  for (auto it = expected.grid->cbeginValueOn(); it; ++it)
+    ASSERT_EQ(acc.getValue(it.getCoord()), *it) << it.getCoord();
+}
+
+// A cage and a posed copy moved by a similarity (mean-value coordinates reproduce it exactly).
+Vec3 similarity(const Vec3& p) { return Vec3(-1.5 * p.y + 0.2, 1.5 * p.x, 1.5 * p.z - 0.1); }
+
+TEST_F(VolumeCliTest, CageRigWarpsTheLevelSetToTheSimilarSphere) {
+  writeInput();
+  const PolygonSoup cage = makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1});
+  PolygonSoup posed = cage;
+  for (Vec3& q : posed.positions) q = similarity(q);
+  writeSoup(cage, dir_ / "cage.obj");
+  writeSoup(posed, dir_ / "pose.obj");
+  write("mvc.json", R"({"method": "mvc", "cage": "cage.obj", "pose": "pose.obj"})");
+  const CliResult r =
+      deformVolume("--rig " + (dir_ / "mvc.json").string() + " --sampler triquadratic");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const Output out = readOutput();
+  ASSERT_EQ(out.grids.size(), 2u);
+  auto surface = out.grid("surface");
+  ASSERT_TRUE(surface);
+  EXPECT_EQ(surface->getName(), "surface");
+  EXPECT_EQ(surface->metaValue<std::string>("author"), "spacewarp tests");
+  const Vec3 centre = similarity(Vec3(0.1, 0.0, 0.05));
+  std::size_t near = 0;
+  for (auto it = surface->cbeginValueOn(); it; ++it) {
+    const openvdb::Vec3d w = surface->indexToWorld(it.getCoord());
+    const double exact = glm::length(Vec3(w[0], w[1], w[2]) - centre) - 0.9;
+    if (std::abs(exact) > 1.5 * kVoxel) continue;
+    EXPECT_NEAR(*it, exact, 0.5 * kVoxel) << it.getCoord();
+    ++near;
+  }
+  EXPECT_GT(near, 500u);
+}
+
+TEST_F(VolumeCliTest, ConserveMassKeepsTheFogTotal) {
+  writeInput();
+  write("taper.json",
+        R"({"method": "taper", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": -0.5})");
+  const CliResult r = deformVolume("--rig " + (dir_ / "taper.json").string() + " --conserve-mass");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const Output out = readOutput();
+  auto density = out.grid("density");
+  ASSERT_TRUE(density);
+  double before = 0.0, after = 0.0;
+  for (auto it = fog_->cbeginValueOn(); it; ++it) before += *it;
+  for (auto it = density->cbeginValueOn(); it; ++it) after += *it;
+  EXPECT_NEAR(after / before, 1.0, 0.03);
+}
+
+// Every rig method the tool has warps a volume file.
+struct RigCase {
+  std::string name, json;
+};
+
+void PrintTo(const RigCase& c, std::ostream* os) { *os << c.name; }
+
+class VolumeRigTest : public VolumeCliTest, public ::testing::WithParamInterface<RigCase> {};
+
+TEST_P(VolumeRigTest, WarpsEveryGrid) {
+  writeInput();
+  const PolygonSoup cage = makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1});
+  PolygonSoup posed = cage;
+  for (Vec3& q : posed.positions) q = q * 1.1 + Vec3(0.05 * q.z, 0.0, 0.0);
+  writeSoup(cage, dir_ / "cage.obj");
+  writeSoup(posed, dir_ / "pose.obj");
+  write("rig.json", GetParam().json);
+  const CliResult r = deformVolume("--rig " + (dir_ / "rig.json").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.err, ::testing::Not(HasSubstr("did not converge")));
+  const Output out = readOutput();
+  ASSERT_EQ(out.grids.size(), 2u);
+  const auto surface = out.grid("surface");
+  const auto density = out.grid("density");
+  ASSERT_TRUE(surface && density);
+  EXPECT_EQ(surface->getGridClass(), openvdb::GRID_LEVEL_SET);
+  EXPECT_GT(surface->activeVoxelCount(), sphere_->activeVoxelCount() / 2);
+  EXPECT_GT(density->activeVoxelCount(), fog_->activeVoxelCount() / 2);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    AllRigs, VolumeRigTest,
+    ::testing::Values(
+        RigCase{"twist", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1], "rate": 1})"},
+        RigCase{"bend", R"({"method": "bend", "origin": [0,0,0], "axis": [0,0,1],
+                            "direction": [1,0,0], "rate": 0.5})"},
+        RigCase{"taper", R"({"method": "taper", "origin": [0,0,0], "axis": [0,0,1], "rate": 0.3})"},
+        RigCase{"affine", R"({"method": "affine",
+                              "matrix": [[0,-1,0,0.2],[1,0,0,0],[0,0,1.2,0],[0,0,0,1]]})"},
+        RigCase{"mvc", R"({"method": "mvc", "cage": "cage.obj", "pose": "pose.obj"})"},
+        RigCase{"green", R"({"method": "green", "cage": "cage.obj", "pose": "pose.obj"})"},
+        RigCase{"ffd", R"({"method": "ffd", "basis": "trilinear", "origin": [-1,-1,-1],
+                           "size": [2,2,2], "resolution": [2,2,2],
+                           "controlPoints": [[-1,-1,-1],[1,-1,-1],[-1,1,-1],[1,1,-1],
+                                             [-1.2,-1,1],[1.2,-1,1],[-1.2,1,1],[1.2,1,1]]})"},
+        RigCase{"rbf", R"({"method": "rbf", "centers": [[0,0,0],[1,0,0],[0,1,0],[0,0,1]],
+                           "targets": [[0,0,0],[1.1,0,0],[0,1,0.1],[0,0,1]]})"},
+        RigCase{"mls", R"({"method": "mls", "handles": [[0,0,0],[1,0,0],[0,1,0],[0,0,1]],
+                           "targets": [[0,0,0],[1,0.1,0],[-0.1,1,0],[0,0,1]]})"},
+        RigCase{"graph", R"({"method": "graph", "handles": [[-1,0,0],[1,0,0]],
+                             "targets": [[-1,0,0],[1,0.2,0]], "spacing": 0.5})"}),
+    [](const ::testing::TestParamInfo<RigCase>& info) { return info.param.name; });
+
+TEST_F(VolumeCliTest, BadFilesExitThreeNamingTheFileWithNoOutput) {
+  write("twist.json", R"({"method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": 1})");
+  const std::string rig = "--rig " + (dir_ / "twist.json").string();
+
+  CliResult r = deformVolume(rig, "missing.vdb");
+  EXPECT_EQ(r.exitCode, 3);
+  EXPECT_THAT(r.err, HasSubstr("missing.vdb"));
+  expectNoOutput();
+
+  write("text.vdb", "this is not a volume\n");
+  r = deformVolume(rig, "text.vdb");
+  EXPECT_EQ(r.exitCode, 3);
+  EXPECT_THAT(r.err, HasSubstr("text.vdb"));
+  expectNoOutput();
+
+  openvdb::initialize();
+  auto mask = openvdb::BoolGrid::create(false);
+  mask->setName("occupancy");
+  mask->tree().setValue(openvdb::Coord(0), true);
+  openvdb::io::File file((dir_ / "mask.vdb").string());
+  file.write({mask});
+  file.close();
+  r = deformVolume(rig, "mask.vdb");
+  EXPECT_EQ(r.exitCode, 3);
+  EXPECT_THAT(r.err, HasSubstr("mask.vdb"));
+  EXPECT_THAT(r.err, HasSubstr("no supported grid"));
+  expectNoOutput();
+}
+
+TEST_F(VolumeCliTest, UnknownSamplerIsAUsageError) {
+  writeInput();
+  write("twist.json", R"({"method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": 1})");
+  const CliResult r = deformVolume("--rig " + (dir_ / "twist.json").string() + " --sampler cubic");
+  EXPECT_EQ(r.exitCode, 2);
+  expectNoOutput();
+}
+
+}  // namespace

@@ -1,0 +1,405 @@
+// Tests of core/volume/warp_volume.h: identity, rigid motions against OpenVDB's own
+// resampling, level sets (scaled sphere, twisted against the mesh route), mass conservation,
+// non-convergent inverses, determinism, cancellation and rejected inputs.
+
+#include "core/volume/warp_volume.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numbers>
+
+#include <gtest/gtest.h>
+#include <openvdb/tools/GridTransformer.h>
+#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/VolumeToMesh.h>
+#include <tbb/global_control.h>
+#include <glm/gtc/matrix_transform.hpp>
+
+#include "core/combinators.h"
+#include "core/errors.h"
+#include "core/twist.h"
+#include "volume/volume_test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using openvdb::Coord;
+using openvdb::FloatGrid;
+using test::FunctionWarp;
+using test::makeGaussianFog;
+using test::makeSphere;
+using test::worldOf;
+
+template <typename GridT>
+void expectSameGrid(const GridT& in, const GridT& out, double tolerance) {
+  EXPECT_EQ(out.activeVoxelCount(), in.activeVoxelCount());
+  auto acc = out.getConstAccessor();
+  for (auto it = in.cbeginValueOn(); it; ++it) {
+    ASSERT_TRUE(acc.isValueOn(it.getCoord())) << it.getCoord();
+    EXPECT_NEAR(acc.getValue(it.getCoord()), *it, tolerance) << it.getCoord();
+  }
+}
+
+TEST(WarpVolume, IdentityReturnsTheSameFogVolume) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.1, -0.2, 0.3), 1.0, 0.25);
+  for (VolumeSampler sampler : {VolumeSampler::Trilinear, VolumeSampler::Triquadratic}) {
+    WarpVolumeOptions options;
+    options.sampler = sampler;
+    const auto warped = warpVolume(IdentityWarp(), *fog, options);
+    expectSameGrid(*fog, *warped.grid, 1e-6);
+    EXPECT_EQ(warped.report.inverseFailures, 0u);
+    EXPECT_EQ(warped.report.maxNewtonIterations, 0);
+    EXPECT_EQ(warped.grid->getName(), "density");
+    EXPECT_EQ(warped.grid->getGridClass(), openvdb::GRID_FOG_VOLUME);
+    EXPECT_NEAR(warped.report.massAfter, warped.report.massBefore, 1e-6 * warped.report.massBefore);
+  }
+}
+
+TEST(WarpVolume, IdentityReturnsTheSameLevelSet) {
+  const FloatGrid::Ptr sphere = makeSphere(1.5, Vec3(0.2, 0.1, -0.1), 0.1);
+  sphere->insertMeta("author", openvdb::StringMetadata("spacewarp"));
+  const auto warped = warpVolume(IdentityWarp(), *sphere);
+  expectSameGrid(*sphere, *warped.grid, 1e-6);
+  EXPECT_EQ(warped.grid->getGridClass(), openvdb::GRID_LEVEL_SET);
+  EXPECT_EQ(warped.grid->background(), sphere->background());
+  EXPECT_EQ(warped.grid->metaValue<std::string>("author"), "spacewarp");
+  EXPECT_NEAR(warped.report.halfWidth, 3.0, 1e-6);
+}
+
+TEST(WarpVolume, RigidMotionMatchesOpenVdbResampling) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.4, -0.3, 0.2), 1.0, 0.2);
+  // x' = Q x + t: a rotation of 0.3 rad about z and a translation.
+  const double angle = 0.3;
+  const Vec3 t(0.23, -0.11, 0.07);
+  const Mat4 m = glm::rotate(glm::translate(Mat4(1.0), t), angle, Vec3(0, 0, 1));
+  const AffineWarp rigid(m);
+  const auto warped = warpVolume(rigid, *fog);
+
+  // OpenVDB's resampling: sample the input at R⁻¹(world(j)), then read the result with the
+  // input's transform. The index-to-world map of `target` is R⁻¹ ∘ T.
+  const Mat3 q = rigid.linear();
+  const Mat3 qt = glm::transpose(q);
+  const double h = 0.2;
+  openvdb::math::Mat4d mat(openvdb::math::Mat4d::identity());
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) mat(r, c) = h * qt[r][c];
+  const Vec3 shift = -(qt * t);
+  for (int c = 0; c < 3; ++c) mat(3, c) = shift[c];
+  auto target = FloatGrid::create(0.0f);
+  target->setTransform(openvdb::math::Transform::createLinearTransform(mat));
+  {
+    const Vec3 j(3, -2, 5);
+    const Vec3 expected = qt * (j * h - t);
+    const openvdb::Vec3d got = target->indexToWorld(openvdb::Vec3d(j.x, j.y, j.z));
+    ASSERT_NEAR(got[0], expected.x, 1e-12);
+    ASSERT_NEAR(got[1], expected.y, 1e-12);
+    ASSERT_NEAR(got[2], expected.z, 1e-12);
+  }
+  openvdb::tools::resampleToMatch<openvdb::tools::BoxSampler>(*fog, *target);
+  target->setTransform(fog->transform().copy());
+
+  auto refAcc = target->getConstAccessor();
+  std::size_t compared = 0;
+  for (auto it = warped.grid->cbeginValueOn(); it; ++it) {
+    EXPECT_NEAR(*it, refAcc.getValue(it.getCoord()), 1e-4) << it.getCoord();
+    ++compared;
+  }
+  EXPECT_GT(compared, 10000u);
+  EXPECT_EQ(warped.report.inverseFailures, 0u);
+  // Mass is invariant under a rigid motion (up to the resampling error).
+  EXPECT_NEAR(warped.report.massAfter / warped.report.massBefore, 1.0, 5e-3);
+}
+
+struct ScaleCase {
+  double scale;
+  LevelSetRedistance redistance;
+};
+
+void PrintTo(const ScaleCase& c, std::ostream* os) {
+  *os << "scale " << c.scale << ", redistance " << static_cast<int>(c.redistance);
+}
+
+class ScaledSphere : public ::testing::TestWithParam<ScaleCase> {};
+
+TEST_P(ScaledSphere, IsTheScaledSphereWithTheInputBand) {
+  const double voxel = 0.1, radius = 1.2, scale = GetParam().scale;
+  const Vec3 centre(0.13, -0.07, 0.21);
+  const FloatGrid::Ptr sphere = makeSphere(radius, centre, voxel);
+  const AffineWarp scaling(glm::scale(Mat4(1.0), Vec3(scale)));
+  WarpVolumeOptions options;
+  options.redistance = GetParam().redistance;
+  const auto warped = warpVolume(scaling, *sphere, options);
+  const FloatGrid& out = *warped.grid;
+  EXPECT_TRUE(warped.report.redistanced);
+  EXPECT_EQ(out.getGridClass(), openvdb::GRID_LEVEL_SET);
+  EXPECT_FLOAT_EQ(out.background(), sphere->background());
+
+  const Vec3 c2 = centre * scale;
+  const double r2 = radius * scale;
+  double worst = 0.0;
+  for (auto it = out.cbeginValueOn(); it; ++it) {
+    const double exact = glm::length(worldOf(out, it.getCoord()) - c2) - r2;
+    if (std::abs(exact) < 1.5 * voxel) worst = std::max(worst, std::abs(*it - exact));
+  }
+  EXPECT_LE(worst, 0.5 * voxel);
+  // The band: every voxel within 2.5 voxels of the surface is active, none beyond 3.5.
+  auto acc = out.getConstAccessor();
+  const int reach = static_cast<int>(std::ceil((r2 + 4 * voxel) / voxel));
+  const Coord cc(static_cast<int>(std::round(c2.x / voxel)),
+                 static_cast<int>(std::round(c2.y / voxel)),
+                 static_cast<int>(std::round(c2.z / voxel)));
+  for (int i = -reach; i <= reach; i += 3)
+    for (int j = -reach; j <= reach; j += 3)
+      for (int k = -reach; k <= reach; ++k) {
+        const Coord ijk = cc + Coord(i, j, k);
+        const double d = std::abs(glm::length(worldOf(out, ijk) - c2) - r2) / voxel;
+        if (d < 2.5) {
+          EXPECT_TRUE(acc.isValueOn(ijk)) << ijk << " at " << d << " voxels";
+        }
+        if (d > 3.5) {
+          EXPECT_FALSE(acc.isValueOn(ijk)) << ijk << " at " << d << " voxels";
+        }
+      }
+}
+
+INSTANTIATE_TEST_SUITE_P(WarpVolume, ScaledSphere,
+                         ::testing::Values(ScaleCase{1.5, LevelSetRedistance::Normalize},
+                                           ScaleCase{0.7, LevelSetRedistance::Normalize},
+                                           ScaleCase{1.5, LevelSetRedistance::Rebuild},
+                                           ScaleCase{0.7, LevelSetRedistance::Rebuild}));
+
+class TwistedSphere : public ::testing::TestWithParam<LevelSetRedistance> {};
+
+TEST_P(TwistedSphere, MatchesTheMeshRouteWithinOneVoxel) {
+  const double voxel = 0.1;
+  const FloatGrid::Ptr sphere = makeSphere(1.0, Vec3(0.7, 0.0, 0.0), voxel);
+  TwistParams p;
+  p.rate = 0.6;
+  const TwistWarp twist(p);
+  WarpVolumeOptions options;
+  options.redistance = GetParam();
+  const auto warped = warpVolume(twist, *sphere, options);
+  EXPECT_EQ(warped.report.inverseFailures, 0u);
+  EXPECT_LE(warped.report.maxNewtonIterations, 5);
+
+  // The mesh route: extract the surface, move its vertices, voxelise again.
+  std::vector<openvdb::Vec3s> points;
+  std::vector<openvdb::Vec3I> triangles;
+  std::vector<openvdb::Vec4I> quads;
+  openvdb::tools::volumeToMesh(*sphere, points, triangles, quads, 0.0);
+  for (openvdb::Vec3s& v : points) {
+    const Vec3 y = twist.apply(Vec3(v[0], v[1], v[2]));
+    v = openvdb::Vec3s(float(y.x), float(y.y), float(y.z));
+  }
+  const FloatGrid::Ptr meshRoute = openvdb::tools::meshToLevelSet<FloatGrid>(
+      sphere->transform(), points, triangles, quads, 3.0f);
+
+  auto acc = meshRoute->getConstAccessor();
+  double worst = 0.0;
+  std::size_t compared = 0;
+  for (auto it = warped.grid->cbeginValueOn(); it; ++it) {
+    float ref;
+    if (!acc.probeValue(it.getCoord(), ref) || std::abs(ref) > 2 * voxel) continue;
+    worst = std::max(worst, double(std::abs(*it - ref)));
+    ++compared;
+  }
+  EXPECT_GT(compared, 1000u);
+  EXPECT_LE(worst, voxel);
+  // Same band width as the input.
+  EXPECT_FLOAT_EQ(warped.grid->background(), sphere->background());
+}
+
+INSTANTIATE_TEST_SUITE_P(WarpVolume, TwistedSphere,
+                         ::testing::Values(LevelSetRedistance::Normalize,
+                                           LevelSetRedistance::Rebuild));
+
+// x' = c + (x - c) s(r): a smooth radial squash, s from 0.6 at the centre to 0.8 far away.
+FunctionWarp radialSquash(const Vec3& c) {
+  return FunctionWarp([c](const Vec3& x) {
+    const Vec3 d = x - c;
+    const double r2 = glm::dot(d, d);
+    return c + d * (0.6 + 0.2 * r2 / (1.0 + r2));
+  });
+}
+
+TEST(WarpVolume, ConservesMassUnderACompressiveWarpWhenAsked) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.1, 0.0, -0.1), 1.0, 0.2);
+  const FunctionWarp squash = radialSquash(Vec3(0.3, -0.2, 0.0));
+  WarpVolumeOptions options;
+  options.conserveMass = true;
+  const auto kept = warpVolume(squash, *fog, options);
+  EXPECT_EQ(kept.report.inverseFailures, 0u);
+  EXPECT_GT(kept.report.massBefore, 0.0);
+  EXPECT_NEAR(kept.report.massAfter / kept.report.massBefore, 1.0, 0.01);
+
+  const auto plain = warpVolume(squash, *fog);
+  EXPECT_DOUBLE_EQ(plain.report.massBefore, kept.report.massBefore);
+  EXPECT_LT(plain.report.massAfter / plain.report.massBefore, 0.5);
+  // The reported totals are the grids' totals.
+  double sum = 0.0;
+  for (auto it = kept.grid->cbeginValueOn(); it; ++it) sum += *it * double(it.getVoxelCount());
+  EXPECT_NEAR(sum * 0.2 * 0.2 * 0.2, kept.report.massAfter, 1e-6 * kept.report.massAfter);
+}
+
+TEST(WarpVolume, CountsVoxelsWhereTheInverseDoesNotConverge) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.0), 1.0, 0.2);
+  // Folds space along x: dx'/dx = 1 + 2.5 cos(3x) changes sign.
+  const FunctionWarp fold(
+      [](const Vec3& x) { return Vec3(x.x + (2.5 / 3.0) * std::sin(3.0 * x.x), x.y, x.z); });
+  WarpVolumeOptions options;
+  options.maxNewtonIterations = 10;
+  const auto warped = warpVolume(fold, *fog, options);
+  EXPECT_GT(warped.report.inverseFailures, 0u);
+  EXPECT_LE(warped.report.inverseFailures, warped.report.solvedVoxels);
+  for (auto it = warped.grid->cbeginValueOn(); it; ++it) EXPECT_TRUE(std::isfinite(*it));
+}
+
+TEST(WarpVolume, CountsVoxelsWhereTheWarpIsNotFinite) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.0), 1.0, 0.2);
+  const FunctionWarp broken([](const Vec3& x) {
+    return x.x > 0.5 ? Vec3(std::numeric_limits<double>::quiet_NaN()) : x + Vec3(0.1, 0.0, 0.0);
+  });
+  const auto warped = warpVolume(broken, *fog);
+  EXPECT_GT(warped.report.unmappedVoxels + warped.report.inverseFailures, 0u);
+  EXPECT_GT(warped.report.unmappedVoxels, 0u);
+  EXPECT_GT(warped.grid->activeVoxelCount(), 0);
+  for (auto it = warped.grid->cbeginValueOn(); it; ++it) EXPECT_TRUE(std::isfinite(*it));
+}
+
+TEST(WarpVolume, IsBitIdenticalForOneAndTwoThreads) {
+  const FloatGrid::Ptr sphere = makeSphere(1.0, Vec3(0.6, 0.1, 0.0), 0.1);
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.1, 0.0, -0.1), 1.0, 0.2);
+  TwistParams p;
+  p.rate = 0.8;
+  const TwistWarp twist(p);
+  WarpVolumeOptions massOptions;
+  massOptions.conserveMass = true;
+  massOptions.sampler = VolumeSampler::Triquadratic;
+  WarpVolumeOptions rebuild;
+  rebuild.redistance = LevelSetRedistance::Rebuild;
+  WarpedGrid<FloatGrid> ls[2], rb[2], fg[2];
+  for (int threads : {1, 2}) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                    static_cast<std::size_t>(threads));
+    ls[threads - 1] = warpVolume(twist, *sphere);
+    rb[threads - 1] = warpVolume(twist, *sphere, rebuild);
+    fg[threads - 1] = warpVolume(radialSquash(Vec3(0.0)), *fog, massOptions);
+  }
+  EXPECT_TRUE(test::bitIdentical(*ls[0].grid, *ls[1].grid));
+  EXPECT_TRUE(test::bitIdentical(*rb[0].grid, *rb[1].grid));
+  EXPECT_TRUE(test::bitIdentical(*fg[0].grid, *fg[1].grid));
+  EXPECT_EQ(std::memcmp(&fg[0].report.massAfter, &fg[1].report.massAfter, sizeof(double)), 0);
+}
+
+TEST(WarpVolume, DoubleAndVectorGridsAreWarped) {
+  openvdb::initialize();
+  auto grid = openvdb::DoubleGrid::create(0.0);
+  auto vectors = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  for (int i = -5; i <= 5; ++i)
+    for (int j = -5; j <= 5; ++j)
+      for (int k = -5; k <= 5; ++k) {
+        grid->tree().setValue(Coord(i, j, k), 1.0 + 0.1 * i);
+        vectors->tree().setValue(Coord(i, j, k), openvdb::Vec3s(float(i), float(j), float(k)));
+      }
+  const AffineWarp shift(glm::translate(Mat4(1.0), Vec3(2.0, 0.0, 0.0)));
+  const auto d = warpVolume(shift, *grid);
+  const auto v = warpVolume(shift, *vectors);
+  EXPECT_EQ(d.grid->activeVoxelCount(), grid->activeVoxelCount());
+  EXPECT_DOUBLE_EQ(d.grid->tree().getValue(Coord(7, 0, 0)), 1.5);
+  EXPECT_FALSE(d.grid->tree().isValueOn(Coord(-4, 0, 0)));
+  EXPECT_EQ(v.grid->tree().getValue(Coord(3, 1, 2)), openvdb::Vec3s(1, 1, 2));
+}
+
+TEST(WarpVolume, ProgressReportsAndCancels) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.0), 1.0, 0.2);
+  WarpVolumeOptions options;
+  double last = -1.0;
+  options.progress = [&](std::string_view stage, double fraction) {
+    EXPECT_EQ(stage, "warp volume");
+    last = fraction;
+    return true;
+  };
+  warpVolume(IdentityWarp(), *fog, options);
+  EXPECT_EQ(last, 1.0);
+  options.progress = [](std::string_view, double fraction) { return fraction < 0.3; };
+  EXPECT_THROW(warpVolume(IdentityWarp(), *fog, options), Cancelled);
+}
+
+TEST(WarpVolume, CachedDisplacementFieldStaysWithinItsErrorBound) {
+  const double voxel = 0.1, rate = 0.6;
+  const FloatGrid::Ptr sphere = makeSphere(1.0, Vec3(0.7, 0.0, 0.0), voxel);
+  TwistParams p;
+  p.rate = rate;
+  const TwistWarp twist(p);
+  WarpVolumeOptions options;
+  options.redistance = LevelSetRedistance::None;  // compare the resampled values
+  const auto exact = warpVolume(twist, *sphere, options);
+  options.cacheSpacing = 2.0;
+  const auto cached = warpVolume(twist, *sphere, options);
+
+  // The trilinear bound h² θ² r / 8 with r the largest distance from the axis over the
+  // lattice: the band reaches 2.0 from the axis, the seeding cells 0.4 more, the lattice
+  // another 2 voxels + h and one lattice cell: r < 3.2.
+  const double h = options.cacheSpacing * voxel;
+  const double bound = h * h * rate * rate * 3.2 / 8.0;
+  EXPECT_GT(cached.report.cacheError, 0.0);
+  EXPECT_LE(cached.report.cacheError, bound);
+  // Values of a distance field move by at most the position error times |J⁻¹| (< 2.5 here).
+  auto acc = exact.grid->getConstAccessor();
+  std::size_t compared = 0;
+  for (auto it = cached.grid->cbeginValueOn(); it; ++it) {
+    float ref;
+    if (!acc.probeValue(it.getCoord(), ref)) continue;
+    EXPECT_NEAR(*it, ref, 2.5 * bound + 1e-5) << it.getCoord();
+    ++compared;
+  }
+  EXPECT_GT(compared, 0.95 * double(exact.grid->activeVoxelCount()));
+  EXPECT_EQ(cached.report.inverseFailures, 0u);
+}
+
+TEST(WarpVolume, RejectsUnsupportedTransformsAndOptions) {
+  openvdb::initialize();
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.0), 0.5, 0.2);
+  WarpVolumeOptions bad;
+  bad.seedSpacing = 0;
+  EXPECT_THROW(warpVolume(IdentityWarp(), *fog, bad), InvalidInput);
+
+  auto frustum = FloatGrid::create(0.0f);
+  frustum->setName("frustum");
+  frustum->setTransform(openvdb::math::Transform::createFrustumTransform(
+      openvdb::BBoxd(openvdb::Vec3d(0), openvdb::Vec3d(10)), 0.5, 2.0, 0.1));
+  frustum->tree().setValue(Coord(1, 1, 1), 1.0f);
+  try {
+    warpVolume(IdentityWarp(), *frustum);
+    ADD_FAILURE() << "no exception";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("frustum"), std::string::npos) << e.what();
+  }
+
+  const FloatGrid::Ptr sphere = makeSphere(1.0, Vec3(0.0), 0.1);
+  openvdb::math::Mat4d stretch(openvdb::math::Mat4d::identity());
+  stretch(0, 0) = 0.1;
+  stretch(1, 1) = 0.2;
+  stretch(2, 2) = 0.1;
+  sphere->setTransform(openvdb::math::Transform::createLinearTransform(stretch));
+  EXPECT_THROW(warpVolume(IdentityWarp(), *sphere), InvalidInput);
+}
+
+TEST(WarpVolume, FogWithNonCubicVoxelsIsWarped) {
+  auto fog = makeGaussianFog(Vec3(0.0), 1.0, 0.2);
+  openvdb::math::Mat4d stretch(openvdb::math::Mat4d::identity());
+  stretch(0, 0) = 0.2;
+  stretch(1, 1) = 0.3;
+  stretch(2, 2) = 0.2;
+  fog->setTransform(openvdb::math::Transform::createLinearTransform(stretch));
+  const AffineWarp shift(glm::translate(Mat4(1.0), Vec3(0.6, 0.9, 0.0)));  // 3 voxels each
+  const auto warped = warpVolume(shift, *fog);
+  auto acc = warped.grid->getConstAccessor();
+  for (auto it = fog->cbeginValueOn(); it; ++it)
+    EXPECT_NEAR(acc.getValue(it.getCoord() + Coord(3, 3, 0)), *it, 1e-5);
+}
+
+}  // namespace
+}  // namespace spacewarp
