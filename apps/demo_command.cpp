@@ -14,6 +14,7 @@
 #include "apps/compare.h"
 #include "apps/jobs.h"
 #include "apps/rig.h"
+#include "apps/volume_command.h"
 #include "core/io/mesh_io.h"
 #include "core/primitives.h"
 
@@ -33,7 +34,7 @@ json points(std::span<const Vec3> ps) {
 // The pose every control-based method is given: the bar sways sideways and turns, more
 // towards the top (z = 2), so all their results can be compared with each other.
 Vec3 sway(const Vec3& p) {
-  const double t = std::clamp((p.z + 2.1) / 4.2, 0.0, 1.0);  // 0 at the bottom, 1 at the top
+  const double t = std::clamp((p.z + 2.25) / 4.5, 0.0, 1.0);  // 0 at the bottom, 1 at the top
   const double angle = 0.6 * t;
   return Vec3(std::cos(angle) * p.x - std::sin(angle) * p.y + 0.8 * t * t,
               std::sin(angle) * p.x + std::cos(angle) * p.y, p.z);
@@ -49,19 +50,25 @@ void runDemo(const fs::path& dir, const CliContext& context) {
   static_cast<PointSet&>(cloudSoup) = cloud;
   writeSoup(bar, dir / "bar.obj");
   writeSoup(cloudSoup, dir / "cloud.ply");
+  std::vector<std::string> inputs = {"bar.obj", "cloud.ply"};
+  if (volumesSupported()) {
+    writeMeshLevelSet(bar, 0.04, dir / "bar.vdb");  // the bar's level set, 0.04 voxels
+    inputs.push_back("bar.vdb");
+  }
 
   // A cage around the bar with a pinched waist (so it is concave, where coordinate functions
-  // differ most), and its swayed pose.
-  PolygonSoup cage = makeBoxSurface(lo - 0.1, hi + 0.1, {1, 1, 4});
+  // differ most), and its swayed pose. It clears the volume's narrow band (3 voxels of 0.04)
+  // everywhere, so every voxel is warped by the cage's interior coordinates.
+  PolygonSoup cage = makeBoxSurface(lo - 0.2, hi + 0.2, {1, 1, 4});
   for (Vec3& p : cage.positions)
-    if (std::abs(p.z) < 1e-9) p.x *= 0.88, p.y *= 0.88;
+    if (std::abs(p.z) < 1e-9) p.x *= 0.9, p.y *= 0.9;
   PolygonSoup pose = cage;
   for (Vec3& p : pose.positions) p = sway(p);
   writeSoup(cage, dir / "cage.obj");
   writeSoup(pose, dir / "cage_pose.obj");
 
-  // A Bernstein lattice on the cage's box and handles at the cage's vertices, swayed alike.
-  const Vec3 boxLo = lo - 0.1, boxHi = hi + 0.1;
+  // A Bernstein lattice around the cage and handles at the cage's vertices, swayed alike.
+  const Vec3 boxLo = lo - 0.25, boxHi = hi + 0.25;
   const std::array<int, 3> resolution{3, 3, 5};
   std::vector<Vec3> lattice;
   for (int k = 0; k < resolution[2]; ++k)
@@ -110,16 +117,24 @@ void runDemo(const fs::path& dir, const CliContext& context) {
   };
   for (const std::string& method : cageMethods())
     rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
+  // The volume's inverse is seeded from a coarse lattice that may reach past the cage.
+  if (rigs.count("harmonic")) rigs["harmonic"]["outside"] = "nearest";
 
   const ProgressCallback progress = context.progress();
   for (const auto& [name, rig] : rigs) {
     const fs::path rigPath = dir / (name + ".json");
     writeJsonFile(rig, rigPath);
     const auto warp = loadRig(rigPath).warp;
-    for (const char* input : {"bar.obj", "cloud.ply"}) {
+    for (const std::string& input : inputs) {
       const fs::path in = dir / input;
       const fs::path out = dir / (in.stem().string() + "_" + name + in.extension().string());
-      deformSoupFile(*warp, in, out, false, progress);
+      if (isVolumePath(in)) {
+        CliContext quietVolumes = context;  // one line per result is enough
+        quietVolumes.quiet = true;
+        deformVolumeFile(*warp, in, out, {}, quietVolumes);
+      } else {
+        deformSoupFile(*warp, in, out, false, progress);
+      }
       context.say("spacewarp deform --rig " + rigPath.string() + " " + in.string() + " -o " +
                   out.string());
     }
@@ -147,10 +162,12 @@ void runDemo(const fs::path& dir, const CliContext& context) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   char summary[160];
   std::snprintf(summary, sizeof summary,
-                "demo: %zu-vertex bar and %zu-point cloud deformed by %zu rigs in %.1f s",
-                bar.size(), cloud.size(), rigs.size(), seconds);
+                "demo: %zu-vertex bar, %zu-point cloud%s deformed by %zu rigs in %.1f s",
+                bar.size(), cloud.size(), volumesSupported() ? " and level-set volume" : "",
+                rigs.size(), seconds);
   context.say(summary);
-  context.say("look at: " + dir.string() + " (bar_<method>.obj, cloud_<method>.ply) and " +
+  context.say("look at: " + dir.string() + " (bar_<method>.obj, cloud_<method>.ply" +
+              (volumesSupported() ? ", bar_<method>.vdb" : "") + ") and " +
               (dir / "compare" / "report.md").string() + " with compare.png");
 }
 

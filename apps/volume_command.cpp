@@ -11,6 +11,7 @@
 #ifdef SPACEWARP_WITH_OPENVDB
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/MeshToVolume.h>
 
 #include "core/volume/warp_grid.h"
 #include "core/volume/warp_points.h"
@@ -31,6 +32,12 @@ void addVolumeOptions(CLI::App* command, VolumeCliOptions& options) {
 bool isVolumePath(const std::filesystem::path& path) { return path.extension() == ".vdb"; }
 
 #ifndef SPACEWARP_WITH_OPENVDB
+
+bool volumesSupported() { return false; }
+
+void writeMeshLevelSet(const PolygonSoup&, double, const std::filesystem::path& path) {
+  throw InvalidInput(path.string() + ": volumes are not supported by this build");
+}
 
 void deformVolumeFile(const Warp&, const std::filesystem::path& input, const std::filesystem::path&,
                       const VolumeCliOptions&, const CliContext&) {
@@ -93,6 +100,32 @@ void writeVdbAtomically(const std::filesystem::path& path, const openvdb::GridCP
 }
 
 }  // namespace
+
+bool volumesSupported() { return true; }
+
+void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
+                       const std::filesystem::path& path) {
+  openvdb::initialize();
+  const auto transform = openvdb::math::Transform::createLinearTransform(voxelSize);
+  std::vector<openvdb::Vec3s> points;
+  for (const Vec3& p : closed.positions)
+    points.emplace_back(p.x, p.y, p.z);  // world space: meshToLevelSet applies the transform
+  std::vector<openvdb::Vec3I> triangles;
+  std::vector<openvdb::Vec4I> quads;
+  for (std::size_t f = 0; f < closed.polygonCount(); ++f) {
+    const auto poly = closed.polygon(f);
+    if (poly.size() == 4) {
+      quads.emplace_back(poly[0], poly[1], poly[2], poly[3]);
+    } else {
+      for (std::size_t k = 1; k + 1 < poly.size(); ++k)
+        triangles.emplace_back(poly[0], poly[k], poly[k + 1]);
+    }
+  }
+  auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*transform, points, triangles,
+                                                                 quads, 3.0f);
+  grid->setName("surface");
+  writeVdbAtomically(path, {grid}, openvdb::MetaMap());
+}
 
 void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                       const std::filesystem::path& output, const VolumeCliOptions& options,

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "apps/cli_context.h"
+#include "core/geometry.h"
 #include "core/warp.h"
 
 namespace spacewarp::cli {
@@ -19,6 +20,15 @@ struct VolumeCliOptions {
 
 /// Adds the volume options to `command`.
 void addVolumeOptions(CLI::App* command, VolumeCliOptions& options);
+
+/// True when this build can read and write volumes (SPACEWARP_WITH_OPENVDB).
+bool volumesSupported();
+
+/// Writes the narrow-band level set (half-width 3 voxels) of a closed polygon soup, with
+/// voxels of `voxelSize` world units, as the grid "surface" of a VDB file: the demo's volume.
+/// Throws InvalidInput if volumes are not supported by this build.
+void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
+                       const std::filesystem::path& path);
 
 /// True for paths the volume route handles (".vdb").
 bool isVolumePath(const std::filesystem::path& path);
