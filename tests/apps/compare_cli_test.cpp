@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli_test_util.h"
+#include "coords/coords_test_shapes.h"
 #include "coords/cage.h"
 #include "coords/green.h"
 #include "coords/mean_value.h"
@@ -35,27 +36,12 @@ std::pair<std::uint32_t, std::uint32_t> pngSize(const fs::path& path) {
   return {be32(16), be32(20)};
 }
 
-// The concave L-shaped prism of the coordinate tests, where mean-value coordinates go negative.
-PolygonSoup lPrism() {
-  PolygonSoup s;
-  const double xy[6][2] = {{0, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {0, 2}};
-  for (int z = 0; z < 2; ++z)
-    for (const auto& p : xy) s.positions.push_back(Vec3(p[0], p[1], z));
-  s.addPolygon({5, 4, 3, 2, 1, 0});
-  s.addPolygon({6, 7, 8, 9, 10, 11});
-  for (std::uint32_t i = 0; i < 6; ++i) {
-    const std::uint32_t j = (i + 1) % 6;
-    s.addPolygon({i, j, j + 6, i + 6});
-  }
-  return s;
-}
-
 class CompareTest : public test::CliFixture {
  protected:
   CompareTest() : CliFixture("spacewarp_compare_") {}
   void SetUp() override {
     CliFixture::SetUp();
-    writeSoup(lPrism(), dir_ / "cage.obj");
+    writeSoup(test::lPrism(), dir_ / "cage.obj");  // concave: mean-value weights go negative
   }
   CliResult compare(const std::string& args) {
     return run("compare --cage " + (dir_ / "cage.obj").string() + " " + args + " -o " +

@@ -73,18 +73,9 @@ std::vector<double> weightsAt(const Coordinates& c, const Vec3& x) {
   return w;
 }
 
-BoundingBox boundsOf(const Cage& cage) {
-  BoundingBox box;
-  for (const Vec3& p : cage.vertices()) {
-    box.min = glm::min(box.min, p);
-    box.max = glm::max(box.max, p);
-  }
-  return box;
-}
-
 // n random points inside the cage (the mesh covers exactly the cage's interior).
 std::vector<Vec3> insidePoints(const HarmonicCoordinates& h, std::size_t n, std::uint64_t seed) {
-  const BoundingBox box = boundsOf(h.cage());
+  const BoundingBox box = boundingBox(h.cage().vertices());
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::vector<Vec3> points;

@@ -72,15 +72,6 @@ double maxDifference(const std::vector<double>& a, const std::vector<double>& b)
   return d;
 }
 
-BoundingBox boundsOf(const Cage& cage) {
-  BoundingBox box;
-  for (const Vec3& p : cage.vertices()) {
-    box.min = glm::min(box.min, p);
-    box.max = glm::max(box.max, p);
-  }
-  return box;
-}
-
 Vec3 randomDirection(std::mt19937_64& rng) {
   std::normal_distribution<double> normal;
   return glm::normalize(Vec3(normal(rng), normal(rng), normal(rng)));
@@ -153,7 +144,7 @@ TEST(MeanValueCoordinates, RejectsInvalidQueries) {
 
 TEST_P(MeanValueShapes, PartitionOfUnityAndLinearPrecisionEverywhere) {
   const Cage& cage = *cage_;
-  const BoundingBox box = boundsOf(cage);
+  const BoundingBox box = boundingBox(cage.vertices());
   const Vec3 centre = 0.5 * (box.min + box.max), half = 0.5 * box.extent();
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
@@ -341,7 +332,7 @@ TEST(MeanValueCoordinates, NegativeWeightsExistInsideConcaveCages) {
 }
 
 TEST_P(MeanValueShapes, PropertyKitReport) {
-  const BoundingBox box = boundsOf(*cage_);
+  const BoundingBox box = boundingBox(cage_->vertices());
   const std::vector<Vec3> samples =
       makeRandomPoints(box.min - 0.5 * box.extent(), box.max + 0.5 * box.extent(), 500, 41)
           .positions;
@@ -358,7 +349,7 @@ TEST_P(MeanValueShapes, BatchRowsAreBitIdenticalToSingleRows) {
   std::vector<Vec3> points;
   std::mt19937_64 rng(23);
   std::uniform_real_distribution<double> unit(-1.5, 1.5);
-  const BoundingBox box = boundsOf(cage);
+  const BoundingBox box = boundingBox(cage.vertices());
   const Vec3 centre = 0.5 * (box.min + box.max);
   for (int i = 0; i < 37; ++i)
     points.push_back(centre + 0.5 * box.extent() * Vec3(unit(rng), unit(rng), unit(rng)));
@@ -389,7 +380,7 @@ TEST_P(MeanValueShapes, BindingReproducesRestAndAffinePoses) {
   const Cage& cage = *cage_;
   std::mt19937_64 rng(29);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  const BoundingBox box = boundsOf(cage);
+  const BoundingBox box = boundingBox(cage.vertices());
   const Vec3 centre = 0.5 * (box.min + box.max);
   std::vector<Vec3> points;
   for (int i = 0; i < 500; ++i)
@@ -420,7 +411,7 @@ TEST_P(MeanValueShapes, BindingIsIndependentOfTheThreadCount) {
   const Cage& cage = *cage_;
   std::mt19937_64 rng(31);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  const BoundingBox box = boundsOf(cage);
+  const BoundingBox box = boundingBox(cage.vertices());
   std::vector<Vec3> points;
   for (int i = 0; i < 3000; ++i)
     points.push_back(0.5 * (box.min + box.max) +
