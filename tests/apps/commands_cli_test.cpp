@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <regex>
 
 #include <gtest/gtest.h>
 
@@ -41,14 +41,19 @@ Npy readNpy(const fs::path& path) {
       static_cast<unsigned char>(bytes[8]) | static_cast<unsigned char>(bytes[9]) << 8;
   EXPECT_EQ((10 + headerLength) % 64, 0u) << "the data must start 64-byte aligned";
   const std::string header = bytes.substr(10, headerLength);
-  std::smatch match;
-  EXPECT_TRUE(std::regex_search(
-      header, match,
-      std::regex(R"(\{'descr': '<f8', 'fortran_order': False, 'shape': \((\d+), (\d+)\), \} *\n)")))
-      << header;
-  if (match.size() != 3) return npy;
-  npy.rows = std::stoul(match[1]);
-  npy.columns = std::stoul(match[2]);
+  const std::string prefix = "{'descr': '<f8', 'fortran_order': False, 'shape': (";
+  EXPECT_EQ(header.compare(0, prefix.size(), prefix), 0) << header;
+  EXPECT_EQ(header.back(), '\n');
+  unsigned long rows = 0, columns = 0;
+  int end = 0;
+  const int read = std::sscanf(header.c_str() + std::min(prefix.size(), header.size()),
+                               "%lu, %lu), }%n", &rows, &columns, &end);
+  EXPECT_EQ(read, 2) << header;
+  if (read != 2) return npy;
+  EXPECT_EQ(header.find_first_not_of(' ', prefix.size() + end), header.size() - 1)
+      << "only spaces pad the header: " << header;
+  npy.rows = rows;
+  npy.columns = columns;
   const std::size_t data = 10 + headerLength;
   EXPECT_EQ(bytes.size() - data, npy.rows * npy.columns * sizeof(double));
   npy.values.resize(npy.rows * npy.columns);
