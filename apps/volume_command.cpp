@@ -167,9 +167,10 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
     }
     const WarpVolumeReport& r = result.report;
     if (r.inverseFailures > 0) {
-      std::cerr << "warning: " << input.string() << ": grid " << name << ": the inverse warp "
-                << "did not converge at " << r.inverseFailures << " of " << r.solvedVoxels
-                << " voxels, which are left inactive (the warp folds space there)\n";
+      std::cerr
+          << "warning: " << input.string() << ": grid " << name << ": the inverse warp "
+          << "did not converge at " << r.inverseFailures << " of " << r.solvedVoxels
+          << " voxels, which are left inactive (the warp folds space or is not invertible there)\n";
     }
     if (r.unmappedVoxels > 0) {
       std::cerr << "warning: " << input.string() << ": grid " << name << ": " << r.unmappedVoxels

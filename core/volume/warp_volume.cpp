@@ -159,6 +159,141 @@ Solve solveInverse(const Warp& warp, const Vec3& y, const Vec3& seed, const Mat3
   }
 }
 
+// The Jacobian of the warp by central differences of step h (world units): for a warp that is
+// only C⁰ it is the Jacobian of the warp averaged over a box of edge 2h, so it models the warp
+// over that box across kinks, where the Jacobian at a point models it over no distance at all.
+Mat3 secantJacobian(const Warp& warp, const Vec3& x, double h) {
+  Mat3 j;
+  for (int c = 0; c < 3; ++c) {
+    Vec3 e(0.0);
+    e[c] = h;
+    j[c] = (warp.apply(x + e) - warp.apply(x - e)) / (2.0 * h);
+  }
+  return j;
+}
+
+// Newton for warp(x) = y from x that tolerates kinks: each step is tried with the warp's
+// Jacobian at x, then with secant Jacobians over boxes of the residual's size and of four times
+// that (at most `maxStep`), with backtracking until the residual decreases; when none does, the
+// residual is minimised along each step by golden-section search, which finds the way into thin
+// layers where the warp is steep (between close kinks) that backtracking steps over.
+Solve robustNewton(const Warp& warp, const Vec3& y, const Vec3& seed, double tolerance,
+                   double minStep, double maxStep, int maxIterations) {
+  Solve s;
+  s.x = seed;
+  Vec3 fx = warp.apply(s.x);
+  double residual = glm::length(fx - y);
+  if (!std::isfinite(residual)) return s;
+  auto residualAt = [&](const Vec3& x, Vec3& fc) {
+    fc = warp.apply(x);
+    const double r = glm::length(fc - y);
+    return std::isfinite(r) ? r : std::numeric_limits<double>::infinity();
+  };
+  for (;;) {
+    if (residual <= tolerance) {
+      s.converged = true;
+      return s;
+    }
+    if (s.iterations >= maxIterations) return s;
+    ++s.iterations;
+    bool accepted = false;
+    const double h = std::clamp(residual, minStep, maxStep);
+    // Backtracking first, then golden-section search, each over the three Jacobians.
+    for (int pass = 0; pass < 2 && !accepted; ++pass)
+      for (int attempt = 0; attempt < 3 && !accepted; ++attempt) {
+        const Mat3 j = attempt == 0   ? warp.jacobian(s.x)
+                       : attempt == 1 ? secantJacobian(warp, s.x, h)
+                                      : secantJacobian(warp, s.x, std::min(4.0 * h, maxStep));
+        if (isSingular(j)) continue;
+        Vec3 dx = -(glm::inverse(j) * (fx - y));
+        const double length = glm::length(dx);
+        if (length > maxStep) dx *= maxStep / length;  // stay on this sheet of the warp
+        if (pass == 0) {
+          for (double t = 1.0; t > 1e-3 && !accepted; t *= 0.5) {
+            Vec3 fc;
+            const double r = residualAt(s.x + t * dx, fc);
+            if (r < residual) {
+              s.x += t * dx;
+              fx = fc;
+              residual = r;
+              accepted = true;
+            }
+          }
+          continue;
+        }
+        // The smallest residual on the step, t in [0, 1], by golden-section search.
+        constexpr double kGolden = 0.6180339887498949;
+        double a = 0.0, b = 1.0;
+        double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
+        Vec3 f1, f2;
+        double r1 = residualAt(s.x + t1 * dx, f1), r2 = residualAt(s.x + t2 * dx, f2);
+        for (int i = 0; i < 40; ++i) {
+          if (r1 <= r2) {
+            b = t2;
+            t2 = t1;
+            r2 = r1;
+            f2 = f1;
+            t1 = b - kGolden * (b - a);
+            r1 = residualAt(s.x + t1 * dx, f1);
+          } else {
+            a = t1;
+            t1 = t2;
+            r1 = r2;
+            f1 = f2;
+            t2 = a + kGolden * (b - a);
+            r2 = residualAt(s.x + t2 * dx, f2);
+          }
+        }
+        if (std::min(r1, r2) < residual) {
+          s.x += (r1 <= r2 ? t1 : t2) * dx;
+          fx = r1 <= r2 ? f1 : f2;
+          residual = std::min(r1, r2);
+          accepted = true;
+        }
+      }
+    if (!accepted) return s;
+  }
+}
+
+// The second chance of a voxel whose preimage solveInverse() did not find: continuation from
+// x0, whose image y0 is known, along the segment to y in steps of about a voxel (`voxel`, world
+// units), each solved by robustNewton() from the previous preimage; a step that fails is
+// halved. For a warp that is invertible along the way (however non-smooth) every step has a
+// preimage near the previous one; where the warp folds space the path runs into the fold and
+// the steps shrink until they give up. Deterministic: it depends on y, x0 and y0 only.
+Solve continueInverse(const Warp& warp, const Vec3& y, const Vec3& x0, const Vec3& y0,
+                      double orientation, double tolerance, double voxel, int maxIterations) {
+  Solve s;
+  s.x = x0;
+  const double distance = glm::length(y - y0);
+  if (!std::isfinite(distance)) return s;
+  double at = 0.0;
+  const double maxStep = distance > voxel ? voxel / distance : 1.0;
+  double step = maxStep;
+  const double minStep = 1e-3 * voxel;
+  const int budget = 4 * maxIterations;
+  while (at < 1.0) {
+    if (s.iterations >= 8 * budget || step < 1.0 / 1024.0) return s;
+    const double next = std::min(1.0, at + step);
+    const bool last = next >= 1.0;
+    const Vec3 target = last ? y : y0 + next * (y - y0);
+    // Intermediate targets need not be hit exactly: they only guide the path.
+    const Solve part =
+        robustNewton(warp, target, s.x, last ? tolerance : 0.05 * voxel, minStep, voxel, budget);
+    s.iterations += part.iterations;
+    if (part.converged &&
+        glm::determinant(secantJacobian(warp, part.x, 1e-2 * voxel)) * orientation > 0.0) {
+      s.x = part.x;
+      at = next;
+      step = std::min(2.0 * step, maxStep);
+    } else {
+      step *= 0.5;
+    }
+  }
+  s.converged = true;
+  return s;
+}
+
 // True when a voxel within `radius` (per axis) of x (index space) is active.
 template <typename AccessorT>
 bool nearActive(AccessorT& acc, const Vec3& x, double radius) {
@@ -561,8 +696,13 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   groupStart.push_back(pairs.size());
 
   // 4. Every output leaf: seed, solve, test, sample.
+  struct Retry {
+    int n;               // offset in the leaf
+    std::uint32_t cell;  // the seeding cell
+  };
   struct LeafResult {
     std::unique_ptr<LeafT> leaf;
+    std::vector<Retry> retries;  // voxels where the first solve failed
     std::size_t solved = 0, failures = 0, iterations = 0;
     int maxIterations = 0;
     double mass = 0.0;
@@ -572,6 +712,47 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   const double tolerance = options.inverseTolerance * frame.voxelSize;
   const ValueT background = in.background();
   const bool toDistance = levelSet && options.redistance == LevelSetRedistance::Normalize && !rigid;
+
+  // Samples the input at the preimage x (world) of voxel n of the leaf at `origin`.
+  auto settle = [&](openvdb::tree::ValueAccessor<const TreeT>& acc, LeafResult& out,
+                    const Coord& origin, int n, const Vec3& x, std::uint32_t seedCell) {
+    const Vec3 xIndex = frame.toIndex(x);
+    if (!acc.isValueOn(roundToCoord(xIndex))) return;
+    ValueT value;
+    if (options.sampler == VolumeSampler::Triquadratic) {
+      value = openvdb::tools::QuadraticSampler::sample(acc, toVdb(xIndex));
+    } else {
+      value = openvdb::tools::BoxSampler::sample(acc, toVdb(xIndex));
+    }
+    if constexpr (kScalar) {
+      if (conserveMass) {
+        const double det = std::abs(glm::determinant(warp.jacobian(x)));
+        if (!(det > 0.0) || !std::isfinite(det)) {
+          ++out.failures;
+          return;
+        }
+        value = static_cast<ValueT>(static_cast<double>(value) / det);
+      }
+      if (toDistance) {
+        // ψ = φ∘F⁻¹ has gradient J⁻ᵀ∇φ: dividing by its relative length makes the
+        // resampled values distances to first order, so the band is trimmed right.
+        const Coord i = roundToCoord(xIndex);
+        const Vec3 g(
+            double(acc.getValue(i.offsetBy(1, 0, 0))) - double(acc.getValue(i.offsetBy(-1, 0, 0))),
+            double(acc.getValue(i.offsetBy(0, 1, 0))) - double(acc.getValue(i.offsetBy(0, -1, 0))),
+            double(acc.getValue(i.offsetBy(0, 0, 1))) - double(acc.getValue(i.offsetBy(0, 0, -1))));
+        const double warped = glm::length(glm::transpose(cells[seedCell].jacobianInverse) * g);
+        const double plain = glm::length(g);
+        if (warped > 0.0 && plain > 0.0) {
+          value = static_cast<ValueT>(static_cast<double>(value) *
+                                      std::clamp(plain / warped, 0.2, 5.0));
+        }
+      }
+      if (!levelSet) out.mass += static_cast<double>(value);
+    }
+    if (!out.leaf) out.leaf = std::make_unique<LeafT>(origin, background, false);
+    out.leaf->setValueOn(static_cast<openvdb::Index>(n), value);
+  };
 
   tbb::parallel_for(
       tbb::blocked_range<std::size_t>(0, groups, 4), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -622,52 +803,48 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
             out.iterations += static_cast<std::size_t>(s.iterations);
             out.maxIterations = std::max(out.maxIterations, s.iterations);
             if (!s.converged) {
-              ++out.failures;
+              out.retries.push_back({n, seedCellOf[n]});
               continue;
             }
-            const Vec3 xIndex = frame.toIndex(s.x);
-            if (!acc.isValueOn(roundToCoord(xIndex))) continue;
-            ValueT value;
-            if (options.sampler == VolumeSampler::Triquadratic) {
-              value = openvdb::tools::QuadraticSampler::sample(acc, toVdb(xIndex));
-            } else {
-              value = openvdb::tools::BoxSampler::sample(acc, toVdb(xIndex));
-            }
-            if constexpr (kScalar) {
-              if (conserveMass) {
-                const double det = std::abs(glm::determinant(warp.jacobian(s.x)));
-                if (!(det > 0.0) || !std::isfinite(det)) {
-                  ++out.failures;
-                  continue;
-                }
-                value = static_cast<ValueT>(static_cast<double>(value) / det);
-              }
-              if (toDistance) {
-                // ψ = φ∘F⁻¹ has gradient J⁻ᵀ∇φ: dividing by its relative length makes the
-                // resampled values distances to first order, so the band is trimmed right.
-                const Coord i = roundToCoord(xIndex);
-                const Vec3 g(double(acc.getValue(i.offsetBy(1, 0, 0))) -
-                                 double(acc.getValue(i.offsetBy(-1, 0, 0))),
-                             double(acc.getValue(i.offsetBy(0, 1, 0))) -
-                                 double(acc.getValue(i.offsetBy(0, -1, 0))),
-                             double(acc.getValue(i.offsetBy(0, 0, 1))) -
-                                 double(acc.getValue(i.offsetBy(0, 0, -1))));
-                const double warped =
-                    glm::length(glm::transpose(cells[seedCellOf[n]].jacobianInverse) * g);
-                const double plain = glm::length(g);
-                if (warped > 0.0 && plain > 0.0) {
-                  value = static_cast<ValueT>(static_cast<double>(value) *
-                                              std::clamp(plain / warped, 0.2, 5.0));
-                }
-              }
-              if (!levelSet) out.mass += static_cast<double>(value);
-            }
-            if (!out.leaf) out.leaf = std::make_unique<LeafT>(origin, background, false);
-            out.leaf->setValueOn(static_cast<openvdb::Index>(n), value);
+            settle(acc, out, origin, n, s.x, seedCellOf[n]);
           }
         }
       });
   tracker.check();
+
+  // 5. Second chance for the voxels where the first solve failed (few, and only where the warp
+  // is not smooth or not invertible): continuation from the centre of the seeding cell, whose
+  // image is known. Each depends only on its own voxel, so the result is thread-independent.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groups, 16),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
+                      for (std::size_t g = r.begin(); g != r.end(); ++g) {
+                        LeafResult& out = leafResults[g];
+                        if (out.retries.empty()) continue;
+                        const Coord origin = pairs[groupStart[g]].first;
+                        for (const Retry& retry : out.retries) {
+                          const Cell& cell = cells[retry.cell];
+                          const Coord ijk = origin + LeafT::offsetToLocalCoord(
+                                                         static_cast<openvdb::Index>(retry.n));
+                          const Vec3 y = frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
+                          // The preimage must keep the orientation of the cell's affine model along
+                          // the whole path: where the warp turns space inside out, it folds.
+                          const double orientation =
+                              glm::determinant(cell.worldJacobianInverse) > 0.0 ? 1.0 : -1.0;
+                          const Solve s = continueInverse(
+                              warp, y, frame.toWorld(cell.centre), frame.toWorld(cell.image),
+                              orientation, tolerance, frame.voxelSize, options.maxNewtonIterations);
+                          out.iterations += static_cast<std::size_t>(s.iterations);
+                          out.maxIterations = std::max(out.maxIterations, s.iterations);
+                          if (!s.converged) {
+                            ++out.failures;
+                            continue;
+                          }
+                          settle(acc, out, origin, retry.n, s.x, retry.cell);
+                        }
+                        out.retries = {};
+                      }
+                    });
 
   auto tree = std::make_shared<TreeT>(background);
   double massAfter = 0.0;

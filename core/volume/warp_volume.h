@@ -4,7 +4,13 @@
 // x = warp⁻¹(y). The preimage is solved for from a seed given by the warp's affine model on
 // coarse cells of the input (the warp and its Jacobian at each cell centre, the warp at its
 // corners; cells where that model is off by more than half a voxel are split): chord steps
-// with the cell's Jacobian while they converge fast, then damped Newton.
+// with the cell's Jacobian while they converge fast, then damped Newton. Voxels where that
+// fails (a warp that is only C⁰ — piecewise linear, or with kinks — can stall Newton at a kink)
+// get a second chance afterwards: continuation from the seeding cell's centre along the segment
+// to the voxel in steps of at most a voxel, each solved by Newton with the warp's and with
+// secant Jacobians (backtracking, then golden-section line search), never stepping more than a
+// voxel and keeping the sign of det J, so it follows the cell's sheet of the warp and does not
+// jump across a fold.
 //
 // The output has the input's transform, background, name and metadata. Its active region is
 // the forward image of the input's active voxels and tiles: an output voxel is active when
@@ -72,7 +78,9 @@ struct WarpVolumeOptions {
   /// makes them distances to first order, so one step (the default) suffices for smooth warps.
   int normCount = 1;
 
-  /// Chord and Newton steps at most per voxel. Default 20; a smooth warp typically needs 1–3.
+  /// Chord and Newton steps at most per voxel in the first solve. Default 20; a smooth warp
+  /// typically needs 1–3. Voxels where it fails get the second chance (see the top of this
+  /// file), whose budget is 32 times this (4 times per continuation step).
   int maxNewtonIterations = 20;
 
   /// Newton stops when |warp(x) - y| <= inverseTolerance × voxel size (voxel size = cube root
@@ -106,16 +114,19 @@ struct WarpVolumeReport {
   std::size_t outputActiveVoxels = 0;
   /// Output voxels whose preimage was solved for (the candidates of the output region).
   std::size_t solvedVoxels = 0;
-  /// Candidates where Newton did not converge (ran out of iterations, singular Jacobian,
-  /// stalled) or, with conserveMass, det J = 0 at the preimage. They are left inactive at the
-  /// background value; a non-zero count means the warp folds space or is not invertible
-  /// there, and those voxels are missing from the output.
+  /// Candidates whose preimage was not found: Newton did not converge (ran out of iterations,
+  /// singular Jacobian, stalled) and neither did the second chance, which fails where its
+  /// path from the seeding cell meets a fold (det J changes sign), or, with conserveMass,
+  /// det J = 0 at the preimage. They are left inactive at the background value; a non-zero
+  /// count means the warp folds space or is not invertible there, and those voxels are
+  /// missing from the output.
   std::size_t inverseFailures = 0;
   /// Active input voxels whose image could not be located: the warp (or, with `cacheSpacing`,
   /// its cache) is not finite there or its Jacobian is singular at the centre of every
   /// seeding cell that holds them. Their image is missing from the output.
   std::size_t unmappedVoxels = 0;
-  /// The most chord or Newton steps any voxel needed, and the total over all voxels.
+  /// The most chord or Newton steps any voxel needed, and the total over all voxels (both
+  /// include the second chance's steps).
   int maxNewtonIterations = 0;
   std::size_t totalNewtonIterations = 0;
   /// Σ value × voxel volume over the active voxels and tiles before and after (scalar
