@@ -111,14 +111,18 @@ void runDemo(const fs::path& dir, const CliContext& context) {
         {"targets", points(targets)}}},
       {"graph",
        {{"method", "graph"},
-        {"spacing", 0.35},
+        {"spacing", 0.5},
         {"handles", points(handles)},
         {"targets", points(targets)}}},
   };
   for (const std::string& method : cageMethods())
     rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
-  // The volume's inverse is seeded from a coarse lattice that may reach past the cage.
-  if (rigs.count("harmonic")) rigs["harmonic"]["outside"] = "nearest";
+  // The volume's inverse is seeded from a coarse lattice that may reach past the cage; 100k
+  // tets are plenty for this cage (the default aims at detailed cages like the armadillo's).
+  if (rigs.count("harmonic")) {
+    rigs["harmonic"]["outside"] = "nearest";
+    rigs["harmonic"]["tets"] = 100000;
+  }
 
   const ProgressCallback progress = context.progress();
   for (const auto& [name, rig] : rigs) {
