@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/cli_test_util.h"
-#include "coords/coords_test_shapes.h"
 #include "coords/cage.h"
+#include "coords/coords_test_shapes.h"
 #include "coords/green.h"
 #include "coords/mean_value.h"
 #include "coords/properties.h"
@@ -80,8 +80,7 @@ TEST_F(CompareTest, WritesOneImagePerMethodSideBySideAndBothReports) {
 }
 
 TEST_F(CompareTest, ReportFiguresAreThePropertyKits) {
-  ASSERT_EQ(compare("--methods mvc,green --slice z=0.5 --samples 300 --resolution 32").exitCode,
-            0);
+  ASSERT_EQ(compare("--methods mvc,green --slice z=0.5 --samples 300 --resolution 32").exitCode, 0);
   const json report = json::parse(test::slurp(dir_ / "out" / "report.json"));
   auto cage = std::make_shared<const Cage>(Cage::fromFile(dir_ / "cage.obj"));
   const std::vector<Vec3> samples =

@@ -524,7 +524,6 @@ TEST_F(HarmonicFiles, LoadAppliesTheOutsidePolicy) {
   EXPECT_NEAR(w[4], 1.0, 1e-12);  // the nearest point is vertex 4, (0, 0, 1)
 }
 
-
 // ---- the Ju et al. armadillo (optional shared data) ----
 
 TEST(HarmonicArmadillo, ModelIsInsideAndReproducedWithNonNegativeWeights) {

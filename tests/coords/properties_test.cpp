@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "coords_test_shapes.h"
 #include "coords/mean_value.h"
+#include "coords_test_shapes.h"
 #include "core/binding.h"
 #include "core/errors.h"
 
@@ -164,8 +164,7 @@ TEST(Binding, ProgressDoesNotChangeTheWeightsAndCancelThrows) {
   const Binding plain(mvc, points);
   EXPECT_GE(calls, 3);
   EXPECT_TRUE(reported.dense() == plain.dense());
-  EXPECT_THROW(Binding(mvc, points, [](std::string_view, double f) { return f < 0.2; }),
-               Cancelled);
+  EXPECT_THROW(Binding(mvc, points, [](std::string_view, double f) { return f < 0.2; }), Cancelled);
 }
 
 }  // namespace
