@@ -30,7 +30,8 @@ class Cancelled : public std::runtime_error {
 /// call a no-op apart from one relaxed atomic add.
 class ProgressTracker {
  public:
-  /// `total` units make up the stage; reports 0 at once.
+  /// `total` units make up the stage; reports 0 at once. Keeps a reference to `callback`,
+  /// which must outlive the tracker.
   ProgressTracker(const ProgressCallback& callback, std::string stage, std::size_t total)
       : callback_(callback), stage_(std::move(stage)), total_(total) {
     report(0.0);
