@@ -37,6 +37,7 @@
 #include <Eigen/SparseCore>
 
 #include "coords/tet_locator.h"
+#include "core/detail/serial_blas.h"
 #include "core/errors.h"
 #include "core/io/atomic_file.h"
 
@@ -345,6 +346,9 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   // ~190k tets (21k interior vertices) it factorises in 0.7 s and solves the 110 right-hand
   // sides in 0.2 s, where Eigen's simplicial LDLᵀ took 1.4 s and 1.9 s (one thread; 1 s with
   // the columns spread over two threads).
+  // A single-threaded BLAS for the factorisation and the solves: bit-identical results for
+  // any OPENBLAS_NUM_THREADS.
+  const detail::SerialBlas serialBlas;
   Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt;
   llt.compute(a);
   if (llt.info() != Eigen::Success) {
@@ -353,8 +357,8 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   }
   factorise.finish();
 
-  // Blocks of kBlock columns, one after the other: every block is a BLAS-3 solve (threaded
-  // by the BLAS), and the fixed blocks keep the result independent of any thread count.
+  // Blocks of kBlock columns, one after the other: every block is a BLAS-3 solve, and the
+  // fixed blocks keep the result independent of any thread count.
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
   ProgressTracker solve(progress, "solve", blocks);
   Eigen::MatrixXd x(nI, static_cast<Eigen::Index>(k));

@@ -11,14 +11,13 @@
 #include <tuple>
 #include <unordered_map>
 
-#include <dlfcn.h>
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <Eigen/CholmodSupport>
 #include <Eigen/Sparse>
 #include <nanoflann.hpp>
 
+#include "core/detail/serial_blas.h"
 #include "core/errors.h"
 
 namespace spacewarp {
@@ -546,58 +545,8 @@ void configureCholmod(cholmod_common& c) {
   c.print = 0;  // the library never writes to stderr: failures come back through info()
 }
 
-// Runs its scope with a single-threaded BLAS. CHOLMOD's supernodal factorisation and solves
-// call BLAS and LAPACK (dgemm, dsyrk, dpotrf, dtrsm, ...), and a multithreaded BLAS splits
-// that work, and so its rounding, by the thread count: the factor, and hence the solve, would
-// differ between OPENBLAS_NUM_THREADS=1 and 2. OpenBLAS's (process-wide) thread count is set
-// to 1 for the scope and restored after it; MKL's thread-local count likewise; other BLAS
-// libraries are left alone. A process-wide mutex serialises the scopes, so two graphs solved
-// on two threads do not restore each other's setting mid-factorisation. On this machine a
-// single BLAS thread is as fast as two for these supernodes (measured: 189 vs 197 ms).
-class SerialBlas {
- public:
-  SerialBlas() : lock_(mutex()) {
-    const Api& api = blas();
-    if (api.openblasGet && api.openblasSet) {
-      openblasPrevious_ = api.openblasGet();
-      if (openblasPrevious_ != 1) api.openblasSet(1);
-    }
-    if (api.mklSetLocal) mklPrevious_ = api.mklSetLocal(1);
-  }
-  ~SerialBlas() {
-    const Api& api = blas();
-    if (api.openblasSet && openblasPrevious_ > 1) api.openblasSet(openblasPrevious_);
-    if (api.mklSetLocal) api.mklSetLocal(mklPrevious_);
-  }
-  SerialBlas(const SerialBlas&) = delete;
-  SerialBlas& operator=(const SerialBlas&) = delete;
-
- private:
-  struct Api {
-    int (*openblasGet)() = nullptr;
-    void (*openblasSet)(int) = nullptr;
-    int (*mklSetLocal)(int) = nullptr;
-  };
-  static const Api& blas() {
-    static const Api api = [] {
-      Api a;
-      a.openblasGet = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
-      a.openblasSet =
-          reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
-      a.mklSetLocal =
-          reinterpret_cast<int (*)(int)>(dlsym(RTLD_DEFAULT, "MKL_Set_Num_Threads_Local"));
-      return a;
-    }();
-    return api;
-  }
-  static std::mutex& mutex() {
-    static std::mutex m;
-    return m;
-  }
-  std::lock_guard<std::mutex> lock_;
-  int openblasPrevious_ = 1;
-  int mklPrevious_ = 0;
-};
+// On this machine a single BLAS thread is as fast as two for the graph's supernodes
+// (measured: 189 vs 197 ms), so determinism (detail::SerialBlas) costs nothing here.
 
 // y = A x for the symmetric A whose lower triangle (diagonal included) `lower` holds. Serial.
 void symmetricProduct(const Eigen::SparseMatrix<double>& lower, const Eigen::VectorXd& x,
@@ -1095,7 +1044,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   // and symbolic analysis (see detail::SolverCache); per iteration only the nodes' diagonal
   // blocks are rewritten. The BLAS runs single-threaded so that the result does not depend on
   // its thread count.
-  const SerialBlas serialBlas;
+  const detail::SerialBlas serialBlas;
   if (!cache_) cache_ = std::make_unique<detail::SolverCache>();
   detail::SolverCache& cache = *cache_;
   if (!cache.matches(p)) cache.build(p);

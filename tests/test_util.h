@@ -4,6 +4,8 @@
 // Jacobian, normals, inversion, deterministic batches), those checks run over the test
 // configurations of one kind of warp, and the checks of the axial warps' limits.
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -399,5 +401,16 @@ void expectBatchesDeterministic(const std::vector<Params>& configurations,
   for (const Params& params : configurations)
     EXPECT_TRUE(batchIsDeterministic(W(params), points)) << describeAxial(params);
 }
+
+/// OpenBLAS's thread-count controls, if OpenBLAS is the BLAS in this process (looked up at
+/// run time, so tests do not link a particular BLAS).
+struct OpenBlasThreads {
+  int (*get)() = nullptr;
+  void (*set)(int) = nullptr;
+  OpenBlasThreads()
+      : get(reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"))),
+        set(reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) {}
+  bool available() const { return get && set; }
+};
 
 }  // namespace spacewarp::test

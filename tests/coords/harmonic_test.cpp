@@ -376,6 +376,31 @@ TEST(HarmonicCoordinates, SolveIsIndependentOfTheThreadCount) {
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0);
 }
 
+TEST(HarmonicCoordinates, SolveIsIndependentOfTheBlasThreadCount) {
+  const test::OpenBlasThreads blas;
+  if (!blas.available()) GTEST_SKIP() << "the BLAS in this process is not OpenBLAS";
+  // Big enough for OpenBLAS to split the supernodes' work between threads.
+  const CagePtr cage = makeCage(test::icosphere(2), "icosphere");
+  HarmonicOptions options;
+  options.targetTetCount = 60000;
+  const int previous = blas.get();
+  auto run = [&](int threads) {
+    blas.set(threads);
+    auto h = std::make_shared<const HarmonicCoordinates>(cage, options);
+    EXPECT_EQ(blas.get(), threads);  // the caller's setting is restored
+    return h;
+  };
+  const auto one = run(1), two = run(2), four = run(4);
+  blas.set(previous);
+  ASSERT_EQ(one->vertexValues().size(), two->vertexValues().size());
+  EXPECT_EQ(std::memcmp(one->vertexValues().data(), two->vertexValues().data(),
+                        one->vertexValues().size() * sizeof(double)),
+            0);
+  EXPECT_EQ(std::memcmp(one->vertexValues().data(), four->vertexValues().data(),
+                        one->vertexValues().size() * sizeof(double)),
+            0);
+}
+
 TEST(HarmonicCoordinates, ReportsProgressAndCancels) {
   const CagePtr cage = makeCage(test::star(), "star");
   std::set<std::string> stages;

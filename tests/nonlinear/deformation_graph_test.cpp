@@ -140,16 +140,6 @@ std::uint64_t hashOf(const SolvedState& s) {
   return h;
 }
 
-// OpenBLAS's thread-count controls, if OpenBLAS is the BLAS in this process.
-struct OpenBlasThreads {
-  int (*get)() = nullptr;
-  void (*set)(int) = nullptr;
-  OpenBlasThreads()
-      : get(reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"))),
-        set(reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) {}
-  bool available() const { return get && set; }
-};
-
 }  // namespace
 
 TEST(DeformationGraph, SamplesOneNodePerOccupiedCellDeterministically) {
@@ -558,7 +548,7 @@ TEST(DeformationGraph, SolveIsBitIdenticalForAnyTbbThreadCount) {
 }
 
 TEST(DeformationGraph, SolveIsBitIdenticalForAnyBlasThreadCount) {
-  const OpenBlasThreads blas;
+  const test::OpenBlasThreads blas;
   if (!blas.available()) GTEST_SKIP() << "the BLAS in this process is not OpenBLAS";
   const int previous = blas.get();
   const BendingEdit edit = bendingEdit(8.0, 10'000);

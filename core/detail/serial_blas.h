@@ -1,0 +1,28 @@
+#pragma once
+// Runs a scope with a single-threaded BLAS, so that sparse Cholesky factorisations and solves
+// (CHOLMOD's supernodes call dgemm, dsyrk, dpotrf, dtrsm, ...) round the same way for any
+// OPENBLAS_NUM_THREADS: a multithreaded BLAS splits that work, and so its rounding, by the
+// thread count. OpenBLAS's process-wide thread count is set to 1 for the scope and restored
+// after it; MKL's thread-local count likewise; other BLAS libraries are left alone. A
+// process-wide mutex serialises the scopes, so two solves on two threads do not restore each
+// other's setting mid-factorisation. The BLAS is looked up at run time (dlsym), so nothing
+// links against a particular BLAS.
+
+#include <mutex>
+
+namespace spacewarp::detail {
+
+class SerialBlas {
+ public:
+  SerialBlas();
+  ~SerialBlas();
+  SerialBlas(const SerialBlas&) = delete;
+  SerialBlas& operator=(const SerialBlas&) = delete;
+
+ private:
+  std::lock_guard<std::mutex> lock_;
+  int openblasPrevious_ = 1;
+  int mklPrevious_ = 0;
+};
+
+}  // namespace spacewarp::detail
