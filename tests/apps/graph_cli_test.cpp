@@ -21,6 +21,7 @@ using ::testing::HasSubstr;
 namespace {
 
 using ::spacewarp::test::BadRigTest;
+using ::spacewarp::test::jsonPoints;
 
 class GraphCliTest : public test::CliFixture {
  protected:
@@ -30,16 +31,6 @@ class GraphCliTest : public test::CliFixture {
     return CliFixture::writeCloud(Vec3(0.0), Vec3(2.0, 1.0, 1.0), 300, 3);
   }
 };
-
-std::string jsonPoints(const std::vector<Vec3>& points) {
-  std::ostringstream s;
-  s.precision(17);
-  s << "[";
-  for (std::size_t i = 0; i < points.size(); ++i)
-    s << (i ? ", " : "") << "[" << points[i].x << ", " << points[i].y << ", " << points[i].z << "]";
-  s << "]";
-  return s.str();
-}
 
 const std::vector<Vec3> kHandles{Vec3(0.0), Vec3(0.0, 1.0, 1.0), Vec3(2.0, 0.0, 0.0),
                                  Vec3(2.0, 1.0, 1.0)};
