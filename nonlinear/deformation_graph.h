@@ -74,8 +74,10 @@ struct DeformationGraphReport {
   /// ten times larger Levenberg-Marquardt damping instead.
   std::vector<double> energies;
   int iterations = 0;  ///< Accepted Gauss-Newton steps.
-  /// The stopping rule was met, or no damped step lowered the energy any more (a numerical
-  /// minimum); false when the iterations ran out.
+  /// The stopping rule was met (see DeformationGraphSolveOptions::tolerance; a start at
+  /// rounding level, such as the rigid fit of a rigid motion, meets it with no iteration), or
+  /// no damped step lowered the energy any more (a numerical minimum); false when the
+  /// iterations ran out.
   bool converged = false;
   /// The unweighted terms at the final state (E = w_rot·rotation + w_reg·... ).
   double rotationEnergy = 0.0;
