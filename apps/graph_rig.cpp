@@ -1,6 +1,7 @@
 #include "apps/graph_rig.h"
 
 #include <cmath>
+#include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -65,9 +66,29 @@ Rig graphRig(RigReader& r) {
   for (const char* key : {"rotationWeight", "regularizationWeight", "constraintWeight"}) {
     if (r.has(key) && !(r.number(key) >= 0.0)) r.fail(key, "must be >= 0");
   }
+  const double maxIterations = r.number("maxIterations", solve.maxIterations);
+  if (!(maxIterations >= 0.0) || maxIterations != std::floor(maxIterations) ||
+      maxIterations > 1e6) {
+    r.fail("maxIterations", "must be an integer in [0, 1000000]");
+  }
+  solve.maxIterations = int(maxIterations);
+  solve.tolerance = r.number("tolerance", solve.tolerance);
+  if (!(solve.tolerance >= 0.0)) r.fail("tolerance", "must be >= 0");
   try {
     DeformationGraph graph(nodes, {}, options);
-    graph.solve(handles, targets, solve);
+    const DeformationGraphReport report = graph.solve(handles, targets, solve);
+    // Warnings, not errors: the warp is still the best the solve found, and usable.
+    if (!report.converged) {
+      std::cerr << "warning: " << r.where() << ": the deformation graph did not converge in "
+                << report.iterations << " iterations (energy " << report.energies.front() << " -> "
+                << report.energies.back() << "); raise 'maxIterations' or 'tolerance'\n";
+    }
+    if (report.unconstrainedComponents > 0) {
+      std::cerr << "warning: " << r.where() << ": " << report.unconstrainedComponents << " of "
+                << report.componentCount << " parts of the deformation graph ("
+                << report.unconstrainedNodes.size()
+                << " nodes) are reached by no handle and stay in place\n";
+    }
     return {std::make_shared<DeformationGraphWarp>(graph.warp()), nullptr};
   } catch (const SolverError& e) {
     throw SolverError(r.where() + ": " + e.what());

@@ -10,11 +10,13 @@ namespace spacewarp::cli {
 /// Reads "handles" and "targets" (arrays of [x, y, z], the same length), "spacing" (> 0, world
 /// units), optional "k" (nearest nodes per point, integer >= 1, default 4), optional "nodes"
 /// (explicit node positions) and optional "rotationWeight", "regularizationWeight",
-/// "constraintWeight" (>= 0; defaults 1, 10, 100). The rig does not see the input it will
-/// deform, so without "nodes" the nodes are a regular grid of spacing "spacing" over the
+/// "constraintWeight" (>= 0; defaults 1, 10, 100), optional "maxIterations" (integer >= 0,
+/// default 50) and "tolerance" (>= 0, default 1e-6) of the solve. The rig does not see the input it
+/// will deform, so without "nodes" the nodes are a regular grid of spacing "spacing" over the
 /// bounding box of the handles padded by 2 · spacing on every side (at most 2,000,000 nodes);
 /// with "nodes", "spacing" is not read. Returns the solved DeformationGraphWarp and no
-/// coordinates.
+/// coordinates; warns on stderr (one line each) when the solve did not converge and when parts
+/// of the graph are reached by no handle.
 Rig graphRig(RigReader& reader);
 
 }  // namespace spacewarp::cli

@@ -14,6 +14,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <Eigen/CholmodSupport>
+#include <Eigen/LU>
+#include <Eigen/SVD>
 #include <Eigen/Sparse>
 #include <nanoflann.hpp>
 
@@ -401,19 +403,41 @@ void buildTopology(GraphIndex& g, std::span<const Vec3> positions) {
                         std::copy(s.idx(), s.idx() + k, influence.begin() + i * k);
                       }
                     });
+  // Each node also joins every node within its own cut-off d_(k+1) (the k nearest others,
+  // ties included up to rounding): the k nearest of a point break ties by index, which splits
+  // a regular grid of nodes (all neighbours tie) into parts that no handle may reach.
+  const std::size_t m = g.nodes.size();
+  std::vector<std::vector<std::uint32_t>> near(m);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m, 256),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      Scratch s(k);
+                      std::vector<std::pair<std::uint32_t, double>> found;
+                      for (std::size_t j = r.begin(); j != r.end(); ++j) {
+                        const Vec3& x = g.nodes[j];
+                        g.nearest(x, s.idx(), s.d2());
+                        const double q[3] = {x.x, x.y, x.z};
+                        found.clear();
+                        g.tree->radiusSearch(q, s.d2()[k] * (1.0 + 1e-6), found,
+                                             nanoflann::SearchParams(32, 0.0f, false));
+                        for (const auto& f : found)
+                          if (f.first != j) near[j].push_back(f.first);
+                      }
+                    });
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-  pairs.reserve(n * std::size_t(k) * std::size_t(k - 1) / 2);
+  pairs.reserve(n * std::size_t(k) * std::size_t(k - 1) / 2 + m * std::size_t(k));
   for (std::size_t i = 0; i < n; ++i) {
     const std::uint32_t* v = influence.data() + i * k;
     for (int a = 0; a < k; ++a)
       for (int b = a + 1; b < k; ++b)
         pairs.emplace_back(std::min(v[a], v[b]), std::max(v[a], v[b]));
   }
+  for (std::size_t j = 0; j < m; ++j)
+    for (std::uint32_t i : near[j])
+      pairs.emplace_back(std::min(std::uint32_t(j), i), std::max(std::uint32_t(j), i));
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   g.edges = std::move(pairs);
 
-  const std::size_t m = g.nodes.size();
   std::vector<std::uint32_t> degree(m, 0);
   for (const auto& [a, b] : g.edges) {
     ++degree[a];
@@ -447,6 +471,36 @@ void buildTopology(GraphIndex& g, std::span<const Vec3> positions) {
       }
     }
   }
+}
+
+// The rigid motion x -> r x + shift that best maps the handles onto their targets in the
+// least-squares sense (Kabsch: the rotation from the SVD of the cross-covariance, a reflection
+// turned into a rotation). The identity for no handles; for collinear handles r is one of the
+// rotations that fit equally well.
+struct RigidFit {
+  Mat3 r{1.0};
+  Vec3 shift{0.0};
+};
+
+RigidFit rigidFit(std::span<const Vec3> handles, std::span<const Vec3> targets) {
+  RigidFit fit;
+  if (handles.empty()) return fit;
+  Vec3 ch(0.0), ct(0.0);
+  for (std::size_t l = 0; l < handles.size(); ++l) {
+    ch += handles[l];
+    ct += targets[l];
+  }
+  ch /= double(handles.size());
+  ct /= double(handles.size());
+  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  for (std::size_t l = 0; l < handles.size(); ++l)
+    h += toEigen(handles[l] - ch) * toEigen(targets[l] - ct).transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  fit.r = toMat3(svd.matrixV() * d * svd.matrixU().transpose());
+  fit.shift = ct - fit.r * ch;
+  return fit;
 }
 
 // The nonlinear least-squares problem of one solve(): energies and the gradient.
@@ -1025,15 +1079,59 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
            options.constraintWeight * eCon;
   };
   double energy = energyOf(a_, t_, nullptr);
+  // Start from the best rigid fit of the handles to the targets when it beats the current
+  // maps. Gauss-Newton then runs in the fit's frame (targets mapped back by its inverse, the
+  // fit itself being the identity there): every term is invariant under a rigid change of
+  // frame, so any rigid motion of the handles is met at iteration 0, and the start is the rest
+  // state, whose kept factor serves while only the targets move.
+  const RigidFit fit = rigidFit(handles, targets);
+  const Mat3 rt = glm::transpose(fit.r);
+  if (n > 0) {
+    for (std::size_t l = 0; l < handles.size(); ++l) p.targets[l] = rt * (targets[l] - fit.shift);
+    std::vector<Mat3> a0(a_);
+    std::vector<Vec3> t0(t_);
+    for (std::uint32_t j : p.freeNodes) {
+      a0[j] = Mat3(1.0);
+      t0[j] = Vec3(0.0);
+    }
+    const double rigid = energyOf(a0, t0, nullptr);
+    if (rigid < energy) {
+      a_.swap(a0);
+      t_.swap(t0);
+      energy = rigid;
+      report.rigidStart = true;
+    } else {
+      p.targets.assign(targets.begin(), targets.end());
+    }
+  }
   report.energies.push_back(energy);
   const auto finish = [&] {
+    if (report.rigidStart) {  // back to the world frame
+      for (std::uint32_t j : p.freeNodes) {
+        t_[j] = fit.r * (g.nodes[j] + t_[j]) + fit.shift - g.nodes[j];
+        a_[j] = fit.r * a_[j];
+      }
+      p.targets.assign(targets.begin(), targets.end());
+    }
     energyOf(a_, t_, nullptr);
     report.rotationEnergy = eRot;
     report.regularizationEnergy = eReg;
     report.constraintEnergy = eCon;
     return report;
   };
-  if (n == 0) {
+  // Rounding level: the energy with every residual 1e-10 of its term's scale (the handles'
+  // spread, the edges' lengths, a unit rotation residual). Nothing is left to solve below it.
+  double scale = options.rotationWeight * 6.0 * double(p.freeNodes.size());
+  for (const auto& [j, kk] : p.regEdges) {
+    const Vec3 d = g.nodes[kk] - g.nodes[j];
+    scale += options.regularizationWeight * glm::dot(d, d);
+  }
+  Vec3 centre(0.0);
+  for (const Vec3& h : handles) centre += h / double(handles.size());
+  for (const Vec3& h : handles)
+    scale += options.constraintWeight * glm::dot(h - centre, h - centre);
+  const double negligible = 1e-20 * scale;
+  if (n == 0 || energy <= negligible) {
     report.converged = true;
     return finish();
   }
@@ -1142,7 +1240,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     report.energies.push_back(energy);
     report.iterations = iter + 1;
     lambda = std::max(lambda / 10.0, 1e-12);
-    if (std::abs(previous - energy) < options.tolerance * (1.0 + energy)) {
+    if (previous - energy < options.tolerance * previous || energy <= negligible) {
       report.converged = true;
       break;
     }

@@ -60,7 +60,10 @@ struct DeformationGraphSolveOptions {
   double constraintWeight = 100.0;     ///< w_con: how closely handles reach their targets.
   /// Gauss-Newton iterations at most (each may retry with a larger damping, see below).
   int maxIterations = 50;
-  /// The paper's stopping rule: stop when |E_k − E_{k−1}| < tolerance · (1 + E_k).
+  /// Stop when an iteration lowers the energy by less than tolerance · E_{k−1} (relative, so
+  /// the same for any scale of the scene; the paper's |E_k − E_{k−1}| < tolerance · (1 + E_k)
+  /// stops at once in a small scene), or when the energy reaches rounding level (residuals
+  /// about 1e-10 of the handles' spread and the edges' lengths).
   double tolerance = 1e-6;
 };
 
@@ -71,14 +74,19 @@ struct DeformationGraphReport {
   /// ten times larger Levenberg-Marquardt damping instead.
   std::vector<double> energies;
   int iterations = 0;  ///< Accepted Gauss-Newton steps.
-  /// The stopping rule was met, or no damped step lowered the energy any more (a numerical
-  /// minimum); false when the iterations ran out.
+  /// The stopping rule was met (see DeformationGraphSolveOptions::tolerance; a start at
+  /// rounding level, such as the rigid fit of a rigid motion, meets it with no iteration), or
+  /// no damped step lowered the energy any more (a numerical minimum); false when the
+  /// iterations ran out.
   bool converged = false;
   /// The unweighted terms at the final state (E = w_rot·rotation + w_reg·... ).
   double rotationEnergy = 0.0;
   double regularizationEnergy = 0.0;
   double constraintEnergy = 0.0;
-  /// Connected components of the graph (edges: nodes influencing a common point).
+  /// Gauss-Newton started from the best rigid fit of the handles to the targets (it had a
+  /// lower energy than the maps before the solve), not from those maps.
+  bool rigidStart = false;
+  /// Connected components of the graph (see DeformationGraph::edges()).
   int componentCount = 0;
   /// Components that no constraint reaches: they stay rigidly in place (A = I, t = 0).
   int unconstrainedComponents = 0;
@@ -118,13 +126,12 @@ class DeformationGraph {
  public:
   /// Samples nodes from `positions` (n points, world units: a PointSet's or PolygonSoup's
   /// positions, or the centres of a volume's active voxels) at options.spacing with
-  /// options.sampling; edges join
-  /// nodes that influence a common position. Throws InvalidInput for empty or non-finite
+  /// options.sampling; edges as edges() says. Throws InvalidInput for empty or non-finite
   /// positions, spacing <= 0 or not finite, k < 1, or k >= the number of nodes.
   DeformationGraph(std::span<const Vec3> positions, const DeformationGraphOptions& options);
 
-  /// Explicit nodes (world units). Edges join nodes that influence a common point of
-  /// `positions`; when `positions` is empty the nodes themselves are used. Throws
+  /// Explicit nodes (world units). Edges as edges() says, over the points of `positions`;
+  /// when `positions` is empty the nodes themselves are used. Throws
   /// InvalidInput as above (options.spacing is ignored).
   DeformationGraph(std::span<const Vec3> nodes, std::span<const Vec3> positions,
                    const DeformationGraphOptions& options);
@@ -136,13 +143,17 @@ class DeformationGraph {
   std::size_t nodeCount() const;
   std::span<const Vec3> nodes() const;
   int k() const;
-  /// Undirected edges (i < j), sorted.
+  /// Undirected edges (i < j), sorted: nodes that influence a common position, and each node
+  /// with every node within its own cut-off distance d_(k+1) (ties included, so a regular
+  /// grid of nodes is connected for any k).
   const std::vector<std::pair<std::uint32_t, std::uint32_t>>& edges() const;
   /// The k nearest nodes of x and their weights (throws InvalidInput if x is not finite).
   NodeWeights weights(const Vec3& x) const;
 
   /// Moves each handles[l] (any point of space, world units) towards targets[l] by
-  /// Gauss-Newton from the current maps (the identity at first). Components of the graph
+  /// Gauss-Newton from the current maps (the identity at first) or, when its energy is lower,
+  /// from the best rigid fit of the handles to the targets (every map the same rotation), so
+  /// a rigid motion of all handles is reproduced exactly everywhere. Components of the graph
   /// that no handle's nodes reach keep A = I, t = 0 and are listed in the report. Throws
   /// InvalidInput for mismatched sizes, non-finite points or invalid options, SolverError if
   /// the normal equations cannot be factorised.

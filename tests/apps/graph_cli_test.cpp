@@ -2,6 +2,8 @@
 // the library, the default grid of nodes moves handles to their targets, and bad rigs exit
 // with the documented codes and messages.
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -73,6 +75,97 @@ TEST_F(GraphCliTest, GridNodesMoveTheHandlesToTheirTargets) {
     EXPECT_LE(glm::length(out.positions[i] - kTargets[i]), 0.02) << i;
 }
 
+// Issue 12, item 4: a rigid motion of a dozen handles in the unit cube moves every point of
+// the cube rigidly, at the spacings and k that left far points behind or unmoved, silently.
+TEST_F(GraphCliTest, RigidMotionOfTheHandlesMovesTheWholeCloudRigidly) {
+  const PolygonSoup cloud = CliFixture::writeCloud(Vec3(0.0), Vec3(1.0), 2000, 7);
+  const std::vector<Vec3> handles(cloud.positions.begin(), cloud.positions.begin() + 12);
+  const double c = std::cos(0.5), s = std::sin(0.5);
+  const auto motion = [&](const Vec3& x) {
+    return Vec3(c * x.x - s * x.y, s * x.x + c * x.y, x.z) + Vec3(0.3, -0.2, 0.1);
+  };
+  std::vector<Vec3> targets;
+  for (const Vec3& h : handles) targets.push_back(motion(h));
+  for (const char* params : {R"("spacing": 0.2)", R"("spacing": 0.3)", R"("spacing": 0.3, "k": 2)",
+                             R"("spacing": 0.5)", R"("spacing": 0.3, "k": 8)"}) {
+    write("graph.json", R"({"method": "graph", )" + std::string(params) + R"(, "handles": )" +
+                            jsonPoints(handles) + R"(, "targets": )" + jsonPoints(targets) + "}");
+    const test::CliResult r = deform("graph.json");
+    ASSERT_EQ(r.exitCode, 0) << params << ": " << r.err;
+    EXPECT_EQ(r.err, "") << params;
+    const PolygonSoup out = readSoup(dir_ / "out.ply");
+    ASSERT_EQ(out.size(), cloud.size());
+    double worst = 0.0;
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      worst = std::max(worst, glm::length(out.positions[i] - motion(cloud.positions[i])));
+    EXPECT_LE(worst, 1e-9) << params;
+  }
+}
+
+// The solve's report reaches the user: one warning line each for a solve stopped by
+// 'maxIterations' and for parts of the graph that no handle reaches; the warp is still
+// written and the exit code is 0.
+TEST_F(GraphCliTest, WarnsAboutNonConvergenceAndUnreachedParts) {
+  writeCloud();
+  write("graph.json", R"({"method": "graph", "spacing": 0.4, "maxIterations": 1, "handles": )" +
+                          jsonPoints(kHandles) + R"(, "targets": )" + jsonPoints(kTargets) + "}");
+  test::CliResult r = deform("graph.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("graph.json: the deformation graph did not converge in 1 "));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir_ / "out.ply"));
+
+  // Two clusters of nodes 50 apart; the handles are all in the first.
+  std::vector<Vec3> nodes = makeRandomPoints(Vec3(-0.2), Vec3(2.2, 1.2, 1.2), 40, 4).positions;
+  for (const Vec3& g : makeRandomPoints(Vec3(50.0), Vec3(51.0), 10, 5).positions)
+    nodes.push_back(g);
+  write("graph.json", R"({"method": "graph", "nodes": )" + jsonPoints(nodes) + R"(, "handles": )" +
+                          jsonPoints(kHandles) + R"(, "targets": )" + jsonPoints(kTargets) + "}");
+  r = deform("graph.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("graph.json: 1 of 2 parts of the deformation graph (10 nodes) are "
+                               "reached by no handle and stay in place"));
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+}
+
+// 'maxIterations' and 'tolerance' reach the solve: the output is the library's warp solved
+// with the same options, and each setting gives another warp.
+TEST_F(GraphCliTest, MaxIterationsAndToleranceReachTheSolve) {
+  const PolygonSoup cloud = writeCloud();
+  const std::vector<Vec3> nodes =
+      makeRandomPoints(Vec3(-0.2), Vec3(2.2, 1.2, 1.2), 60, 4).positions;
+  struct Setting {
+    const char* json;
+    int maxIterations;
+    double tolerance;
+  };
+  std::vector<PolygonSoup> outputs;
+  for (const Setting& setting :
+       {Setting{R"("maxIterations": 0)", 0, 1e-6}, Setting{R"("tolerance": 0.9)", 50, 0.9},
+        Setting{R"("maxIterations": 500, "tolerance": 0)", 500, 0.0}}) {
+    write("graph.json", R"({"method": "graph", )" + std::string(setting.json) + R"(, "nodes": )" +
+                            jsonPoints(nodes) + R"(, "handles": )" + jsonPoints(kHandles) +
+                            R"(, "targets": )" + jsonPoints(kTargets) + "}");
+    const test::CliResult r = deform("graph.json");
+    ASSERT_EQ(r.exitCode, 0) << setting.json << ": " << r.err;
+    DeformationGraph graph(nodes, {}, DeformationGraphOptions{});
+    DeformationGraphSolveOptions options;
+    options.maxIterations = setting.maxIterations;
+    options.tolerance = setting.tolerance;
+    graph.solve(kHandles, kTargets, options);
+    const DeformationGraphWarp warp = graph.warp();
+    outputs.push_back(readSoup(dir_ / "out.ply"));
+    ASSERT_EQ(outputs.back().size(), cloud.size());
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      ASSERT_LE(glm::length(outputs.back().positions[i] - warp.apply(cloud.positions[i])), 1e-12)
+          << setting.json << ", point " << i;
+    }
+  }
+  for (std::size_t a = 0; a < outputs.size(); ++a)
+    for (std::size_t b = a + 1; b < outputs.size(); ++b)
+      EXPECT_NE(outputs[a].positions, outputs[b].positions) << a << " " << b;
+}
+
 INSTANTIATE_TEST_SUITE_P(
     GraphRigs, BadRigTest,
     ::testing::Values(
@@ -99,6 +192,14 @@ INSTANTIATE_TEST_SUITE_P(
                      R"({"method": "graph", "spacing": 0.5, "rotationWeight": -1,
                         "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
                      "'rotationWeight' must be >= 0"},
+        test::BadRig{"FractionalMaxIterations",
+                     R"({"method": "graph", "spacing": 0.5, "maxIterations": 1.5,
+                        "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
+                     "'maxIterations' must be an integer in [0, 1000000]"},
+        test::BadRig{"NegativeTolerance",
+                     R"({"method": "graph", "spacing": 0.5, "tolerance": -1e-6,
+                        "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
+                     "'tolerance' must be >= 0"},
         test::BadRig{"UnknownKey",
                      R"({"method": "graph", "spacing": 0.5, "handle": [[0, 0, 0]],
                         "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",

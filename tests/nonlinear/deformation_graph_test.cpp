@@ -140,6 +140,19 @@ std::uint64_t hashOf(const SolvedState& s) {
   return h;
 }
 
+// The CLI's default nodes (apps/graph_rig.cpp): a regular grid of spacing s over the box
+// [lo, hi] padded by 2 s on every side, x fastest.
+std::vector<Vec3> gridNodes(const Vec3& lo, const Vec3& hi, double s) {
+  const Vec3 origin = lo - Vec3(2.0 * s);
+  int counts[3];
+  for (int a = 0; a < 3; ++a) counts[a] = int(std::ceil((hi[a] - lo[a]) / s + 4.0 - 1e-9)) + 1;
+  std::vector<Vec3> nodes;
+  for (int k = 0; k < counts[2]; ++k)
+    for (int j = 0; j < counts[1]; ++j)
+      for (int i = 0; i < counts[0]; ++i) nodes.push_back(origin + s * Vec3(i, j, k));
+  return nodes;
+}
+
 }  // namespace
 
 TEST(DeformationGraph, SamplesOneNodePerOccupiedCellDeterministically) {
@@ -616,4 +629,84 @@ TEST(DeformationGraph, KeptFactorisationNeverChangesTheResult) {
                              {graph.translations().begin(), graph.translations().end()},
                              again.energies};
   EXPECT_TRUE(repeated == fresh);
+}
+
+// Issue 12, item 4: whatever the spacing, k, handle count and rotation, and wherever the scene
+// is and however large, a rigid motion of all handles is reproduced at every point of the
+// scene. The nodes are the CLI's grid over the handles (so most points lie far from every
+// handle) or sampled from the points.
+TEST(DeformationGraph, AnyRigidMotionOfTheHandlesIsReproducedEverywhere) {
+  struct Scene {
+    Vec3 lo;
+    double size;
+  };
+  const Scene scenes[] = {{Vec3(0.0), 1.0},
+                          {Vec3(1e3, -2e3, 5e2), 1.0},
+                          {Vec3(-2e-3, 1e-3, 0.0), 1e-3},
+                          {Vec3(-3e3, 1e3, 2e3), 1e3}};
+  const double spacings[] = {0.15, 0.2, 0.3, 0.45, 0.6};
+  const int ks[] = {2, 3, 4, 6, 8, 12};
+  const std::size_t handleCounts[] = {3, 12, 50, 5};
+  const double angles[] = {0.5, 1e-3, 1.5, 3.1};
+  int index = 0;
+  for (const double spacing : spacings) {
+    for (const int k : ks) {
+      const Scene& scene = scenes[std::size_t(index) % 4];
+      const std::size_t handleCount = handleCounts[std::size_t(index / 2) % 4];
+      const double angle = angles[std::size_t(index / 3) % 4];
+      const bool grid = index % 5 != 4;
+      ++index;
+      const double h = spacing * scene.size;
+      const Vec3 hi = scene.lo + Vec3(scene.size);
+      const std::vector<Vec3> points = boxPoints(scene.lo, hi, 1500, unsigned(index));
+      const std::vector<Vec3> handles(points.begin(), points.begin() + std::ptrdiff_t(handleCount));
+      const Mat3 r = rotation(Vec3(0.3, -1.0, 0.6), angle);
+      const Vec3 shift = scene.size * Vec3(0.4, -0.7, 0.2);
+      const Vec3 centre = scene.lo + Vec3(0.5 * scene.size);
+      std::vector<Vec3> targets;
+      for (const Vec3& x : handles) targets.push_back(r * (x - centre) + centre + shift);
+      const BoundingBox box = boundingBox(handles);
+      DeformationGraph graph =
+          grid ? DeformationGraph(gridNodes(box.min, box.max, h), {}, spacingOf(0.0, k))
+               : DeformationGraph(points, spacingOf(h, k));
+      const DeformationGraphReport report = graph.solve(handles, targets);
+      const std::string where = "spacing " + std::to_string(spacing) + ", k " + std::to_string(k) +
+                                ", " + std::to_string(handleCount) + " handles, angle " +
+                                std::to_string(angle) + ", scene size " +
+                                std::to_string(scene.size) + (grid ? ", grid" : ", sampled");
+      EXPECT_TRUE(report.converged) << where;
+      EXPECT_EQ(report.unconstrainedComponents, 0) << where;
+      const DeformationGraphWarp warp = graph.warp();
+      double worst = 0.0;
+      for (const Vec3& x : points) {
+        const Vec3 expected = r * (x - centre) + centre + shift;
+        worst = std::max(worst, glm::length(warp.apply(x) - expected) / scene.size);
+      }
+      EXPECT_LE(worst, 1e-9) << where;
+    }
+  }
+}
+
+// The stopping rule is relative to the energy: in a small scene, whose energies are far below
+// 1, the solve still runs to convergence (the paper's |E_k − E_{k−1}| < tolerance · (1 + E_k)
+// stopped it after an iteration or two, far from the minimum).
+TEST(DeformationGraph, StoppingRuleDoesNotDependOnTheSceneScale) {
+  for (const double scale : {1e-3, 1.0, 1e3}) {
+    BendingEdit edit = bendingEdit(4.0, 3000);
+    for (auto* v : {&edit.points, &edit.handles, &edit.targets})
+      for (Vec3& x : *v) x *= scale;
+    DeformationGraph graph(edit.points, spacingOf(scale));
+    const DeformationGraphReport report = graph.solve(edit.handles, edit.targets);
+    EXPECT_TRUE(report.converged) << scale;
+    DeformationGraph reference(edit.points, spacingOf(scale));
+    DeformationGraphSolveOptions tight;
+    tight.tolerance = 1e-13;
+    tight.maxIterations = 500;
+    reference.solve(edit.handles, edit.targets, tight);
+    const DeformationGraphWarp warp = graph.warp(), converged = reference.warp();
+    double worst = 0.0;
+    for (const Vec3& x : edit.points)
+      worst = std::max(worst, glm::length(warp.apply(x) - converged.apply(x)) / (4.0 * scale));
+    EXPECT_LE(worst, 1e-5) << "scale " << scale << ", " << report.iterations << " iterations";
+  }
 }
