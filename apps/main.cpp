@@ -1,6 +1,12 @@
-// The spacewarp command-line tool. Exit codes (DESIGN.md): 0 success, 2 usage, 3 bad input,
-// 4 numerical failure, 1 anything else. Outputs are written atomically, so a failure never
-// leaves a partial file behind. Each subcommand lives in apps/<name>_command.cpp.
+// The spacewarp command-line tool. Exit codes (DESIGN.md): 0 success, 2 usage, 3 bad input
+// (including a file that cannot be read or written: a full disk, a file size limit), 4
+// numerical failure, 1 anything else; a run interrupted by SIGINT, SIGTERM or SIGHUP removes
+// the temporaries of the outputs it was writing and ends by that signal, which the shell
+// reports as 130, 143 or 129 (128 + the signal's number). Outputs are written atomically
+// (core/io/atomic_file.h), so a failure or an interruption never leaves a partial file behind
+// and keeps the previous output. Each subcommand lives in apps/<name>_command.cpp.
+
+#include <signal.h>
 
 #include <cstdio>
 #include <optional>
@@ -10,11 +16,50 @@
 
 #include "apps/commands.h"
 #include "core/errors.h"
+#include "core/io/atomic_file.h"
 
 using namespace spacewarp;
 using namespace spacewarp::cli;
 
 namespace {
+
+constexpr int kInterruptingSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
+// Only async-signal-safe calls. The signal is re-raised with its default action rather than
+// turned into an exit code, so that a shell running a loop of commands sees the interruption
+// and stops (and reports 128 + the signal's number).
+extern "C" void onInterrupt(int signal) {
+  removeAtomicTemporaries();
+  struct sigaction defaultAction {};
+  defaultAction.sa_handler = SIG_DFL;
+  sigemptyset(&defaultAction.sa_mask);
+  sigaction(signal, &defaultAction, nullptr);
+  raise(signal);  // pending: the signal is blocked while its handler runs
+  sigset_t unblock;
+  sigemptyset(&unblock);
+  sigaddset(&unblock, signal);
+  sigprocmask(SIG_UNBLOCK, &unblock, nullptr);  // delivered here, ending the process
+  _exit(128 + signal);                          // not reached
+}
+
+void installSignalHandling() {
+  struct sigaction action {};
+  action.sa_handler = onInterrupt;
+  sigemptyset(&action.sa_mask);
+  for (const int signal : kInterruptingSignals) sigaddset(&action.sa_mask, signal);
+  for (const int signal : kInterruptingSignals) {
+    struct sigaction previous {};
+    // A signal ignored by whoever started us (nohup, a background job) stays ignored.
+    if (sigaction(signal, nullptr, &previous) == 0 && previous.sa_handler == SIG_IGN) continue;
+    sigaction(signal, &action, nullptr);
+  }
+  // Past a file size limit (ulimit -f) a write then fails with EFBIG and is reported (exit 3,
+  // temporary removed) instead of the process being killed with the temporary left behind.
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  sigaction(SIGXFSZ, &ignore, nullptr);
+}
 
 int run(int argc, char** argv) {
   CLI::App app{"spacewarp: space deformations and cage coordinates"};
@@ -52,6 +97,7 @@ int run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  installSignalHandling();
   try {
     return run(argc, argv);
   } catch (const IoError& e) {

@@ -1,14 +1,14 @@
 #include "apps/volume_command.h"
 
-#include <unistd.h>
-
 #include <iostream>
 #include <string>
 #include <system_error>
 
 #include "core/errors.h"
+#include "core/io/atomic_file.h"
 
 #ifdef SPACEWARP_WITH_OPENVDB
+#include <openvdb/io/Archive.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -73,29 +73,24 @@ VdbContent readVdb(const std::filesystem::path& path) {
   return content;
 }
 
-// Writes to a temporary beside `path` and renames it; the temporary is removed on failure.
+// OpenVDB's own file writer (io::File) opens the file itself and checks no write; this writes
+// the same seekable format (with grid offsets, for delayed loading) to the stream of the one
+// atomic-write path instead.
+class VdbArchive : public openvdb::io::Archive {
+ public:
+  void writeTo(std::ostream& out, const openvdb::GridCPtrVec& grids,
+               const openvdb::MetaMap& metadata) const {
+    write(out, grids, /*seekable=*/true, metadata);
+  }
+};
+
 void writeVdbAtomically(const std::filesystem::path& path, const openvdb::GridCPtrVec& grids,
                         const openvdb::MetaMap& metadata) {
-  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
-  const std::filesystem::path temp =
-      dir / ("." + path.filename().string() + ".tmp" + std::to_string(::getpid()));
   try {
-    openvdb::io::File file(temp.string());
-    file.write(grids, metadata);
-    file.close();
-    std::filesystem::rename(temp, path);
+    writeFileAtomically(path,
+                        [&](std::ostream& out) { VdbArchive().writeTo(out, grids, metadata); });
   } catch (const openvdb::Exception& e) {
-    std::error_code ec;
-    std::filesystem::remove(temp, ec);
     throw IoError(path.string() + ": cannot be written (" + e.what() + ")");
-  } catch (const std::filesystem::filesystem_error& e) {
-    std::error_code ec;
-    std::filesystem::remove(temp, ec);
-    throw IoError(path.string() + ": cannot be written (" + e.what() + ")");
-  } catch (...) {
-    std::error_code ec;
-    std::filesystem::remove(temp, ec);
-    throw;
   }
 }
 

@@ -1,7 +1,13 @@
 #include "core/io/atomic_file.h"
 
+#include <sys/resource.h>
+#include <sys/stat.h>
+
 #include <atomic>
+#include <csignal>
+#include <cstring>
 #include <filesystem>
+#include <regex>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -23,6 +29,43 @@ using ::testing::HasSubstr;
 using test::listDirectory;
 using test::readFile;
 using test::TempDir;
+
+mode_t permissionsOf(const fs::path& path) {
+  struct stat status {};
+  EXPECT_EQ(::stat(path.c_str(), &status), 0) << path;
+  return status.st_mode & 07777;
+}
+
+/// Lowers this process's file size limit (RLIMIT_FSIZE) to `bytes` with SIGXFSZ ignored, so a
+/// write past it fails with EFBIG as on a full disk; restores both on destruction.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) {
+    ::getrlimit(RLIMIT_FSIZE, &previous_);
+    previousHandler_ = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit = previous_;
+    limit.rlim_cur = bytes;
+    EXPECT_EQ(::setrlimit(RLIMIT_FSIZE, &limit), 0);
+  }
+  FileSizeLimit(const FileSizeLimit&) = delete;
+  FileSizeLimit& operator=(const FileSizeLimit&) = delete;
+  ~FileSizeLimit() {
+    ::setrlimit(RLIMIT_FSIZE, &previous_);
+    std::signal(SIGXFSZ, previousHandler_);
+  }
+
+ private:
+  rlimit previous_{};
+  void (*previousHandler_)(int) = SIG_DFL;
+};
+
+/// The temporaries (hidden .<name>.<hex>.tmp files) in `directory`.
+std::vector<std::string> temporariesIn(const fs::path& directory) {
+  std::vector<std::string> found;
+  for (const std::string& name : listDirectory(directory))
+    if (name.starts_with('.') && name.ends_with(".tmp")) found.push_back(name);
+  return found;
+}
 
 TEST(AtomicFileTest, WritesTheFile) {
   TempDir dir;
@@ -148,6 +191,134 @@ TEST(AtomicFileTest, ConcurrentWritersNeverProduceAMixedFile) {
   ASSERT_EQ(content.size(), 50000u);
   EXPECT_EQ(content, std::string(50000, content[0]));
   EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"shared.txt"});
+}
+
+TEST(AtomicFileTest, ReplacedFileKeepsItsPermissions) {
+  TempDir dir;
+  const fs::path path = dir.path() / "out.txt";
+  for (const mode_t mode : {0600, 0640, 0755, 0444}) {
+    writeFileAtomically(path, [](std::ostream& out) { out << "old"; });
+    ASSERT_EQ(::chmod(path.c_str(), mode), 0);
+    writeFileAtomically(path, [](std::ostream& out) { out << "new"; });
+    EXPECT_EQ(permissionsOf(path), mode);
+    EXPECT_EQ(readFile(path), "new");
+    ASSERT_EQ(::chmod(path.c_str(), 0644), 0);
+  }
+}
+
+TEST(AtomicFileTest, NewFileGetsTheUmasksPermissions) {
+  TempDir dir;
+  const mode_t previous = ::umask(027);
+  writeFileAtomically(dir.path() / "a.txt", [](std::ostream& out) { out << "a"; });
+  ::umask(022);
+  writeFileAtomically(dir.path() / "b.txt", [](std::ostream& out) { out << "b"; });
+  ::umask(previous);
+  EXPECT_EQ(permissionsOf(dir.path() / "a.txt"), 0640u);
+  EXPECT_EQ(permissionsOf(dir.path() / "b.txt"), 0644u);
+}
+
+TEST(AtomicFileTest, TemporaryIsAHiddenSiblingOfTheTarget) {
+  TempDir dir;
+  std::vector<std::string> seen;
+  writeFileAtomically(dir.path() / "out.txt",
+                      [&](std::ostream&) { seen = temporariesIn(dir.path()); });
+  ASSERT_EQ(seen.size(), 1u);
+  EXPECT_TRUE(std::regex_match(seen[0], std::regex(R"(\.out\.txt\.[0-9a-f]{16}\.tmp)"))) << seen[0];
+}
+
+// A write that fails part way (a full disk; here a file size limit, which fails the write
+// with EFBIG just as ENOSPC would) is an IoError naming the file and the system's reason,
+// whether the data comes in one large block or in many small pieces, and the old file stays.
+TEST(AtomicFileTest, FailingWriteKeepsTheOldFileAndSaysWhy) {
+  TempDir dir;
+  const fs::path path = dir.path() / "out.bin";
+  const std::string old = "the previous output\n";
+  const std::function<void(std::ostream&)> writers[] = {
+      [](std::ostream& out) { out << std::string(1 << 20, 'x'); },
+      [](std::ostream& out) {
+        for (int i = 0; i < 200000; ++i) out << i << '\n';
+      },
+      [](std::ostream& out) {
+        for (int i = 0; i < 100; ++i) out.write(std::string(30000, 'y').data(), 30000);
+      },
+  };
+  for (const auto& writer : writers) {
+    writeFileAtomically(path, [&](std::ostream& out) { out << old; });
+    std::string message;
+    {
+      const FileSizeLimit limit(100000);
+      message = test::messageOf<IoError>([&] { writeFileAtomically(path, writer); });
+    }
+    EXPECT_THAT(message, HasSubstr(path.string()));
+    EXPECT_THAT(message, HasSubstr(std::strerror(EFBIG)));
+    EXPECT_EQ(readFile(path), old);
+    EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out.bin"});
+  }
+}
+
+// Even a writer that notices the failed stream itself and throws its own error is reported
+// as the I/O failure it is.
+TEST(AtomicFileTest, WriterThrowingOnAFailedStreamIsReportedAsTheIoError) {
+  TempDir dir;
+  const fs::path path = dir.path() / "out.bin";
+  std::string message;
+  {
+    const FileSizeLimit limit(50000);
+    message = test::messageOf<IoError>([&] {
+      writeFileAtomically(path, [](std::ostream& out) {
+        out.exceptions(std::ios::badbit | std::ios::failbit);
+        out << std::string(1 << 20, 'x');
+      });
+    });
+  }
+  EXPECT_THAT(message, HasSubstr(path.string()));
+  EXPECT_THAT(message, HasSubstr(std::strerror(EFBIG)));
+  EXPECT_TRUE(listDirectory(dir.path()).empty());
+}
+
+// OpenVDB's writer goes back to fill in offsets: the stream must seek, and seeking must not
+// lose buffered data.
+TEST(AtomicFileTest, StreamIsSeekable) {
+  TempDir dir;
+  const fs::path path = dir.path() / "out.bin";
+  writeFileAtomically(path, [](std::ostream& out) {
+    out << "header:????";
+    const std::streampos slot = out.tellp() - std::streamoff(4);
+    out << " body " << std::string(100000, 'b');
+    const std::streampos end = out.tellp();
+    out.seekp(slot);
+    out << "1234";
+    out.seekp(end);
+    out << " tail";
+    EXPECT_EQ(out.tellp(), end + std::streamoff(5));
+  });
+  EXPECT_EQ(readFile(path), "header:1234 body " + std::string(100000, 'b') + " tail");
+}
+
+// What the CLI's signal handler relies on: the temporary of a write in progress is removed,
+// the write then fails, and the old file stays. Many writes first, so that slots that were
+// not released would have run out.
+TEST(AtomicFileTest, RemoveAtomicTemporariesRemovesTheTemporaryInProgress) {
+  TempDir dir;
+  const fs::path path = dir.path() / "out.txt";
+  for (int i = 0; i < 70; ++i)
+    writeFileAtomically(path, [i](std::ostream& out) { out << "version " << i; });
+  std::vector<std::string> before, after;
+  EXPECT_THROW(writeFileAtomically(path,
+                                   [&](std::ostream& out) {
+                                     out << "new";
+                                     before = temporariesIn(dir.path());
+                                     removeAtomicTemporaries();
+                                     after = temporariesIn(dir.path());
+                                   }),
+               IoError);
+  EXPECT_EQ(before.size(), 1u);
+  EXPECT_TRUE(after.empty());
+  EXPECT_EQ(readFile(path), "version 69");
+  EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out.txt"});
+  // The slot is free again for the next write.
+  writeFileAtomically(path, [](std::ostream& out) { out << "next"; });
+  EXPECT_EQ(readFile(path), "next");
 }
 
 }  // namespace
