@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <map>
@@ -463,6 +464,11 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
   writeJsonFile(report, request.output / "report.json");
   const std::string md = markdown(report);
   writeFileAtomically(request.output / "report.md", [&](std::ostream& out) { out << md; });
+  // Even with --quiet: a missing result is not information to hide (demo calls this too).
+  for (const Result& r : results)
+    if (r.failed)
+      std::fprintf(stderr, "spacewarp: warning: compare: %s failed: %s\n", r.name.c_str(),
+                   r.entry["error"].get<std::string>().c_str());
   return report;
 }
 

@@ -40,7 +40,8 @@ struct CompareRequest {
 /// tet mesh misses some interior points) does not stop the others: its report entry has
 /// "status": "failed" with "errorType" and "error" (the exception's message), its panel is
 /// grey and says "failed", and "failedMethods" lists it; the colour scale covers the methods
-/// that succeeded. Cancelled still stops everything, writing nothing.
+/// that succeeded, and a warning line per failed method goes to stderr (even when quiet).
+/// Cancelled still stops everything, writing nothing.
 ///
 /// Throws InvalidInput for an unknown or repeated method, a control index out of range, or a
 /// plane that misses the cage, and whatever reading the cage throws; nothing is written then.

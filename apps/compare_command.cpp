@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <charconv>
-#include <cstdio>
 
 #include "apps/commands.h"
 #include "apps/compare.h"
@@ -124,11 +123,6 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
               request.planeNormal = Vec3(args->normal[0], args->normal[1], args->normal[2]);
             }
             const nlohmann::json report = runComparison(request, context);
-            for (const nlohmann::json& m : report["methods"])
-              if (m["status"] == "failed")
-                std::fprintf(stderr, "spacewarp: warning: compare: %s failed: %s\n",
-                             m["name"].get<std::string>().c_str(),
-                             m["error"].get<std::string>().c_str());
             const std::size_t failed = report["failedMethods"].size();
             if (failed == report["methods"].size())
               throw SolverError("compare: every method failed; the reasons are in " +

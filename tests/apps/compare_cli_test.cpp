@@ -319,6 +319,37 @@ TEST_F(CompareFailureTest, AFailedMethodIsReportedAndDrawnAsFailedAndTheOthersSt
   }
 }
 
+// A cage made of two overlapping boxes: mean-value and Green coordinates are defined, TetGen
+// refuses it (a numerical method's own limit, not bad input to the comparison).
+TEST_F(CompareFailureTest, AMethodThatRejectsTheCageFailsAloneWithTheReason) {
+  PolygonSoup cage = makeBoxSurface(Vec3(0.0), Vec3(2.0), glm::ivec3(1));
+  const PolygonSoup second = makeBoxSurface(Vec3(1.0), Vec3(3.0), glm::ivec3(1));
+  const auto offset = static_cast<std::uint32_t>(cage.positions.size());
+  cage.positions.insert(cage.positions.end(), second.positions.begin(), second.positions.end());
+  for (std::size_t f = 0; f < second.polygonCount(); ++f) {
+    std::vector<std::uint32_t> face;
+    for (std::uint32_t v : second.polygon(f)) face.push_back(v + offset);
+    cage.addPolygon(face);
+  }
+  cage.normals.clear();  // a cage needs none
+  writeSoup(cage, dir_ / "cage.obj");
+  const CliResult r =
+      compare("-q --methods mvc,harmonic,green --tets 500 --slice z=1.5 --resolution 32");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("harmonic failed"), std::string::npos) << "even with -q: " << r.err;
+  const json report = json::parse(test::slurp(dir_ / "out" / "report.json"));
+  EXPECT_EQ(report["failedMethods"], json::array({"harmonic"}));
+  for (const json& m : report["methods"]) {
+    if (m["name"] != "harmonic") {
+      EXPECT_EQ(m["status"], "ok") << m["name"];
+      continue;
+    }
+    EXPECT_EQ(m["errorType"], "InvalidInput");
+    EXPECT_NE(m["error"].get<std::string>().find("intersects itself"), std::string::npos)
+        << m["error"];
+  }
+}
+
 TEST_F(CompareFailureTest, EveryMethodFailingExitsWith4AndStillWritesTheReasons) {
   const CliResult r = compare("--methods harmonic --slice z=0.5 --resolution 32" + badHarmonic());
   EXPECT_EQ(r.exitCode, 4) << r.err;
