@@ -154,7 +154,10 @@ LabelledBar labelledColourBar(const ColourScale& scale, int width, int barHeight
   const std::string minLabel = tickLabel(scale.min), maxLabel = tickLabel(scale.max);
   LabelledBar result;
   result.barLeft = textWidth(minLabel, textScale) + margin;
-  result.barWidth = std::max(1, width - result.barLeft - textWidth(maxLabel, textScale) - margin);
+  result.barWidth = width - result.barLeft - textWidth(maxLabel, textScale) - margin;
+  // Too narrow for numbers beside the bar (a tiny image): the bar takes the whole width.
+  const bool ends = result.barWidth >= width / 2;
+  if (!ends) result.barLeft = 0, result.barWidth = width;
   result.barHeight = std::max(barHeight, lineHeight);
   result.labelTop = result.barHeight + tickLength;
   result.image = Image(width, result.labelTop + lineHeight, Rgb{255, 255, 255});
@@ -163,9 +166,12 @@ LabelledBar labelledColourBar(const ColourScale& scale, int width, int barHeight
 
   // The ends beside the bar, so min, max and 0 never compete for the same place.
   const int textTop = (result.barHeight - lineHeight) / 2;
-  image.text(0, textTop, minLabel, textScale, Rgb{0, 0, 0});
-  image.text(result.barLeft + result.barWidth + margin, textTop, maxLabel, textScale, Rgb{0, 0, 0});
-  result.labelled = {scale.min};
+  if (ends) {
+    image.text(0, textTop, minLabel, textScale, Rgb{0, 0, 0});
+    image.text(result.barLeft + result.barWidth + margin, textTop, maxLabel, textScale,
+               Rgb{0, 0, 0});
+    result.labelled = {scale.min, scale.max};
+  }
 
   // Tick marks under the bar, numbered by priority: 0, then the others left to right, each
   // where its number does not touch one already placed.
@@ -191,7 +197,6 @@ LabelledBar labelledColourBar(const ColourScale& scale, int width, int barHeight
     taken.emplace_back(left, left + w);
     result.labelled.push_back(v);
   }
-  if (scale.max > scale.min) result.labelled.push_back(scale.max);
   std::sort(result.labelled.begin(), result.labelled.end());
   return result;
 }

@@ -69,8 +69,9 @@ std::string tickLabel(double value);
 /// colourBar() of the scale with its numbers: min left of the bar and max right of it, then
 /// under the bar a tick mark at each value of colourBarTicks() between them and its number
 /// (0 first, then the others wherever a number does not touch one already placed). Text at
-/// `textScale`; the bar is at least one line of text tall. Positions are pixels from the
-/// image's top-left corner.
+/// `textScale`; the bar is at least one line of text tall. An image too narrow for the numbers
+/// beside the bar gets the bar across its whole width and no min/max numbers. Positions are
+/// pixels from the image's top-left corner.
 struct LabelledBar {
   Image image;                   ///< `width` wide
   std::vector<double> labelled;  ///< the values that got a number, ascending
