@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <map>
+#include <new>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
@@ -16,6 +18,7 @@
 #include "coords/properties.h"
 #include "core/errors.h"
 #include "core/io/atomic_file.h"
+#include "core/progress.h"
 #include "ffd/lattice.h"
 #include "ffd/lattice_coordinates.h"
 #include "rbf/rbf_coordinates.h"
@@ -138,6 +141,15 @@ Slice makeSlice(const Cage& cage, const Vec3& point, const Vec3& normal, int res
   return s;
 }
 
+// The kind of a method's failure, for the report.
+std::string errorType(const std::exception& e) {
+  if (dynamic_cast<const InvalidInput*>(&e)) return "InvalidInput";
+  if (dynamic_cast<const SolverError*>(&e)) return "SolverError";
+  if (dynamic_cast<const IoError*>(&e)) return "IoError";
+  if (dynamic_cast<const std::bad_alloc*>(&e)) return "OutOfMemory";
+  return "Error";
+}
+
 json vec(const Vec3& v) { return json::array({v.x, v.y, v.z}); }
 
 json propertiesJson(const PropertyReport& r) {
@@ -168,9 +180,16 @@ std::string markdown(const json& report) {
      << number(report["diagonal"]) << "). Coordinate function of cage vertex " << report["control"]
      << " on the plane through " << report["slice"]["point"].dump() << " with normal "
      << report["slice"]["normal"].dump() << ".\n\n"
-     << "![side by side](compare.png)\n\n"
-     << "Left to right:";
-  for (const json& m : report["methods"]) md << " " << m["name"].get<std::string>();
+     << "![side by side](compare.png)\n\n";
+  if (!report["failedMethods"].empty()) {
+    md << "**" << report["failedMethods"].size() << " of " << report["methods"].size()
+       << " methods failed** (grey panels; reasons below):";
+    for (const json& name : report["failedMethods"]) md << " " << name.get<std::string>();
+    md << ".\n\n";
+  }
+  md << "Left to right:";
+  for (const json& m : report["methods"])
+    md << " " << m["name"].get<std::string>() << (m["status"] == "failed" ? " (failed)" : "");
   md << ". One colour scale for all, from " << number(report["colourScale"]["min"]) << " to "
      << number(report["colourScale"]["max"])
      << ": viridis for values ≥ 0, pink to red for negative values, grey outside the cage, "
@@ -182,6 +201,12 @@ std::string markdown(const json& report) {
         "min weight | negative fraction | Lagrange | face interpolation | slice min | slice max "
         "|\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const json& m : report["methods"]) {
+    if (m["status"] == "failed") {
+      md << "| " << m["name"].get<std::string>() << " | failed |";
+      for (int column = 0; column < 10; ++column) md << " – |";
+      md << "\n";
+      continue;
+    }
     const json& p = m["properties"];
     md << "| " << m["name"].get<std::string>() << " | " << number(m["setupSeconds"]) << " | "
        << number(m["bindSeconds"]) << " | " << number(m["bindPointsPerSecond"]) << " | "
@@ -191,10 +216,16 @@ std::string markdown(const json& report) {
        << number(m["slice"]["min"]) << " | " << number(m["slice"]["max"]) << " |\n";
   }
   md << "\n";
-  for (const json& m : report["methods"])
-    md << "- **" << m["name"].get<std::string>() << "**: " << m["description"].get<std::string>()
-       << " (control " << m["controlIndex"] << " of " << m["controlCount"] << "); image `"
-       << m["image"].get<std::string>() << "`\n";
+  for (const json& m : report["methods"]) {
+    md << "- **" << m["name"].get<std::string>() << "**: " << m["description"].get<std::string>();
+    if (m["status"] == "failed")
+      md << ": **failed** (" << m["errorType"].get<std::string>()
+         << "): " << m["error"].get<std::string>() << "; image `" << m["image"].get<std::string>()
+         << "` (grey)\n";
+    else
+      md << " (control " << m["controlIndex"] << " of " << m["controlCount"] << "); image `"
+         << m["image"].get<std::string>() << "`\n";
+  }
   return md.str();
 }
 
@@ -210,12 +241,15 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
   const std::map<std::string, Method> table = methodTable();
   const std::vector<std::string> methods =
       request.methods.empty() ? compareMethods() : request.methods;
-  for (const std::string& name : methods) {
+  for (std::size_t k = 0; k < methods.size(); ++k) {
+    const std::string& name = methods[k];
     if (!table.count(name)) {
       std::string known;
       for (const std::string& m : compareMethods()) known += (known.empty() ? "" : ", ") + m;
       throw InvalidInput("unknown method '" + name + "' (one of: " + known + ")");
     }
+    if (std::find(methods.begin(), methods.begin() + k, name) != methods.begin() + k)
+      throw InvalidInput("method '" + name + "' is listed twice");
   }
   if (request.resolution < 8 || request.resolution > 8192)
     throw InvalidInput("the resolution must be between 8 and 8192 pixels");
@@ -253,6 +287,7 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
     std::string name;
     std::size_t control = 0, controlCount = 0;
     std::vector<double> values;  // per inside pixel
+    bool failed = false;
     json entry;
   };
   std::vector<Result> results;
@@ -261,55 +296,69 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
     const Method& method = table.at(name);
     Result r;
     r.name = name;
-    const auto start = Clock::now();
-    const auto coordinates = method.make(cage, request.cageOptions, progress);
-    const double setup = std::chrono::duration<double>(Clock::now() - start).count();
+    // A method that cannot handle this cage (a tet mesh that misses interior points, a
+    // singular fit, a bad cache file) is reported as failed; the others still run.
+    // Cancellation stops the whole comparison.
+    try {
+      const auto start = Clock::now();
+      const auto coordinates = method.make(cage, request.cageOptions, progress);
+      const double setup = std::chrono::duration<double>(Clock::now() - start).count();
 
-    r.controlCount = coordinates->controlPointCount();
-    r.control = request.control;
-    if (!method.cageControls) {
-      const Vec3 target = cage->vertices()[request.control];
-      const auto controls = coordinates->restControlPoints();
-      double best = std::numeric_limits<double>::infinity();
-      for (std::size_t c = 0; c < controls.size(); ++c)
-        if (const double d = glm::length(controls[c] - target); d < best) best = d, r.control = c;
+      r.controlCount = coordinates->controlPointCount();
+      r.control = request.control;
+      if (!method.cageControls) {
+        const Vec3 target = cage->vertices()[request.control];
+        const auto controls = coordinates->restControlPoints();
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t c = 0; c < controls.size(); ++c)
+          if (const double d = glm::length(controls[c] - target); d < best) best = d, r.control = c;
+      }
+
+      // The weights of every inside pixel, in blocks to bound memory: the bind.
+      const std::size_t m = coordinates->columnCount();
+      const std::size_t block = std::max<std::size_t>(1, (std::size_t{1} << 22) / m);
+      std::vector<double> rows;
+      r.values.resize(inside.size());
+      const auto bindStart = Clock::now();
+      ProgressTracker tracker(progress, "bind " + name, inside.size());
+      for (std::size_t begin = 0; begin < inside.size(); begin += block) {
+        const std::size_t count = std::min(block, inside.size() - begin);
+        rows.resize(count * m);
+        coordinates->weightsBatch(std::span(inside).subspan(begin, count), rows);
+        for (std::size_t k = 0; k < count; ++k) r.values[begin + k] = rows[k * m + r.control];
+        tracker.advance(count);
+      }
+      tracker.finish();
+      const double bind = std::chrono::duration<double>(Clock::now() - bindStart).count();
+
+      const PropertyReport properties =
+          method.cageControls ? measureProperties(*coordinates, *cage, samples)
+                              : measureProperties(*coordinates, samples, cage->diagonal());
+      const auto [lo, hi] = std::minmax_element(r.values.begin(), r.values.end());
+      const auto negative =
+          std::count_if(r.values.begin(), r.values.end(), [](double v) { return v < 0.0; });
+      r.entry = {{"name", name},
+                 {"description", method.description},
+                 {"status", "ok"},
+                 {"controlIndex", r.control},
+                 {"controlCount", r.controlCount},
+                 {"columns", m},
+                 {"setupSeconds", setup},
+                 {"bindSeconds", bind},
+                 {"bindPoints", inside.size()},
+                 {"bindPointsPerSecond", bind > 0.0 ? inside.size() / bind : 0.0},
+                 {"slice", {{"min", *lo}, {"max", *hi}, {"negativePixels", negative}}},
+                 {"properties", propertiesJson(properties)},
+                 {"image", name + ".png"}};
+    } catch (const Cancelled&) {
+      throw;
+    } catch (const std::exception& e) {
+      r.failed = true;
+      r.values.clear();
+      r.entry = {{"name", name},       {"description", method.description},
+                 {"status", "failed"}, {"errorType", errorType(e)},
+                 {"error", e.what()},  {"image", name + ".png"}};
     }
-
-    // The weights of every inside pixel, in blocks to bound memory: the bind.
-    const std::size_t m = coordinates->columnCount();
-    const std::size_t block = std::max<std::size_t>(1, (std::size_t{1} << 22) / m);
-    std::vector<double> rows;
-    r.values.resize(inside.size());
-    const auto bindStart = Clock::now();
-    ProgressTracker tracker(progress, "bind " + name, inside.size());
-    for (std::size_t begin = 0; begin < inside.size(); begin += block) {
-      const std::size_t count = std::min(block, inside.size() - begin);
-      rows.resize(count * m);
-      coordinates->weightsBatch(std::span(inside).subspan(begin, count), rows);
-      for (std::size_t k = 0; k < count; ++k) r.values[begin + k] = rows[k * m + r.control];
-      tracker.advance(count);
-    }
-    tracker.finish();
-    const double bind = std::chrono::duration<double>(Clock::now() - bindStart).count();
-
-    const PropertyReport properties =
-        method.cageControls ? measureProperties(*coordinates, *cage, samples)
-                            : measureProperties(*coordinates, samples, cage->diagonal());
-    const auto [lo, hi] = std::minmax_element(r.values.begin(), r.values.end());
-    const auto negative =
-        std::count_if(r.values.begin(), r.values.end(), [](double v) { return v < 0.0; });
-    r.entry = {{"name", name},
-               {"description", method.description},
-               {"controlIndex", r.control},
-               {"controlCount", r.controlCount},
-               {"columns", m},
-               {"setupSeconds", setup},
-               {"bindSeconds", bind},
-               {"bindPoints", inside.size()},
-               {"bindPointsPerSecond", bind > 0.0 ? inside.size() / bind : 0.0},
-               {"slice", {{"min", *lo}, {"max", *hi}, {"negativePixels", negative}}},
-               {"properties", propertiesJson(properties)},
-               {"image", name + ".png"}};
     results.push_back(std::move(r));
   }
 
@@ -319,22 +368,29 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
       scale.min = std::min(scale.min, v), scale.max = std::max(scale.max, v);
   if (scale.max <= 0.0) scale.max = 1.0;
 
-  // Images: one per method, then all side by side with the colour bar underneath.
+  // Images: one per method (a grey panel saying "failed" for a failed one), then all side by
+  // side under their names, with the labelled colour bar underneath.
   const auto segments = crossSection(*cage, slice);
   const Vec3 controlPoint = cage->vertices()[request.control];
   const double controlDistance = glm::dot(controlPoint - slice.origin, slice.normal);
+  // Text at twice the font's size once panels are wide enough for the longer names.
+  const int textScale = slice.width >= 192 ? 2 : 1;
   std::vector<Image> images;
   for (const Result& r : results) {
-    Image image(slice.width, slice.height, kOutside);
-    for (std::size_t k = 0; k < insidePixel.size(); ++k)
+    Image image(slice.width, slice.height, r.failed ? kFailed : kOutside);
+    for (std::size_t k = 0; k < r.values.size(); ++k)
       image.pixels[insidePixel[k]] = scale(r.values[k]);
     for (const auto& [a, b] : segments) {
       const auto [x0, y0] = slice.toPixel(a);
       const auto [x1, y1] = slice.toPixel(b);
       image.line(x0, y0, x1, y1, Rgb{0, 0, 0});
     }
-    // Mark the control vertex when it lies near the plane.
-    if (std::abs(controlDistance) <= 0.05 * cage->diagonal()) {
+    if (r.failed) {
+      image.text((slice.width - textWidth("failed", textScale)) / 2,
+                 (slice.height - textHeight(textScale)) / 2, "failed", textScale,
+                 Rgb{255, 255, 255});
+    } else if (std::abs(controlDistance) <= 0.05 * cage->diagonal()) {
+      // Mark the control vertex when it lies near the plane.
       const auto [cx, cy] = slice.toPixel(controlPoint - controlDistance * slice.normal);
       image.line(cx - 4, cy, cx + 4, cy, Rgb{255, 255, 255});
       image.line(cx, cy - 4, cx, cy + 4, Rgb{255, 255, 255});
@@ -342,42 +398,77 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
     images.push_back(std::move(image));
   }
   const int gap = 8, barHeight = 16;
+  const int titleHeight = textHeight(textScale) + gap;
   const int totalWidth = static_cast<int>(results.size()) * (slice.width + gap) - gap;
-  Image strip(totalWidth, slice.height + gap + barHeight, Rgb{255, 255, 255});
-  for (std::size_t k = 0; k < images.size(); ++k)
-    strip.paste(images[k], static_cast<int>(k) * (slice.width + gap), 0);
-  const Image bar = colourBar(scale, totalWidth, barHeight);
-  strip.paste(bar, 0, slice.height + gap);
+  const LabelledBar bar = labelledColourBar(scale, totalWidth, barHeight, textScale);
+  const int barTop = titleHeight + slice.height + gap;
+  Image strip(totalWidth, barTop + bar.image.height + gap / 2, Rgb{255, 255, 255});
+  json panels = json::array();
+  for (std::size_t k = 0; k < images.size(); ++k) {
+    const int left = static_cast<int>(k) * (slice.width + gap);
+    // The title centred over its panel and clipped to it, so long names never run into the
+    // next one.
+    Image title(slice.width, titleHeight, Rgb{255, 255, 255});
+    title.text(std::max(0, (slice.width - textWidth(results[k].name, textScale)) / 2), gap / 2,
+               results[k].name, textScale, Rgb{0, 0, 0});
+    strip.paste(title, left, 0);
+    strip.paste(images[k], left, titleHeight);
+    panels.push_back({{"name", results[k].name}, {"left", left}, {"top", titleHeight}});
+  }
+  strip.paste(bar.image, 0, barTop);
 
-  json report = {{"cage", request.cage.string()},
-                 {"cageVertices", cage->vertexCount()},
-                 {"cageTriangles", cage->triangleCount()},
-                 {"diagonal", cage->diagonal()},
-                 {"control", request.control},
-                 {"slice",
-                  {{"point", vec(slice.origin)},
-                   {"normal", vec(slice.normal)},
-                   {"u", vec(slice.u)},
-                   {"v", vec(slice.v)},
-                   {"uRange", {slice.uMin, slice.uMax}},
-                   {"vRange", {slice.vMin, slice.vMax}}}},
-                 {"resolution", {slice.width, slice.height}},
-                 {"insidePixels", inside.size()},
-                 {"colourScale", {{"min", scale.min}, {"max", scale.max}}},
-                 {"samples", {{"count", samples.size()}, {"seed", request.seed}}},
-                 {"images", {{"sideBySide", "compare.png"}, {"colourBar", "colour_bar.png"}}},
-                 {"methods", json::array()}};
-  for (const Result& r : results) report["methods"].push_back(r.entry);
+  json report = {
+      {"cage", request.cage.string()},
+      {"cageVertices", cage->vertexCount()},
+      {"cageTriangles", cage->triangleCount()},
+      {"diagonal", cage->diagonal()},
+      {"control", request.control},
+      {"slice",
+       {{"point", vec(slice.origin)},
+        {"normal", vec(slice.normal)},
+        {"u", vec(slice.u)},
+        {"v", vec(slice.v)},
+        {"uRange", {slice.uMin, slice.uMax}},
+        {"vRange", {slice.vMin, slice.vMax}}}},
+      {"resolution", {slice.width, slice.height}},
+      {"insidePixels", inside.size()},
+      {"colourScale", {{"min", scale.min}, {"max", scale.max}, {"labelledTicks", bar.labelled}}},
+      {"samples", {{"count", samples.size()}, {"seed", request.seed}}},
+      {"images",
+       {{"sideBySide", "compare.png"},
+        {"colourBar", "colour_bar.png"},
+        // Where things are in compare.png, pixels from its top-left corner.
+        {"layout",
+         {{"titleHeight", titleHeight},
+          {"panels", panels},
+          {"panelSize", {slice.width, slice.height}},
+          {"bar",
+           {{"left", bar.barLeft},
+            {"top", barTop},
+            {"width", bar.barWidth},
+            {"height", bar.barHeight},
+            {"labelTop", barTop + bar.labelTop}}}}}}},
+      {"methods", json::array()}};
+  report["failedMethods"] = json::array();
+  for (const Result& r : results) {
+    report["methods"].push_back(r.entry);
+    if (r.failed) report["failedMethods"].push_back(r.name);
+  }
 
   // Everything is computed: only now touch the output folder.
   createOutputFolder(request.output);
   for (std::size_t k = 0; k < images.size(); ++k)
     writePng(images[k], request.output / (results[k].name + ".png"));
   writePng(strip, request.output / "compare.png");
-  writePng(colourBar(scale, 512, 24), request.output / "colour_bar.png");
+  writePng(labelledColourBar(scale, 512, 24, 2).image, request.output / "colour_bar.png");
   writeJsonFile(report, request.output / "report.json");
   const std::string md = markdown(report);
   writeFileAtomically(request.output / "report.md", [&](std::ostream& out) { out << md; });
+  // Even with --quiet: a missing result is not information to hide (demo calls this too).
+  for (const Result& r : results)
+    if (r.failed)
+      std::fprintf(stderr, "spacewarp: warning: compare: %s failed: %s\n", r.name.c_str(),
+                   r.entry["error"].get<std::string>().c_str());
   return report;
 }
 

@@ -33,9 +33,18 @@ struct CompareRequest {
 };
 
 /// Computes every method, then writes into `request.output`: <method>.png per method,
-/// compare.png (all side by side, colour bar underneath), colour_bar.png, report.md and
-/// report.json. Returns the JSON report. Throws InvalidInput for an unknown method, a control
-/// index out of range, or a plane that misses the cage; nothing is written then.
+/// compare.png (all side by side under their names, the colour bar with its numbers
+/// underneath), colour_bar.png, report.md and report.json. Returns the JSON report.
+///
+/// A method that throws while it is set up, bound or measured (e.g. harmonic coordinates whose
+/// tet mesh misses some interior points) does not stop the others: its report entry has
+/// "status": "failed" with "errorType" and "error" (the exception's message), its panel is
+/// grey and says "failed", and "failedMethods" lists it; the colour scale covers the methods
+/// that succeeded, and a warning line per failed method goes to stderr (even when quiet).
+/// Cancelled still stops everything, writing nothing.
+///
+/// Throws InvalidInput for an unknown or repeated method, a control index out of range, or a
+/// plane that misses the cage, and whatever reading the cage throws; nothing is written then.
 nlohmann::json runComparison(const CompareRequest& request, const CliContext& context);
 
 }  // namespace spacewarp::cli

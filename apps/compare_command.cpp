@@ -1,10 +1,17 @@
 // spacewarp compare --cage CAGE [--methods a,b,...] (--slice AXIS=VALUE | --point X,Y,Z
 // --normal X,Y,Z) [--control I] [--resolution N] -o DIR
+//
+// A method that fails is a warning on stderr (even with --quiet: it is not information but a
+// missing result) and a "failed" entry in the reports; the exit code stays 0 while at least
+// one method succeeded, since the others' comparison is still worth having. When every method
+// fails the reports are still written (they hold the reasons) and the exit code is 4.
 
+#include <algorithm>
 #include <charconv>
 
 #include "apps/commands.h"
 #include "apps/compare.h"
+#include "core/errors.h"
 
 namespace spacewarp::cli {
 
@@ -56,9 +63,13 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
       ->check([known](const std::string& list) -> std::string {
         const auto names = split(list);
         if (names.empty()) return "expected a comma-separated list of methods";
-        for (const std::string& name : names)
-          if (("," + known + ",").find("," + name + ",") == std::string::npos)
-            return "unknown method '" + name + "' (one of: " + known + ")";
+        for (std::size_t k = 0; k < names.size(); ++k) {
+          if (("," + known + ",").find("," + names[k] + ",") == std::string::npos)
+            return "unknown method '" + names[k] + "' (one of: " + known + ")";
+          // Twice the same panel is a typo, not a comparison: say so rather than guess.
+          if (std::find(names.begin(), names.begin() + k, names[k]) != names.begin() + k)
+            return "method '" + names[k] + "' is listed twice";
+        }
         return {};
       });
   auto* sliceOption =
@@ -112,8 +123,13 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
               request.planeNormal = Vec3(args->normal[0], args->normal[1], args->normal[2]);
             }
             const nlohmann::json report = runComparison(request, context);
+            const std::size_t failed = report["failedMethods"].size();
+            if (failed == report["methods"].size())
+              throw SolverError("compare: every method failed; the reasons are in " +
+                                (request.output / "report.md").string());
             context.say("compare: wrote " + std::to_string(report["methods"].size()) +
-                        " heat maps, compare.png, report.md and report.json to " +
+                        " heat maps (" + std::to_string(failed) +
+                        " failed), compare.png, report.md and report.json to " +
                         request.output.string());
           }};
 }

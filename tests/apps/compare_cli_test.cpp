@@ -1,10 +1,14 @@
 // End-to-end tests of `spacewarp compare`: the images and reports exist and parse, the
-// report's figures are the property kit's, and bad input leaves nothing behind.
+// report's figures are the property kit's, a method that fails is reported while the others
+// still run, the side-by-side image is labelled, and bad input leaves nothing behind.
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <filesystem>
 
 #include <gtest/gtest.h>
+#include <stb_image.h>
 #include <nlohmann/json.hpp>
 
 #include "apps/cli_test_util.h"
@@ -35,6 +39,42 @@ std::pair<std::uint32_t, std::uint32_t> pngSize(const fs::path& path) {
   };
   return {be32(16), be32(20)};
 }
+
+// A decoded RGB image (stb_image), empty if the file is not one.
+struct Picture {
+  int width = 0, height = 0;
+  std::vector<std::uint8_t> rgb;
+
+  explicit Picture(const fs::path& path) {
+    int channels = 0;
+    std::uint8_t* data = stbi_load(path.c_str(), &width, &height, &channels, 3);
+    if (data) rgb.assign(data, data + std::size_t(width) * height * 3);
+    stbi_image_free(data);
+  }
+  std::array<int, 3> at(int x, int y) const {
+    const std::size_t k = (std::size_t(y) * width + x) * 3;
+    return {rgb[k], rgb[k + 1], rgb[k + 2]};
+  }
+  // Pixels of the rectangle [x0, x1) × [y0, y1) for which `test` holds.
+  template <class Test>
+  int count(int x0, int y0, int x1, int y1, Test test) const {
+    int n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) n += test(at(x, y));
+    return n;
+  }
+  // The rectangle's pixels, row by row, to compare two regions.
+  std::vector<std::uint8_t> crop(int x0, int y0, int x1, int y1) const {
+    std::vector<std::uint8_t> out;
+    for (int y = y0; y < y1; ++y)
+      out.insert(out.end(), rgb.begin() + (std::size_t(y) * width + x0) * 3,
+                 rgb.begin() + (std::size_t(y) * width + x1) * 3);
+    return out;
+  }
+};
+
+bool isDark(const std::array<int, 3>& c) { return c[0] < 64 && c[1] < 64 && c[2] < 64; }
+bool isFailedGrey(const std::array<int, 3>& c) { return c == std::array<int, 3>{128, 128, 128}; }
 
 class CompareTest : public test::CliFixture {
  protected:
@@ -133,6 +173,7 @@ TEST_F(CompareTest, BadInputExitsWithAMessageAndWritesNothing) {
       {"--slice w=1", 2, ""},
       {"--slice z=abc", 2, ""},
       {"--methods mvc,nope --slice z=0.5", 2, ""},
+      {"--methods mvc,green,mvc --slice z=0.5", 2, "'mvc' is listed twice"},
       {"--control 1", 2, ""},  // no plane
   };
   for (const Case& c : cases) {
@@ -147,6 +188,175 @@ TEST_F(CompareTest, BadInputExitsWithAMessageAndWritesNothing) {
   EXPECT_NE(missing.err.find("missing.obj"), std::string::npos) << missing.err;
   EXPECT_EQ(std::count(missing.err.begin(), missing.err.end(), '\n'), 1) << missing.err;
   EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+TEST_F(CompareTest, PanelsHaveTitlesAndTheColourBarHasNumbers) {
+  ASSERT_EQ(compare("--methods mvc,green,ffd --slice z=0.5 --control 10 --resolution 64").exitCode,
+            0);
+  const json report = json::parse(test::slurp(dir_ / "out" / "report.json"));
+  const Picture strip(dir_ / "out" / "compare.png");
+  ASSERT_GT(strip.width, 0);
+  const json& layout = report["images"]["layout"];
+  const int titleHeight = layout["titleHeight"].get<int>();
+  const int panelWidth = layout["panelSize"][0].get<int>();
+  ASSERT_GT(titleHeight, 0);
+
+  // Every title band has ink, and no two are alike: each names its own method.
+  std::vector<std::vector<std::uint8_t>> titles;
+  for (const json& panel : layout["panels"]) {
+    const int left = panel["left"].get<int>();
+    EXPECT_EQ(panel["top"].get<int>(), titleHeight);
+    EXPECT_GT(strip.count(left, 0, left + panelWidth, titleHeight, isDark), 10) << panel["name"];
+    titles.push_back(strip.crop(left, 0, left + panelWidth, titleHeight));
+  }
+  ASSERT_EQ(titles.size(), 3u);
+  EXPECT_NE(titles[0], titles[1]);
+  EXPECT_NE(titles[1], titles[2]);
+  EXPECT_NE(titles[0], titles[2]);
+
+  // The colour bar's numbers: min (< 0 for mean-value coordinates on the L) and max beside the
+  // bar, 0 and other round values under their tick marks; ascending in the report.
+  const double lo = report["colourScale"]["min"].get<double>();
+  const double hi = report["colourScale"]["max"].get<double>();
+  ASSERT_LT(lo, 0.0);
+  const auto ticks = report["colourScale"]["labelledTicks"].get<std::vector<double>>();
+  ASSERT_GE(ticks.size(), 4u);  // min, 0, a round value, max
+  EXPECT_EQ(ticks.front(), lo);
+  EXPECT_EQ(ticks.back(), hi);
+  EXPECT_NE(std::find(ticks.begin(), ticks.end(), 0.0), ticks.end());
+  EXPECT_TRUE(std::is_sorted(ticks.begin(), ticks.end()));
+  const json& bar = layout["bar"];
+  const int barLeft = bar["left"].get<int>(), barTop = bar["top"].get<int>();
+  const int barRight = barLeft + bar["width"].get<int>();
+  const int barBottom = barTop + bar["height"].get<int>(), labelTop = bar["labelTop"].get<int>();
+  ASSERT_GT(barLeft, 0);
+  ASSERT_LT(barRight, strip.width);
+  ASSERT_LT(labelTop, strip.height);
+  EXPECT_GT(strip.count(0, barTop, barLeft, barBottom, isDark), 5) << "min beside the bar";
+  EXPECT_GT(strip.count(barRight, barTop, strip.width, barBottom, isDark), 5) << "max";
+  for (std::size_t k = 1; k + 1 < ticks.size(); ++k) {
+    const int x = barLeft + static_cast<int>((ticks[k] - lo) / (hi - lo) * (barRight - barLeft));
+    EXPECT_GT(strip.count(std::max(0, x - 12), labelTop, std::min(strip.width, x + 12),
+                          strip.height, isDark),
+              5)
+        << "number under the tick at " << ticks[k];
+  }
+  // Nothing is written between the panels and the bar.
+  EXPECT_EQ(
+      strip.count(0, titleHeight + layout["panelSize"][1].get<int>(), strip.width, barTop, isDark),
+      0);
+  const Picture standalone(dir_ / "out" / "colour_bar.png");
+  ASSERT_GT(standalone.height, 24);
+  EXPECT_GT(standalone.count(0, 24, standalone.width, standalone.height, isDark), 20)
+      << "colour_bar.png has numbers under the bar";
+}
+
+// Set-up of harmonic coordinates that fails: a --harmonic-cache file that is not one. Skips
+// in a build without TetGen (no harmonic method).
+class CompareFailureTest : public CompareTest {
+ protected:
+  void SetUp() override {
+    CompareTest::SetUp();
+    const CliResult help = run("compare --help");
+    if (help.out.find("harmonic") == std::string::npos) GTEST_SKIP() << "built without TetGen";
+    write("bad.swh", "not a cache");
+  }
+  std::string badHarmonic() const { return " --harmonic-cache " + (dir_ / "bad.swh").string(); }
+};
+
+TEST_F(CompareFailureTest, AFailedMethodIsReportedAndDrawnAsFailedAndTheOthersStillRun) {
+  const CliResult r =
+      compare("--methods mvc,harmonic,green --slice z=0.5 --resolution 64" + badHarmonic());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: compare: harmonic failed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("bad.swh"), std::string::npos) << r.err;
+  const fs::path out = dir_ / "out";
+  const json report = json::parse(test::slurp(out / "report.json"));
+  EXPECT_EQ(report["failedMethods"], json::array({"harmonic"}));
+  ASSERT_EQ(report["methods"].size(), 3u);
+  const json& failed = report["methods"][1];
+  EXPECT_EQ(failed["name"], "harmonic");
+  EXPECT_EQ(failed["status"], "failed");
+  EXPECT_EQ(failed["errorType"], "IoError");
+  EXPECT_NE(failed["error"].get<std::string>().find("bad.swh"), std::string::npos);
+  double lo = 0.0, hi = 0.0;
+  for (int k : {0, 2}) {
+    const json& m = report["methods"][k];
+    EXPECT_EQ(m["status"], "ok") << m["name"];
+    EXPECT_LT(m["properties"]["partitionOfUnity"].get<double>(), 1e-9) << m["name"];
+    lo = std::min(lo, m["slice"]["min"].get<double>());
+    hi = std::max(hi, m["slice"]["max"].get<double>());
+  }
+  // The scale is the methods that succeeded.
+  EXPECT_EQ(report["colourScale"]["min"].get<double>(), lo);
+  EXPECT_EQ(report["colourScale"]["max"].get<double>(), hi);
+
+  const std::string md = test::slurp(out / "report.md");
+  EXPECT_NE(md.find("| harmonic | failed |"), std::string::npos) << md;
+  EXPECT_NE(md.find("not a harmonic coordinate file"), std::string::npos) << md;
+
+  // Its panel (and harmonic.png) is grey and says so; the others are heat maps.
+  const Picture alone(out / "harmonic.png");
+  ASSERT_EQ(alone.width, 64);
+  EXPECT_GT(alone.count(0, 0, 64, alone.height, isFailedGrey), 64 * alone.height / 2);
+  EXPECT_GT(alone.count(0, 0, 64, alone.height,
+                        [](const auto& c) {
+                          return c == std::array<int, 3>{255, 255, 255};
+                        }),
+            20)
+      << "the word 'failed'";
+  const Picture strip(out / "compare.png");
+  const json& layout = report["images"]["layout"];
+  const int top = layout["titleHeight"].get<int>(), height = layout["panelSize"][1].get<int>();
+  for (const json& panel : layout["panels"]) {
+    const int left = panel["left"].get<int>();
+    const int grey = strip.count(left, top, left + 64, top + height, isFailedGrey);
+    if (panel["name"] == "harmonic")
+      EXPECT_GT(grey, 64 * height / 2);
+    else
+      EXPECT_EQ(grey, 0) << panel["name"];
+    EXPECT_GT(strip.count(left, 0, left + 64, top, isDark), 10) << "title of " << panel["name"];
+  }
+}
+
+// A cage made of two overlapping boxes: mean-value and Green coordinates are defined, TetGen
+// refuses it (a numerical method's own limit, not bad input to the comparison).
+TEST_F(CompareFailureTest, AMethodThatRejectsTheCageFailsAloneWithTheReason) {
+  PolygonSoup cage = makeBoxSurface(Vec3(0.0), Vec3(2.0), glm::ivec3(1));
+  const PolygonSoup second = makeBoxSurface(Vec3(1.0), Vec3(3.0), glm::ivec3(1));
+  const auto offset = static_cast<std::uint32_t>(cage.positions.size());
+  cage.positions.insert(cage.positions.end(), second.positions.begin(), second.positions.end());
+  for (std::size_t f = 0; f < second.polygonCount(); ++f) {
+    std::vector<std::uint32_t> face;
+    for (std::uint32_t v : second.polygon(f)) face.push_back(v + offset);
+    cage.addPolygon(face);
+  }
+  cage.normals.clear();  // a cage needs none
+  writeSoup(cage, dir_ / "cage.obj");
+  const CliResult r =
+      compare("-q --methods mvc,harmonic,green --tets 500 --slice z=1.5 --resolution 32");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("harmonic failed"), std::string::npos) << "even with -q: " << r.err;
+  const json report = json::parse(test::slurp(dir_ / "out" / "report.json"));
+  EXPECT_EQ(report["failedMethods"], json::array({"harmonic"}));
+  for (const json& m : report["methods"]) {
+    if (m["name"] != "harmonic") {
+      EXPECT_EQ(m["status"], "ok") << m["name"];
+      continue;
+    }
+    EXPECT_EQ(m["errorType"], "InvalidInput");
+    EXPECT_NE(m["error"].get<std::string>().find("intersects itself"), std::string::npos)
+        << m["error"];
+  }
+}
+
+TEST_F(CompareFailureTest, EveryMethodFailingExitsWith4AndStillWritesTheReasons) {
+  const CliResult r = compare("--methods harmonic --slice z=0.5 --resolution 32" + badHarmonic());
+  EXPECT_EQ(r.exitCode, 4) << r.err;
+  EXPECT_NE(r.err.find("every method failed"), std::string::npos) << r.err;
+  const json report = json::parse(test::slurp(dir_ / "out" / "report.json"));
+  EXPECT_EQ(report["methods"][0]["status"], "failed");
+  EXPECT_TRUE(fs::exists(dir_ / "out" / "compare.png"));
 }
 
 }  // namespace
