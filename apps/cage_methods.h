@@ -38,6 +38,10 @@ struct CageMethodOptions {
 /// Adds the cage methods' options to a subcommand that takes --method.
 void addCageMethodOptions(CLI::App* command, CageMethodOptions& options);
 
+/// Throws a usage error (exit 2) naming the first option of addCageMethodOptions given on
+/// `command` that `method` does not use; `method` "" stands for a rig, whose keys set them.
+void checkCageMethodOptions(const CLI::App& command, const std::string& method);
+
 /// Coordinates of `method` for `cage`. Throws InvalidInput for an unknown method. Long
 /// precomputation reports to `progress`.
 std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,

@@ -21,4 +21,24 @@ void CliContext::say(const std::string& line) const {
   if (!quiet) std::printf("%s\n", line.c_str());
 }
 
+void CliContext::warn(const std::string& line) const {
+  ++warnings_;
+  std::fflush(stdout);  // keep the order of stdout and stderr lines on a terminal
+  std::fprintf(stderr, "spacewarp: warning: %s\n", line.c_str());
+}
+
+std::string groupDigits(std::size_t n) {
+  const std::string digits = std::to_string(n);
+  std::string grouped;
+  for (std::size_t i = 0; i < digits.size(); ++i) {
+    if (i > 0 && (digits.size() - i) % 3 == 0) grouped += ',';
+    grouped += digits[i];
+  }
+  return grouped;
+}
+
+std::string counted(std::size_t n, const std::string& noun) {
+  return groupDigits(n) + " " + noun + (n == 1 ? "" : "s");
+}
+
 }  // namespace spacewarp::cli

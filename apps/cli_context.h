@@ -1,7 +1,9 @@
 #pragma once
-// What every subcommand shares: the options every subcommand takes (--threads, --quiet) and
-// the terminal progress display built on the library's progress callback.
+// What every subcommand shares: the options every subcommand takes (--threads, --quiet),
+// the terminal progress display built on the library's progress callback, and the lines the
+// tool prints (information, warnings).
 
+#include <cstddef>
 #include <string>
 
 #include "core/progress.h"
@@ -21,6 +23,22 @@ struct CliContext {
 
   /// Prints one informational line on stdout unless quiet.
   void say(const std::string& line) const;
+
+  /// Prints "spacewarp: warning: <line>" on stderr, even when quiet, and counts it for the
+  /// summary a command prints at its end.
+  void warn(const std::string& line) const;
+
+  /// The number of warn() calls so far.
+  std::size_t warnings() const { return warnings_; }
+
+ private:
+  mutable std::size_t warnings_ = 0;  // commands get the context as const; warnings only count
 };
+
+/// `n` with thousands separators ("10,000"), for the lines people read.
+std::string groupDigits(std::size_t n);
+
+/// "1 point", "10,000 points": `n` grouped, then `noun`, plural unless n is 1.
+std::string counted(std::size_t n, const std::string& noun);
 
 }  // namespace spacewarp::cli

@@ -2,7 +2,10 @@
 // The subcommands of the spacewarp tool, one file each (apps/<name>_command.cpp). Each adds
 // its options to the app and returns the work to run once the command line has parsed.
 
+#include <cstddef>
 #include <functional>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -14,6 +17,22 @@ struct Command {
   CLI::App* app = nullptr;    ///< the subcommand, to ask whether it was given
   std::function<void()> run;  ///< its work, called after parsing with --threads in effect
 };
+
+/// The options that `add` adds to `command`, in order (to group them and to check afterwards
+/// which were given).
+inline std::vector<CLI::Option*> optionsAddedBy(CLI::App* command,
+                                                const std::function<void()>& add) {
+  const std::size_t before = command->get_options().size();
+  add();
+  std::vector<CLI::Option*> all = command->get_options();
+  return {all.begin() + static_cast<std::ptrdiff_t>(before), all.end()};
+}
+
+/// Throws a usage error (exit 2) naming the first of `options` that was given: "--x <why>".
+inline void rejectGiven(const std::vector<CLI::Option*>& options, const std::string& why) {
+  for (const CLI::Option* option : options)
+    if (option->count() > 0) throw CLI::ValidationError(option->get_name() + " " + why);
+}
 
 Command addInfoCommand(CLI::App& app, const CliContext& context);
 Command addDeformCommand(CLI::App& app, const CliContext& context);

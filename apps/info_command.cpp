@@ -1,16 +1,21 @@
-// spacewarp info FILE: counts and the bounding box of a soup or point cloud.
+// spacewarp info FILE: what a file holds. Soups and point clouds: counts and the bounding box;
+// volumes (.vdb): every grid's class, type, voxel size, active voxels and box, and metadata;
+// rigs (.json): the method, its controls and what it will do.
 
 #include <cstdio>
 #include <map>
 
 #include "apps/commands.h"
+#include "apps/file_kinds.h"
+#include "apps/rig_info.h"
+#include "apps/volume_command.h"
 #include "core/io/mesh_io.h"
 
 namespace spacewarp::cli {
 
 namespace {
 
-void printInfo(const std::filesystem::path& path) {
+void printSoupInfo(const std::filesystem::path& path) {
   const PolygonSoup soup = readSoup(path);
   std::map<std::size_t, std::size_t> sizes;
   for (std::size_t p = 0; p < soup.polygonCount(); ++p) ++sizes[soup.polygon(p).size()];
@@ -29,12 +34,24 @@ void printInfo(const std::filesystem::path& path) {
   }
 }
 
+void printInfo(const std::filesystem::path& path) {
+  if (lowerExtension(path) == ".json")
+    printRigInfo(path);
+  else if (fileKind(path) == FileKind::Volume)
+    printVolumeInfo(path);
+  else
+    printSoupInfo(path);
+}
+
 }  // namespace
 
 Command addInfoCommand(CLI::App& app, const CliContext&) {
   auto path = std::make_shared<std::string>();
-  CLI::App* info = app.add_subcommand("info", "Print counts and the bounding box of a file");
-  info->add_option("FILE", *path, "OBJ, OFF or PLY file")->required();
+  CLI::App* info = app.add_subcommand(
+      "info",
+      "Describe a file: a soup or point cloud (counts, bounding box), a volume (grids, types, "
+      "voxel size, active voxels, metadata) or a rig (method, controls, what it will do)");
+  info->add_option("FILE", *path, "OBJ, OFF, PLY, VDB or JSON rig file")->required();
   return {info, [path] { printInfo(*path); }};
 }
 

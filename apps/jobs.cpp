@@ -14,11 +14,8 @@
 
 namespace spacewarp::cli {
 
-void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
-                    const std::filesystem::path& output, bool ascii,
-                    const ProgressCallback& progress) {
-  formatFromPath(output);
-  PolygonSoup soup = readSoup(input);
+void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path& input,
+                const std::filesystem::path& output, bool ascii, const ProgressCallback& progress) {
   try {
     deform(warp, soup, progress);
   } catch (const InvalidInput& e) {
@@ -27,6 +24,14 @@ void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
   WriteOptions options;
   if (ascii) options.plyEncoding = PlyEncoding::Ascii;
   writeSoup(soup, output, options);
+}
+
+void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
+                    const std::filesystem::path& output, bool ascii,
+                    const ProgressCallback& progress) {
+  formatFromPath(output);
+  PolygonSoup soup = readSoup(input);
+  deformSoup(warp, soup, input, output, ascii, progress);
 }
 
 namespace {

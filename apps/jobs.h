@@ -6,13 +6,20 @@
 #include <nlohmann/json.hpp>
 
 #include "core/coordinates.h"
+#include "core/geometry.h"
 #include "core/progress.h"
 #include "core/warp.h"
 
 namespace spacewarp::cli {
 
-/// Reads a soup or point cloud (OBJ, OFF, PLY), warps it and writes it atomically. The output
-/// format is checked before any work. `ascii` writes PLY as ASCII.
+/// Warps `soup`, read from `input` (named in messages), and writes it to `output` atomically.
+/// `ascii` writes PLY as ASCII.
+void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path& input,
+                const std::filesystem::path& output, bool ascii,
+                const ProgressCallback& progress = {});
+
+/// Reads a soup or point cloud (OBJ, OFF, PLY), warps it and writes it atomically (deformSoup).
+/// The output format is checked before any work.
 void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
                     const std::filesystem::path& output, bool ascii,
                     const ProgressCallback& progress = {});

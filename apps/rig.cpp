@@ -104,16 +104,18 @@ Rig rigFromJson(const json& rig, const std::filesystem::path& baseDir, const std
   return result;
 }
 
-Rig loadRig(const std::filesystem::path& path) {
+json readRigFile(const std::filesystem::path& path) {
   std::ifstream in(path);
   if (!in) throw IoError(path.string() + ": cannot open the rig file");
-  json rig;
   try {
-    rig = json::parse(in);
+    return json::parse(in);
   } catch (const json::parse_error& e) {
     throw IoError(path.string() + ": not valid JSON: " + e.what());
   }
-  return rigFromJson(rig, path.parent_path(), path.string());
+}
+
+Rig loadRig(const std::filesystem::path& path) {
+  return rigFromJson(readRigFile(path), path.parent_path(), path.string());
 }
 
 std::vector<std::string> rigMethods() {

@@ -34,6 +34,10 @@ using RigFactory = std::function<Rig(RigReader&)>;
 Rig rigFromJson(const nlohmann::json& rig, const std::filesystem::path& baseDir,
                 const std::string& where);
 
+/// The JSON of a rig file, not yet checked as a rig. Throws IoError naming the file if it
+/// cannot be read or is not JSON.
+nlohmann::json readRigFile(const std::filesystem::path& path);
+
 /// Reads and builds a rig file. Throws IoError if it cannot be read or is not JSON, and
 /// InvalidInput as rigFromJson does.
 Rig loadRig(const std::filesystem::path& path);

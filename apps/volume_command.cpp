@@ -1,5 +1,8 @@
 #include "apps/volume_command.h"
 
+#include <unistd.h>
+
+#include <cstdio>
 #include <iostream>
 #include <string>
 #include <system_error>
@@ -11,6 +14,8 @@
 #include <openvdb/io/Archive.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/points/PointCount.h>
+#include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/MeshToVolume.h>
 
 #include "core/volume/warp_grid.h"
@@ -39,9 +44,17 @@ void writeMeshLevelSet(const PolygonSoup&, double, const std::filesystem::path& 
   throw InvalidInput(path.string() + ": volumes are not supported by this build");
 }
 
-void deformVolumeFile(const Warp&, const std::filesystem::path& input, const std::filesystem::path&,
-                      const VolumeCliOptions&, const CliContext&) {
-  throw InvalidInput(input.string() + ": volumes are not supported by this build");
+void checkVolumeFile(const std::filesystem::path& path) {
+  throw InvalidInput(path.string() + ": volumes are not supported by this build");
+}
+
+void printVolumeInfo(const std::filesystem::path& path) { checkVolumeFile(path); }
+
+VolumeSummary deformVolumeFile(const Warp&, const std::filesystem::path& input,
+                               const std::filesystem::path&, const VolumeCliOptions&,
+                               const CliContext&) {
+  checkVolumeFile(input);
+  return {};
 }
 
 #else
@@ -53,16 +66,20 @@ struct VdbContent {
   openvdb::MetaMap::Ptr metadata;
 };
 
-VdbContent readVdb(const std::filesystem::path& path) {
+// The grids and metadata of a VDB file; with `headerOnly`, nothing but the check that it is
+// one (the file is opened with delayed loading and no grid is read).
+VdbContent readVdb(const std::filesystem::path& path, bool headerOnly = false) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw IoError(path.string() + ": no such file");
   if (std::filesystem::is_directory(path, ec)) throw IoError(path.string() + ": is a directory");
   VdbContent content;
   try {
     openvdb::io::File file(path.string());
-    file.open(/*delayLoad=*/false);
-    content.grids = *file.getGrids();
-    content.metadata = file.getMetadata();
+    file.open(/*delayLoad=*/headerOnly);
+    if (!headerOnly) {
+      content.grids = *file.getGrids();
+      content.metadata = file.getMetadata();
+    }
     file.close();
   } catch (const openvdb::Exception& e) {
     throw IoError(path.string() + ": not a readable OpenVDB file (" + e.what() + ")");
@@ -122,9 +139,14 @@ void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
   writeVdbAtomically(path, {grid}, openvdb::MetaMap());
 }
 
-void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
-                      const std::filesystem::path& output, const VolumeCliOptions& options,
-                      const CliContext& context) {
+void checkVolumeFile(const std::filesystem::path& path) {
+  openvdb::initialize();
+  readVdb(path, /*headerOnly=*/true);
+}
+
+VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
+                               const std::filesystem::path& output, const VolumeCliOptions& options,
+                               const CliContext& context) {
   openvdb::initialize();
   const VdbContent content = readVdb(input);
 
@@ -147,11 +169,12 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
   volumeOptions.progress = context.progress();
 
   openvdb::GridCPtrVec warped;
+  VolumeSummary summary;
   for (const openvdb::GridBase::Ptr& grid : content.grids) {
     const std::string name = "'" + grid->getName() + "'";
     if (!isWarpableGrid(*grid)) {
-      std::cerr << "warning: " << input.string() << ": grid " << name << " of type " << grid->type()
-                << " is not supported and is left out\n";
+      context.warn(input.string() + ": grid " + name + " of type " + grid->type() +
+                   " is not supported and is left out");
       continue;
     }
     WarpedGrid<openvdb::GridBase> result;
@@ -162,15 +185,15 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
     }
     const WarpVolumeReport& r = result.report;
     if (r.inverseFailures > 0) {
-      std::cerr
-          << "warning: " << input.string() << ": grid " << name << ": the inverse warp "
-          << "did not converge at " << r.inverseFailures << " of " << r.solvedVoxels
-          << " voxels, which are left inactive (the warp folds space or is not invertible there)\n";
+      context.warn(input.string() + ": grid " + name + ": the inverse warp did not converge at " +
+                   std::to_string(r.inverseFailures) + " of " + std::to_string(r.solvedVoxels) +
+                   " voxels, which are left inactive (the warp folds space or is not invertible "
+                   "there)");
     }
     if (r.unmappedVoxels > 0) {
-      std::cerr << "warning: " << input.string() << ": grid " << name << ": " << r.unmappedVoxels
-                << " input voxels could not be mapped (the warp is not finite or singular "
-                   "there) and are missing from the output\n";
+      context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.unmappedVoxels) +
+                   " input voxels could not be mapped (the warp is not finite or singular there) "
+                   "and are missing from the output");
     }
     std::string line;
     if (grid->isType<openvdb::points::PointDataGrid>()) {
@@ -185,8 +208,75 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
     }
     context.say(line);
     warped.push_back(result.grid);
+    ++summary.grids;
+    summary.points += r.points;
+    summary.inverseFailures += r.inverseFailures;
+    if (!grid->isType<openvdb::points::PointDataGrid>())
+      summary.activeVoxels += r.outputActiveVoxels;
   }
   writeVdbAtomically(output, warped, *content.metadata);
+  return summary;
+}
+
+namespace {
+
+void printMetadata(const char* indent, const openvdb::MetaMap& meta) {
+  for (auto it = meta.beginMeta(); it != meta.endMeta(); ++it) {
+    // Shown on lines of their own.
+    if (it->first == openvdb::GridBase::META_GRID_NAME ||
+        it->first == openvdb::GridBase::META_GRID_CLASS)
+      continue;
+    std::printf("%s%s = %s (%s)\n", indent, it->first.c_str(), it->second->str().c_str(),
+                it->second->typeName().c_str());
+  }
+}
+
+const char* className(openvdb::GridClass c) {
+  switch (c) {
+    case openvdb::GRID_LEVEL_SET:
+      return "level set";
+    case openvdb::GRID_FOG_VOLUME:
+      return "fog volume";
+    case openvdb::GRID_STAGGERED:
+      return "staggered";
+    default:
+      return "unknown";
+  }
+}
+
+}  // namespace
+
+void printVolumeInfo(const std::filesystem::path& path) {
+  openvdb::initialize();
+  const VdbContent content = readVdb(path);
+  std::printf("file:       %s\n", path.string().c_str());
+  std::printf("grids:      %zu\n", content.grids.size());
+  printMetadata("metadata:   ", *content.metadata);
+  for (const openvdb::GridBase::Ptr& grid : content.grids) {
+    std::printf("grid '%s':\n", grid->getName().c_str());
+    std::printf("  class:          %s\n", className(grid->getGridClass()));
+    std::printf("  value type:     %s (%s)\n", grid->valueType().c_str(), grid->type().c_str());
+    const openvdb::Vec3d voxel = grid->voxelSize();
+    std::printf("  voxel size:     %.17g %.17g %.17g%s\n", voxel.x(), voxel.y(), voxel.z(),
+                grid->transform().isLinear() ? "" : " (at the origin; non-linear transform)");
+    std::printf("  active voxels:  %s\n", groupDigits(grid->activeVoxelCount()).c_str());
+    if (const auto points = openvdb::gridConstPtrCast<openvdb::points::PointDataGrid>(grid))
+      std::printf("  points:         %s\n",
+                  groupDigits(openvdb::points::pointCount(points->constTree())).c_str());
+    const openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+    if (!box.empty()) {
+      const openvdb::Coord lo = box.min(), hi = box.max();
+      std::printf("  active index box: [%d %d %d] .. [%d %d %d]\n", lo.x(), lo.y(), lo.z(), hi.x(),
+                  hi.y(), hi.z());
+      // World box of the active voxels' extents (voxel centres +- half a voxel).
+      const openvdb::BBoxd world =
+          grid->transform().indexToWorld(openvdb::BBoxd(lo.asVec3d() - 0.5, hi.asVec3d() + 0.5));
+      std::printf("  active world box: [%.17g %.17g %.17g] .. [%.17g %.17g %.17g]\n",
+                  world.min().x(), world.min().y(), world.min().z(), world.max().x(),
+                  world.max().y(), world.max().z());
+    }
+    printMetadata("  metadata:       ", *grid);
+  }
 }
 
 #endif

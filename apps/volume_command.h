@@ -33,15 +33,34 @@ void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
 /// True for paths the volume route handles (".vdb").
 bool isVolumePath(const std::filesystem::path& path);
 
+/// What deformVolumeFile did, for the command's summary line.
+struct VolumeSummary {
+  std::size_t grids = 0;            ///< grids written
+  std::size_t activeVoxels = 0;     ///< active voxels of the written scalar and vector grids
+  std::size_t points = 0;           ///< points moved in point data grids
+  std::size_t inverseFailures = 0;  ///< voxels left inactive because the inverse failed
+};
+
+/// Throws IoError naming `path` unless it is an existing OpenVDB file (only its header is
+/// read), InvalidInput if this build has no volume support: the checks `deform` makes before
+/// it builds a rig.
+void checkVolumeFile(const std::filesystem::path& path);
+
+/// Prints what `path` holds: the file's metadata, then for each grid its name, class (level
+/// set, fog volume, staggered, unknown), value type, voxel size, active voxel count, active
+/// bounding box (index and world space), point count (point data grids) and metadata.
+/// Throws as deformVolumeFile does for a missing or non-VDB file.
+void printVolumeInfo(const std::filesystem::path& path);
+
 /// Warps every supported grid of `input` (float, double and vec3s grids — level sets, fog
 /// volumes, fields — and point data grids) and writes them, with their names and metadata and
 /// the file's metadata, to `output` atomically (a temporary in the same folder, renamed).
-/// Grids of other types are left out with a warning on stderr. Throws IoError naming the file
-/// if it is missing or not a VDB file, InvalidInput naming it if it holds no supported grid or
+/// Grids of other types are left out with a warning (CliContext::warn). Throws IoError naming the
+/// file if it is missing or not a VDB file, InvalidInput naming it if it holds no supported grid or
 /// a grid cannot be warped (non-linear transform, non-cubic level set voxels); nothing is
-/// written then. Voxels whose preimage was not found are reported on stderr.
-void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
-                      const std::filesystem::path& output, const VolumeCliOptions& options,
-                      const CliContext& context);
+/// written then. Voxels whose preimage was not found are reported as warnings.
+VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
+                               const std::filesystem::path& output, const VolumeCliOptions& options,
+                               const CliContext& context);
 
 }  // namespace spacewarp::cli

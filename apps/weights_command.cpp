@@ -35,8 +35,9 @@ Command addWeightsCommand(CLI::App& app, const CliContext& context) {
   methodOption->needs(cageOption);
   cageOption->needs(methodOption);
   addCageMethodOptions(cmd, args->cageOptions);
-  cmd->callback([args] {
+  cmd->callback([args, cmd] {
     if (args->rig.empty() && args->method.empty()) throw CLI::RequiredError("--rig or --method");
+    checkCageMethodOptions(*cmd, args->method);
   });
   cmd->add_option("POINTS", args->points, "points (any supported file; faces ignored)")->required();
   cmd->add_option("-o,--output", args->output,

@@ -1,0 +1,192 @@
+#include "apps/rig_info.h"
+
+#include <cstdio>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/cli_context.h"
+#include "apps/rig.h"
+#include "core/errors.h"
+#include "core/io/mesh_io.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+using nlohmann::json;
+
+// A value as the rig gives it: strings bare, anything else as compact JSON.
+std::string text(const json& value) {
+  return value.is_string() ? value.get<std::string>() : value.dump();
+}
+
+// Reads the keys of one rig loosely, for display: what is missing or odd is shown, not judged.
+class Describer {
+ public:
+  Describer(const json& rig, std::filesystem::path baseDir, std::string where, std::string indent)
+      : rig_(rig),
+        baseDir_(std::move(baseDir)),
+        where_(std::move(where)),
+        indent_(std::move(indent)) {}
+
+  void print() const {
+    if (!rig_.is_object() || !rig_.contains("method") || !rig_["method"].is_string())
+      throw InvalidInput(where_ + ": a rig must be a JSON object with a string \"method\"");
+    const std::string method = rig_["method"].get<std::string>();
+    if (method == "twist" || method == "bend" || method == "taper") {
+      line("method", method);
+      line("origin", get("origin"));
+      line("axis", get("axis"));
+      if (method == "bend") line("direction", get("direction"));
+      line("rate", get("rate"));
+      line("limits", get("limits", "none"));
+      const std::string clamp = rig_.contains("limits") ? ", with s clamped to the limits" : "";
+      if (method == "twist")
+        line("does",
+             "rotates each point about the axis through origin by rate * s radians, s "
+             "its signed distance along the axis from origin" +
+                 clamp);
+      else if (method == "bend")
+        line("does",
+             "bends the spine through origin along the axis into a circular arc of "
+             "curvature rate (radians per unit) towards direction" +
+                 clamp);
+      else
+        line("does",
+             "scales the components perpendicular to the axis by 1 + rate * s, s the "
+             "signed distance along the axis from origin" +
+                 clamp);
+    } else if (method == "affine") {
+      line("method", "affine");
+      line("matrix", get("matrix"));
+      line("does", "applies the row-major 4 x 4 matrix to every point: x' = M [x, 1]");
+    } else if (method == "mvc" || method == "green" || method == "harmonic") {
+      cage(method);
+    } else if (method == "ffd") {
+      line("method", "ffd (" + get("basis") + " lattice)");
+      line("origin", get("origin"));
+      line("size", get("size"));
+      const std::string resolution = get("resolution");
+      std::string controls = "?";
+      if (rig_.contains("resolution") && rig_["resolution"].is_array()) {
+        std::size_t n = 1;
+        for (const json& v : rig_["resolution"])
+          n *= v.is_number_integer() && v.get<long long>() >= 1 && v.get<long long>() <= 1 << 20
+                   ? static_cast<std::size_t>(v.get<long long>())
+                   : 0;
+        if (n > 0) controls = groupDigits(n);
+      }
+      line("controls", resolution + " = " + controls + " control points");
+      if (rig_.contains("constraints"))
+        line("posed by", "least-squares fit to " + count(rig_["constraints"], "from") +
+                             " point constraints (smoothness " + get("smoothness", "1e-4") + ")");
+      else
+        line("posed by", count(rig_, "controlPoints") + " posed control points");
+      line("outside", get("outside", "identity"));
+      line("does",
+           "moves points inside the box by the lattice's displacement of its controls; "
+           "points outside follow 'outside'");
+    } else if (method == "rbf") {
+      line("method", "rbf (" + get("kernel", "triharmonic") + " kernel)");
+      line("centres", count(rig_, "centers") + ", moved to as many targets");
+      line("fixed", rig_.contains("fixed") ? count(rig_, "fixed") : "0");
+      line("smoothing", get("smoothing", "0 (interpolation)"));
+      line("does",
+           "fits a radial-basis warp (plus a linear part) that takes each centre to its "
+           "target and keeps the fixed points, then moves every point by it");
+    } else if (method == "graph") {
+      line("method", "graph (embedded deformation)");
+      line("handles", count(rig_, "handles") + ", moved to as many targets");
+      line("nodes", rig_.contains("nodes")
+                        ? count(rig_, "nodes") + " given"
+                        : "a grid of spacing " + get("spacing") + " over the handles' box");
+      line("k", get("k", "4"));
+      line("does",
+           "solves the graph's node transforms (Gauss-Newton) so that the handles reach "
+           "their targets, then moves each point by its k nearest nodes");
+    } else if (method == "mls") {
+      line("method", "mls (moving least squares, " + get("mode", "rigid") + ")");
+      line("handles", count(rig_, "handles") + ", moved to as many targets");
+      line("alpha", get("alpha", "1"));
+      line("does", "moves each point by its own best " + get("mode", "rigid") +
+                       " transform of the handles onto the targets, weighted by distance");
+    } else if (method == "compose") {
+      line("method", "compose");
+      if (!rig_.contains("warps") || !rig_["warps"].is_array())
+        throw InvalidInput(where_ + ": 'warps' must be a non-empty array");
+      const json& warps = rig_["warps"];
+      line("does", "applies the " + std::to_string(warps.size()) + " warps below in order");
+      for (std::size_t i = 0; i < warps.size(); ++i) {
+        std::printf("%swarps[%zu]:\n", indent_.c_str(), i);
+        Describer(warps[i], baseDir_, where_ + ": warps[" + std::to_string(i) + "]", indent_ + "  ")
+            .print();
+      }
+    } else {
+      std::string known;
+      for (const std::string& m : rigMethods()) known += (known.empty() ? "" : ", ") + m;
+      throw InvalidInput(where_ + ": 'method' '" + method + "' is not one of: " + known);
+    }
+  }
+
+ private:
+  void line(const std::string& label, const std::string& value) const {
+    std::printf("%s%-11s %s\n", indent_.c_str(), (label + ":").c_str(), value.c_str());
+  }
+
+  std::string get(const char* key, const std::string& fallback = "(missing)") const {
+    return rig_.contains(key) ? text(rig_[key]) : fallback;
+  }
+
+  static std::string count(const json& object, const char* key) {
+    if (!object.is_object() || !object.contains(key) || !object[key].is_array()) return "?";
+    return groupDigits(object[key].size());
+  }
+
+  // Cage rigs: the cage files are read (not solved) for their counts.
+  void cage(const std::string& method) const {
+    const char* what = method == "mvc"     ? "mean-value coordinates"
+                       : method == "green" ? "Green coordinates"
+                                           : "harmonic coordinates";
+    line("method", method + " (" + what + ")");
+    std::size_t vertices = 0;
+    for (const char* key : {"cage", "pose"}) {
+      if (!rig_.contains(key) || !rig_[key].is_string()) {
+        line(key, "(missing)");
+        continue;
+      }
+      const std::filesystem::path file = rig_[key].get<std::string>();
+      const PolygonSoup soup = readSoup(file.is_absolute() ? file : baseDir_ / file);
+      line(key, file.string() + " (" + groupDigits(soup.size()) + " vertices, " +
+                    groupDigits(soup.polygonCount()) + " faces)");
+      if (std::string(key) == "cage") vertices = soup.size();
+    }
+    std::string does = "moves every point with the cage: its " + std::string(what) +
+                       " relative to the rest cage's " + groupDigits(vertices) +
+                       " vertices, applied to the posed vertices";
+    if (method == "green") does += " (and the faces' normals: shape-preserving)";
+    if (method == "harmonic") {
+      line("tets", get("tets", "200000 (default)"));
+      line("cache", get("cache", "none"));
+      line("outside", get("outside", "raise"));
+      does +=
+          "; the coordinates are first solved on a tetrahedralisation of the cage, unless "
+          "the cache file matches";
+    }
+    line("does", does);
+  }
+
+  const json& rig_;
+  std::filesystem::path baseDir_;
+  std::string where_, indent_;
+};
+
+}  // namespace
+
+void printRigInfo(const std::filesystem::path& path) {
+  const json rig = readRigFile(path);
+  std::printf("file:       %s\n", path.string().c_str());
+  Describer(rig, path.parent_path(), path.string(), "").print();
+}
+
+}  // namespace spacewarp::cli
