@@ -16,12 +16,14 @@ namespace {
 
 std::string str(std::size_t i) { return std::to_string(i); }
 
-// Newell's normal of a polygon (area-weighted, robust for non-planar and concave polygons).
+// Newell's normal of a polygon (area-weighted, robust for non-planar and concave polygons),
+// relative to its first corner: the sums a + b would otherwise carry the round-off of the
+// absolute coordinates far from the origin.
 Vec3 newellNormal(std::span<const Vec3> p) {
   Vec3 n(0.0);
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const Vec3& a = p[i];
-    const Vec3& b = p[(i + 1) % p.size()];
+    const Vec3 a = p[i] - p[0];
+    const Vec3 b = p[(i + 1) % p.size()] - p[0];
     n += Vec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
   }
   return n;
@@ -108,6 +110,19 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
   inputIndices_ = soup.faceIndices;
   const BoundingBox box = boundingBox(vertices_);
   diagonal_ = box.diagonal();
+  // The centre is the box's, rounded to a multiple of the (power-of-two) scale: then the
+  // frame of a cage around the origin is an exact power-of-two scaling (its TetGen mesh is the
+  // one of the world coordinates, scaled), while local coordinates stay within ~1 of zero.
+  frame_.scale = std::exp2(std::ceil(std::log2(diagonal_)));
+  frame_.centre = frame_.scale * glm::round(0.5 * (box.min + box.max) / frame_.scale);
+  // 6 × the signed volume of the cone from the box centre over triangle t. About the centre,
+  // not the origin: far from the origin the products of absolute coordinates cancel
+  // catastrophically (a unit box at 1e8 got a volume wrong by orders of magnitude).
+  auto coneVolume = [&](const Triangle& t) {
+    const Vec3 a = vertices_[t.x] - frame_.centre, b = vertices_[t.y] - frame_.centre,
+               c = vertices_[t.z] - frame_.centre;
+    return glm::dot(a, glm::cross(b, c));
+  };
 
   // Triangulate, recording each triangle's source polygon.
   const double minArea = 1e-12 * diagonal_ * diagonal_;
@@ -186,8 +201,7 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
     // Outward: the component's signed volume (after the consistent flips) must be positive.
     double signedVolume = 0.0;
     for (std::uint32_t t : component) {
-      const Triangle& tri = triangles_[t];
-      const double v = glm::dot(vertices_[tri.x], glm::cross(vertices_[tri.y], vertices_[tri.z]));
+      const double v = coneVolume(triangles_[t]);
       signedVolume += flip[t] ? -v : v;
     }
     if (signedVolume < 0.0)
@@ -199,8 +213,7 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
       ++reorientedCount_;
     }
   }
-  for (const Triangle& t : triangles_)
-    volume_ += glm::dot(vertices_[t.x], glm::cross(vertices_[t.y], vertices_[t.z])) / 6.0;
+  for (const Triangle& t : triangles_) volume_ += coneVolume(t) / 6.0;
   if (!(volume_ > 0.0)) fail("the cage encloses no volume");
 }
 

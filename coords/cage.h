@@ -16,6 +16,21 @@ namespace spacewarp {
 
 using Triangle = glm::u32vec3;  ///< Three vertex indices.
 
+/// A cage-relative frame: local = (world − centre) / scale. Computations whose round-off would
+/// otherwise grow with the distance from the world origin (meshing, assembling, locating) run
+/// in it, so their accuracy depends only on the cage's shape, not on where it is or how big.
+struct CageFrame {
+  /// The centre of the cage's bounding box rounded to a multiple of `scale`, world units (0 for
+  /// a cage around the origin, whose frame is then an exact scaling).
+  Vec3 centre{0.0};
+  /// The power of two at or above the bounding-box diagonal (a power of two makes the scaling
+  /// exact), world units.
+  double scale = 1.0;
+
+  Vec3 toLocal(const Vec3& world) const { return (world - centre) / scale; }
+  Vec3 toWorld(const Vec3& local) const { return local * scale + centre; }
+};
+
 /// A validated cage. Polygons are triangulated (a fan for convex faces, ear clipping
 /// otherwise); triangleSource() records which input polygon every triangle came from, so
 /// results are reproducible. Triangles are oriented consistently with outward normals.
@@ -51,6 +66,9 @@ class Cage {
   /// The enclosed volume (positive: triangles face outward).
   double volume() const { return volume_; }
 
+  /// The cage-relative frame (bounding-box centre, power-of-two scale).
+  const CageFrame& frame() const { return frame_; }
+
   /// Unit outward normal and area of triangle t.
   Vec3 normal(std::size_t t) const;
   double area(std::size_t t) const;
@@ -78,6 +96,7 @@ class Cage {
   std::size_t reorientedCount_ = 0;
   double diagonal_ = 0.0;
   double volume_ = 0.0;
+  CageFrame frame_;
 };
 
 }  // namespace spacewarp

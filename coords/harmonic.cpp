@@ -13,6 +13,12 @@
 // the k right-hand sides are solved in fixed blocks of kBlock columns, each a multi-column
 // (BLAS-3) solve that the BLAS runs in parallel. Nothing depends on the TBB thread count.
 //
+// Everything runs in the cage's frame (TetMesh::localVertices, Cage::frame()): TetGen, the
+// assembly and point location. In world units a cage far from the origin (a unit box at 1e8)
+// loses most of its digits to the offset in every p1 − p0 and x − p0, and its weights went wrong
+// by up to 0.3. The coordinates are invariant under the frame's similarity, so nothing maps back
+// except the gradients (divided by the frame's scale) and the mesh's world vertices.
+//
 // Assembly runs over the tets in order (serially: it costs a few percent of the solve), so
 // the matrix and right-hand sides are bit-identical from run to run.
 
@@ -58,7 +64,9 @@ constexpr std::size_t kPointsPerTask = 256;
 constexpr double kMeanVolumeFraction = 0.43;
 
 constexpr char kMagic[8] = {'S', 'W', 'H', 'A', 'R', 'M', 'C', '\0'};
-constexpr std::uint32_t kVersion = 1;
+// Version 2: the mesh vertices are stored in the cage's frame (version 1 stored them in world
+// units and is still read).
+constexpr std::uint32_t kVersion = 2;
 constexpr std::size_t kHeaderSize = 72;
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
@@ -206,7 +214,7 @@ struct HarmonicCoordinates::Impl {
 };
 
 void HarmonicCoordinates::Impl::rowAt(const Vec3& x, std::span<double> row, bool& outside) const {
-  const TetLocator::Hit hit = locator->locate(x);
+  const TetLocator::Hit hit = locator->locate(mesh.frame.toLocal(x));
   const std::size_t n = k();
   if (!hit.found) {
     outside = true;
@@ -225,8 +233,9 @@ void HarmonicCoordinates::Impl::rowAt(const Vec3& x, std::span<double> row, bool
   for (std::size_t c = 0; c < n; ++c) r[c] = b0 * u0[c] + b1 * u1[c] + b2 * u2[c] + b3 * u3[c];
 }
 
-void HarmonicCoordinates::Impl::nearestRow(const Vec3& x, std::span<double> row) const {
-  const auto vertices = cage->vertices();
+void HarmonicCoordinates::Impl::nearestRow(const Vec3& world, std::span<double> row) const {
+  const std::span<const Vec3> vertices(mesh.localVertices.data(), k());  // the cage's, local
+  const Vec3 x = mesh.frame.toLocal(world);
   const auto triangles = cage->triangles();
   double bestDist = std::numeric_limits<double>::infinity();
   std::size_t best = 0;
@@ -279,8 +288,8 @@ std::size_t boundaryValues(const Cage& cage, const TetMesh& mesh, std::size_t v,
     return 1;
   }
   const Triangle& tri = cage.triangles()[static_cast<std::size_t>(mesh.boundaryTriangle[v])];
-  const auto w = faceBarycentric(cage.vertices()[tri.x], cage.vertices()[tri.y],
-                                 cage.vertices()[tri.z], mesh.vertices[v]);
+  const std::vector<Vec3>& p = mesh.localVertices;
+  const auto w = faceBarycentric(p[tri.x], p[tri.y], p[tri.z], p[v]);
   out[0] = {tri.x, w[0]};
   out[1] = {tri.y, w[1]};
   out[2] = {tri.z, w[2]};
@@ -311,10 +320,9 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   std::vector<Eigen::Triplet<double, int>> triplets;
   triplets.reserve(mesh.tets.size() * 10);
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(nI, static_cast<Eigen::Index>(k));
+  const std::vector<Vec3>& p = mesh.localVertices;
   for (const auto& tet : mesh.tets) {
-    const Vec3 p0 = mesh.vertices[tet[0]];
-    const Mat3 d(mesh.vertices[tet[1]] - p0, mesh.vertices[tet[2]] - p0,
-                 mesh.vertices[tet[3]] - p0);
+    const Mat3 d(p[tet[1]] - p[tet[0]], p[tet[2]] - p[tet[0]], p[tet[3]] - p[tet[0]]);
     const double det = glm::determinant(d);
     if (!(det > 0.0)) continue;  // a flat tet adds nothing
     const Mat3 inv = glm::inverse(d);
@@ -382,7 +390,8 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
           for (std::size_t v = r.begin(); v != r.end(); ++v) {
             const std::span<double> row(values.data() + v * k, k);
             if (*std::min_element(row.begin(), row.end()) < 0.0)
-              projectNonNegative(row, cage.vertices(), mesh.vertices[v], cage.diagonal());
+              projectNonNegative(row, std::span(mesh.localVertices.data(), k),
+                                 mesh.localVertices[v], cage.diagonal() / mesh.frame.scale);
           }
         });
   }
@@ -390,10 +399,19 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   return values;
 }
 
+// The point locator, in the cage's frame. Its slack is the round-off of a query point's world
+// coordinates (a few ulps of the largest), in frame units: points on the cage surface far from
+// the origin are on it only to that precision, which can exceed the relative tolerance.
+std::unique_ptr<TetLocator> makeLocator(const TetMesh& mesh) {
+  const double reach = maxAbs(mesh.frame.centre) + mesh.frame.scale;
+  const double slack = 16.0 * std::numeric_limits<double>::epsilon() * reach / mesh.frame.scale;
+  return std::make_unique<TetLocator>(mesh.localVertices, mesh.tets, 1e-10, slack);
+}
+
 }  // namespace
 
 HarmonicCoordinates::HarmonicCoordinates(FromImpl, std::unique_ptr<Impl> impl) {
-  impl->locator = std::make_unique<TetLocator>(impl->mesh.vertices, impl->mesh.tets);
+  impl->locator = makeLocator(impl->mesh);
   impl_ = std::move(impl);
 }
 
@@ -409,7 +427,7 @@ HarmonicCoordinates::HarmonicCoordinates(std::shared_ptr<const Cage> cage,
   impl->mesh =
       tetrahedraliseCage(*impl->cage, {options.radiusEdgeRatio, impl->volumeBound}, progress);
   impl->values = solveValues(*impl->cage, impl->mesh, options.nonNegative, progress);
-  impl->locator = std::make_unique<TetLocator>(impl->mesh.vertices, impl->mesh.tets);
+  impl->locator = makeLocator(impl->mesh);
   impl_ = std::move(impl);
 }
 
@@ -427,7 +445,7 @@ double HarmonicCoordinates::meshVolumeBound() const { return impl_->volumeBound;
 
 HarmonicCoordinates::Location HarmonicCoordinates::locate(const Vec3& x) const {
   if (!isFinite(x)) throw InvalidInput("HarmonicCoordinates: the query point is not finite");
-  const TetLocator::Hit hit = impl_->locator->locate(x);
+  const TetLocator::Hit hit = impl_->locator->locate(impl_->mesh.frame.toLocal(x));
   return {hit.found, hit.tet, hit.barycentric};
 }
 
@@ -479,9 +497,10 @@ bool HarmonicCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) co
   if (!isFinite(x)) throw InvalidInput("HarmonicCoordinates: the query point is not finite");
   if (out.size() != columnCount())
     throw InvalidInput("HarmonicCoordinates: the gradient output has the wrong size");
-  const TetLocator::Hit hit = impl_->locator->locate(x);
+  const TetLocator::Hit hit = impl_->locator->locate(impl_->mesh.frame.toLocal(x));
   if (!hit.found) return false;
-  const auto g = impl_->locator->barycentricGradients(hit.tet);
+  auto g = impl_->locator->barycentricGradients(hit.tet);  // per frame unit
+  for (Vec3& gradient : g) gradient /= impl_->mesh.frame.scale;
   const auto& tet = impl_->mesh.tets[hit.tet];
   const std::size_t n = impl_->k();
   for (std::size_t c = 0; c < n; ++c) {
@@ -547,9 +566,9 @@ HarmonicCoordinates::FileInfo parseHeader(const std::vector<char>& data,
     throw IoError(where + "not a harmonic coordinate file (bad magic)");
   HarmonicCoordinates::FileInfo info;
   info.version = get<std::uint32_t>(data, 8);
-  if (info.version != kVersion) {
+  if (info.version != 1 && info.version != kVersion) {
     throw IoError(where + "unsupported harmonic coordinate file version " +
-                  std::to_string(info.version) + " (this build reads version " +
+                  std::to_string(info.version) + " (this build reads versions 1 and " +
                   std::to_string(kVersion) + ")");
   }
   info.cageVertexCount = get<std::uint64_t>(data, 16);
@@ -589,7 +608,7 @@ void HarmonicCoordinates::save(const std::filesystem::path& path) const {
   w.put(static_cast<std::uint64_t>(im.mesh.tets.size()));
   w.put(im.options.radiusEdgeRatio);
   w.put(im.volumeBound);
-  for (const Vec3& p : im.mesh.vertices) {
+  for (const Vec3& p : im.mesh.localVertices) {
     w.put(p.x);
     w.put(p.y);
     w.put(p.z);
@@ -652,8 +671,11 @@ std::shared_ptr<const HarmonicCoordinates> HarmonicCoordinates::load(
   impl->volumeBound = info.maxTetVolume;
   std::size_t offset = kHeaderSize;
   TetMesh& mesh = impl->mesh;
-  mesh.vertices.resize(n);
-  for (Vec3& p : mesh.vertices) {
+  mesh.frame = cage->frame();
+  // Version 2 stores the vertices in the cage's frame, version 1 in world units.
+  std::vector<Vec3>& stored = info.version == 1 ? mesh.vertices : mesh.localVertices;
+  stored.resize(n);
+  for (Vec3& p : stored) {
     p = Vec3(get<double>(data, offset), get<double>(data, offset + 8),
              get<double>(data, offset + 16));
     offset += 24;
@@ -661,10 +683,18 @@ std::shared_ptr<const HarmonicCoordinates> HarmonicCoordinates::load(
       throw IoError(where + "corrupt harmonic coordinate file: a vertex is not finite");
   }
   for (std::size_t i = 0; i < k; ++i) {
-    if (mesh.vertices[i] != cage->vertices()[i]) {
+    if (info.version == 1 ? stored[i] != cage->vertices()[i]
+                          : stored[i] != mesh.frame.toLocal(cage->vertices()[i])) {
       throw IoError(where + "corrupt harmonic coordinate file: mesh vertex " + std::to_string(i) +
                     " is not cage vertex " + std::to_string(i));
     }
+  }
+  if (info.version == 1) {
+    mesh.localVertices.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      mesh.localVertices[i] = mesh.frame.toLocal(mesh.vertices[i]);
+  } else {
+    mesh.vertices = worldVertices(*cage, mesh.frame, mesh.localVertices);
   }
   mesh.tets.resize(m);
   for (auto& tet : mesh.tets) {

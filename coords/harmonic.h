@@ -108,7 +108,7 @@ class HarmonicCoordinates final : public Coordinates {
   HarmonicCoordinates& operator=(const HarmonicCoordinates&) = delete;
 
   /// Writes the mesh and the solved values atomically (a failure leaves no partial file; throws
-  /// IoError naming the file). The format, version 1, all little-endian:
+  /// IoError naming the file). The format, version 2, all little-endian:
   ///
   ///     offset  size  content
   ///     0       8     magic "SWHARMC\0"
@@ -121,11 +121,14 @@ class HarmonicCoordinates final : public Coordinates {
   ///     48      8     u64 tet count m
   ///     56      8     f64 radius-edge bound the mesh was made with
   ///     64      8     f64 absolute tet volume bound the mesh was made with (world units³)
-  ///     72      24n   mesh vertices, f64 x, y, z each
+  ///     72      24n   mesh vertices in the cage's frame (TetMesh::localVertices), f64 x, y, z
+  ///                   each
   ///     ...     16m   tets, 4 × u32 corners each
   ///     ...     4n    per mesh vertex: i32 cage triangle it lies on, or −1 (interior)
   ///     ...     8nk   the coordinate values, f64, row-major (n rows of k)
   ///     end−8   8     u64 checksum: FNV-1a (64-bit) of every byte before it
+  ///
+  /// Version 1 is the same with the mesh vertices in world units; load() reads both.
   void save(const std::filesystem::path& path) const;
 
   /// A hash (FNV-1a, 64-bit) of a cage's vertex coordinates (bit patterns) and triangle indices:

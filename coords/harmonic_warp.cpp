@@ -109,13 +109,14 @@ Mat3 HarmonicWarp::jacobian(const Vec3& x) const {
       throw InvalidInput("HarmonicWarp: 1 point is outside the cage");
     return Warp::jacobian(x);
   }
+  // In the cage's frame (accurate wherever the cage is), then per world unit.
   const TetMesh& mesh = coordinates_->mesh();
   const auto& tet = mesh.tets[at.tet];
-  const Vec3 p0 = mesh.vertices[tet[0]];
-  const Mat3 inv = glm::inverse(
-      Mat3(mesh.vertices[tet[1]] - p0, mesh.vertices[tet[2]] - p0, mesh.vertices[tet[3]] - p0));
+  const std::vector<Vec3>& p = mesh.localVertices;
+  const Mat3 inv =
+      glm::inverse(Mat3(p[tet[1]] - p[tet[0]], p[tet[2]] - p[tet[0]], p[tet[3]] - p[tet[0]]));
   Vec3 g[4];
-  for (int i = 0; i < 3; ++i) g[i + 1] = Vec3(inv[0][i], inv[1][i], inv[2][i]);
+  for (int i = 0; i < 3; ++i) g[i + 1] = Vec3(inv[0][i], inv[1][i], inv[2][i]) / mesh.frame.scale;
   g[0] = -(g[1] + g[2] + g[3]);
   Mat3 j(1.0);
   for (int a = 0; a < 4; ++a)

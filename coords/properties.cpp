@@ -36,17 +36,23 @@ PropertyReport measureSamples(const Coordinates& coordinates, std::span<const Ve
   std::vector<Vec3> restColumns(m);
   coordinates.columnControls(controls, restColumns);
 
-  // The similarity-posed controls and their column controls, as displacements.
+  // Every sum below is taken relative to the centre of the controls: in absolute coordinates
+  // far from the origin (a cage at 1e8) the measurement's own round-off would swamp the
+  // coordinates' errors. The vertex columns are positions (shifted), any others (Green's face
+  // normals) directions.
   const BoundingBox box = boundingBox(controls);
   const Vec3 centre = 0.5 * (box.min + box.max);
-  Mat4 similarity = glm::translate(Mat4(1.0), centre + options.similarityTranslation * diagonal);
-  similarity =
-      glm::rotate(similarity, options.similarityAngle, glm::normalize(options.similarityAxis));
-  similarity = glm::scale(similarity, Vec3(options.similarityScale));
-  similarity = glm::translate(similarity, -centre);
-  auto applySimilarity = [&](const Vec3& x) { return Vec3(similarity * glm::dvec4(x, 1.0)); };
+  const Mat3 linear = Mat3(glm::rotate(Mat4(1.0), options.similarityAngle,
+                                       glm::normalize(options.similarityAxis))) *
+                      options.similarityScale;
+  const Vec3 translation = options.similarityTranslation * diagonal;
+  // S(x) − x, the similarity's displacement (about the centre).
+  auto similarityDisplacement = [&](const Vec3& x) {
+    const Vec3 d = x - centre;
+    return translation + linear * d - d;
+  };
   std::vector<Vec3> posed(nv), displacement(m);
-  for (std::size_t i = 0; i < nv; ++i) posed[i] = applySimilarity(controls[i]);
+  for (std::size_t i = 0; i < nv; ++i) posed[i] = controls[i] + similarityDisplacement(controls[i]);
   coordinates.columnControls(posed, displacement);
   for (std::size_t c = 0; c < m; ++c) displacement[c] -= restColumns[c];
 
@@ -68,16 +74,17 @@ PropertyReport measureSamples(const Coordinates& coordinates, std::span<const Ve
       }
     }
     samplesNegative += anyNegative;
-    Vec3 reproduced(0.0), moved(samples[s]);
+    Vec3 reproduced(0.0), moved(0.0);
     for (std::size_t c = 0; c < m; ++c) {
-      reproduced += w[c] * restColumns[c];
+      reproduced += w[c] * (c < nv ? restColumns[c] - centre : restColumns[c]);
       moved += w[c] * displacement[c];
     }
     report.partitionOfUnity = std::max(report.partitionOfUnity, std::abs(sum - 1.0));
-    report.linearReproduction =
-        std::max(report.linearReproduction, glm::length(reproduced - samples[s]) / diagonal);
-    report.similarityReproduction = std::max(
-        report.similarityReproduction, glm::length(moved - applySimilarity(samples[s])) / diagonal);
+    report.linearReproduction = std::max(
+        report.linearReproduction, glm::length(reproduced - (samples[s] - centre)) / diagonal);
+    report.similarityReproduction =
+        std::max(report.similarityReproduction,
+                 glm::length(moved - similarityDisplacement(samples[s])) / diagonal);
   }
   report.negativeFraction =
       static_cast<double>(negative) / static_cast<double>(samples.size() * nv);
@@ -127,8 +134,10 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
       if (a + b > 1.0) a = 1.0 - a, b = 1.0 - b;
       const Vec3 bc(1.0 - a - b, a, b);
       barycentric.push_back(bc);
-      onFaces.push_back(bc.x * cage.vertices()[t.x] + bc.y * cage.vertices()[t.y] +
-                        bc.z * cage.vertices()[t.z]);
+      // Relative to corner x, so that the point is on the face up to the round-off of the
+      // cage's size, not of its distance from the origin.
+      const Vec3 p = cage.vertices()[t.x];
+      onFaces.push_back(p + bc.y * (cage.vertices()[t.y] - p) + bc.z * (cage.vertices()[t.z] - p));
     }
   }
   const std::vector<double> atFaces = weightRows(coordinates, onFaces);

@@ -31,8 +31,11 @@ struct PropertyOptions {
 /// columns of Green coordinates count for linear and similarity reproduction.
 struct PropertyReport {
   std::size_t sampleCount = 0;
-  double partitionOfUnity = 0.0;     ///< max |Σ_i w_i(x) − 1|
-  double linearReproduction = 0.0;   ///< max |Σ_c w_c(x) C_c(rest) − x| / diagonal
+  double partitionOfUnity = 0.0;  ///< max |Σ_i w_i(x) − 1|
+  /// max |Σ_c w_c(x) (C_c(rest) − o) − (x − o)| / diagonal, o the centre of the controls'
+  /// bounding box (vertex columns are shifted by o, Green's face columns are not): the same as
+  /// |Σ_c w_c C_c − x| when the weights sum to 1, and independent of where the world origin is.
+  double linearReproduction = 0.0;
   double minWeight = 0.0;            ///< smallest vertex weight at any sample
   double negativeFraction = 0.0;     ///< fraction of (sample, vertex) weights below zero
   double samplesWithNegative = 0.0;  ///< fraction of samples with at least one negative weight

@@ -20,8 +20,9 @@ constexpr double kCellsPerTet = 2.0;
 }  // namespace
 
 TetLocator::TetLocator(std::span<const Vec3> vertices,
-                       std::span<const std::array<std::uint32_t, 4>> tets, double tolerance)
-    : tolerance_(tolerance) {
+                       std::span<const std::array<std::uint32_t, 4>> tets, double tolerance,
+                       double slack)
+    : tolerance_(tolerance), slack_(slack) {
   if (tets.empty()) throw InvalidInput("TetLocator: the mesh has no tets");
   if (tets.size() >= std::numeric_limits<std::uint32_t>::max())
     throw InvalidInput("TetLocator: too many tets");
@@ -137,7 +138,14 @@ TetLocator::Hit TetLocator::locate(const Vec3& x) const {
       if (m >= 0.0) break;
     }
   }
-  if (!(bestMin >= -tolerance_)) return hit;
+  double allowed = tolerance_;
+  if (bestMin < -tolerance_ && slack_ > 0.0) {
+    // The slack as a barycentric distance: times the gradient of the most negative coordinate.
+    const auto corner =
+        static_cast<std::size_t>(std::min_element(best.begin(), best.end()) - best.begin());
+    allowed += slack_ * glm::length(barycentricGradients(bestTet)[corner]);
+  }
+  if (!(bestMin >= -allowed)) return hit;
   hit.found = true;
   hit.tet = bestTet;
   if (bestMin < 0.0) {

@@ -23,20 +23,24 @@ class TetLocator {
     std::array<double, 4> barycentric{};
   };
 
-  /// `vertices` (world units) and positively oriented `tets` are copied where needed; a tet of
-  /// zero volume is never found. `tolerance` is how far (in barycentric units, relative to the
-  /// tet's size) a point may lie outside its nearest tet and still be found in it, with its
-  /// barycentric coordinates clamped to ≥ 0 and renormalised: it catches points on the mesh
-  /// boundary up to round-off.
+  /// `vertices` (any length unit; HarmonicCoordinates passes its cage's frame so that the
+  /// round-off does not depend on where the mesh is) and positively oriented `tets` are copied
+  /// where needed; a tet of zero volume is never found. `tolerance` is how far (in barycentric
+  /// units, relative to the tet's size) a point may lie outside its nearest tet and still be found
+  /// in it, with its barycentric coordinates clamped to ≥ 0 and renormalised: it catches points on
+  /// the mesh boundary up to round-off. `slack` (in the vertices' unit, ≥ 0) widens that by an
+  /// absolute distance: the round-off of the query points themselves, which for points given in
+  /// world units far from the origin can exceed the relative tolerance.
   TetLocator(std::span<const Vec3> vertices, std::span<const std::array<std::uint32_t, 4>> tets,
-             double tolerance = 1e-10);
+             double tolerance = 1e-10, double slack = 0.0);
 
   /// The tet that contains x: the first tet of x's grid cell (in tet order) whose barycentric
   /// coordinates of x are all ≥ 0, failing that the cell's tet where the smallest one is
-  /// largest if it is ≥ −tolerance.
+  /// largest if it is ≥ −tolerance − slack · |∇ of that coordinate|.
   Hit locate(const Vec3& x) const;
 
-  /// The gradients of the four barycentric coordinate functions of tet t (world units⁻¹).
+  /// The gradients of the four barycentric coordinate functions of tet t (per unit of the
+  /// vertices).
   std::array<Vec3, 4> barycentricGradients(std::uint32_t t) const;
 
   std::size_t cellCount() const { return cellStart_.size() - 1; }
@@ -47,7 +51,7 @@ class TetLocator {
   std::size_t cellOf(const Vec3& x) const;
   std::array<std::size_t, 3> cellCoords(const Vec3& x) const;
 
-  double tolerance_;
+  double tolerance_, slack_;
   Vec3 lo_{0.0}, inverseCell_{0.0};
   std::array<std::size_t, 3> dims_{1, 1, 1};
   std::vector<std::uint32_t> cellStart_;  // CSR over cells

@@ -41,13 +41,14 @@ std::string reasonOf(int code) {
   }
 }
 
-// The cage as a TetGen PLC: its vertices, one facet per triangle, with marker triangle + 1.
+// The cage as a TetGen PLC: its vertices in the cage frame, one facet per triangle, with
+// marker triangle + 1.
 void fillInput(const Cage& cage, tetgenio& in) {
   in.firstnumber = 0;
   in.numberofpoints = static_cast<int>(cage.vertexCount());
   in.pointlist = new REAL[3 * cage.vertexCount()];
   for (std::size_t i = 0; i < cage.vertexCount(); ++i) {
-    const Vec3& p = cage.vertices()[i];
+    const Vec3 p = cage.frame().toLocal(cage.vertices()[i]);
     in.pointlist[3 * i] = p.x;
     in.pointlist[3 * i + 1] = p.y;
     in.pointlist[3 * i + 2] = p.z;
@@ -98,6 +99,14 @@ std::string number(double value) {
 
 }  // namespace
 
+std::vector<Vec3> worldVertices(const Cage& cage, const CageFrame& frame,
+                                std::span<const Vec3> localVertices) {
+  std::vector<Vec3> world(localVertices.size());
+  for (std::size_t i = 0; i < world.size(); ++i)
+    world[i] = i < cage.vertexCount() ? cage.vertices()[i] : frame.toWorld(localVertices[i]);
+  return world;
+}
+
 TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
                            const ProgressCallback& progress) {
   if (!(std::isfinite(options.radiusEdgeRatio) && options.radiusEdgeRatio >= 1.0)) {
@@ -137,7 +146,9 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
   tetgenio in, out;
   fillInput(cage, in);
   std::string switches = "pzQq" + number(options.radiusEdgeRatio);
-  if (options.maxTetVolume > 0.0) switches += "a" + number(options.maxTetVolume);
+  const CageFrame& frame = cage.frame();
+  if (options.maxTetVolume > 0.0)
+    switches += "a" + number(options.maxTetVolume / (frame.scale * frame.scale * frame.scale));
   run(switches, in, out);
   tracker.check();
 
@@ -149,17 +160,19 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
                        std::to_string(nTet) + " tets, " + std::to_string(nP) + " vertices)");
   }
   TetMesh mesh;
-  mesh.vertices.resize(nP);
+  mesh.frame = frame;
+  mesh.localVertices.resize(nP);
   for (std::size_t i = 0; i < nP; ++i) {
-    mesh.vertices[i] =
+    mesh.localVertices[i] =
         Vec3(out.pointlist[3 * i], out.pointlist[3 * i + 1], out.pointlist[3 * i + 2]);
   }
   for (std::size_t i = 0; i < nV; ++i) {
-    if (mesh.vertices[i] != cage.vertices()[i]) {
+    if (mesh.localVertices[i] != frame.toLocal(cage.vertices()[i])) {
       throw InvalidInput("tetrahedralising the cage: TetGen merged or moved cage vertex " +
                          std::to_string(i) + " (is it a duplicate of another vertex?)");
     }
   }
+  mesh.vertices = worldVertices(cage, frame, mesh.localVertices);
   mesh.tets.resize(nTet);
   for (std::size_t t = 0; t < nTet; ++t) {
     std::array<std::uint32_t, 4> tet;
@@ -169,9 +182,9 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
         throw SolverError("tetrahedralising the cage: TetGen returned a corner out of range");
       tet[static_cast<std::size_t>(c)] = static_cast<std::uint32_t>(v);
     }
-    const Vec3 p0 = mesh.vertices[tet[0]];
-    const double det = glm::dot(mesh.vertices[tet[1]] - p0,
-                                glm::cross(mesh.vertices[tet[2]] - p0, mesh.vertices[tet[3]] - p0));
+    const std::vector<Vec3>& p = mesh.localVertices;
+    const double det =
+        glm::dot(p[tet[1]] - p[tet[0]], glm::cross(p[tet[2]] - p[tet[0]], p[tet[3]] - p[tet[0]]));
     if (det < 0.0) std::swap(tet[2], tet[3]);
     mesh.tets[t] = tet;
   }

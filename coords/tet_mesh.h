@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "coords/cage.h"
@@ -18,7 +19,8 @@ struct TetMeshOptions {
   /// Upper bound on every tet's circumradius / shortest edge (TetGen's -q). TetGen's default;
   /// bounds below ~1.1 may not terminate. Must be finite and ≥ 1.
   double radiusEdgeRatio = 2.0;
-  /// Upper bound on every tet's volume in world units³ (TetGen's -a); 0 means none (the mesh is
+  /// Upper bound on every tet's volume in world units³ (TetGen's -a, given to it in the cage
+  /// frame's units); 0 means none (the mesh is
   /// then only as fine as the quality bound needs). Must be finite and ≥ 0. Refinement under
   /// this bound gives tets whose mean volume is about 0.4 of it.
   double maxTetVolume = 0.0;
@@ -26,11 +28,20 @@ struct TetMeshOptions {
 
 /// A conforming tetrahedralisation of a cage's interior. Every cage triangle is a union of
 /// boundary faces of the mesh; TetGen may add (Steiner) vertices on cage edges and triangles.
+/// The mesh is made in the cage's frame (Cage::frame()), so that its geometry has the same
+/// relative accuracy wherever the cage is and whatever its size; computations on it (assembly,
+/// point location) use localVertices.
 struct TetMesh {
-  /// All mesh vertices (world units). The first cage.vertexCount() are the cage vertices, in
-  /// the cage's order and bit-identical to them.
+  /// The cage's frame, in which localVertices are.
+  CageFrame frame;
+  /// All mesh vertices in the frame's units, as TetGen made them. The first cage.vertexCount()
+  /// are frame.toLocal() of the cage vertices, in the cage's order and bit-identical to it.
+  std::vector<Vec3> localVertices;
+  /// The same vertices in world units (frame.toWorld(localVertices), except that the first
+  /// cage.vertexCount() are the cage vertices, bit-identical).
   std::vector<Vec3> vertices;
-  /// Corner indices of every tet, positively oriented (det(p1 − p0, p2 − p0, p3 − p0) > 0).
+  /// Corner indices of every tet, positively oriented (det(p1 − p0, p2 − p0, p3 − p0) > 0 in
+  /// localVertices).
   std::vector<std::array<std::uint32_t, 4>> tets;
   /// Per vertex: the cage triangle it lies on (the lowest index when it is on several), or −1
   /// for an interior vertex. Cage vertices lie on their triangles too.
@@ -46,5 +57,10 @@ struct TetMesh {
 /// internally or runs out of memory.
 TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options = {},
                            const ProgressCallback& progress = {});
+
+/// The world positions of mesh vertices given in `frame` (the cage's): the cage vertices for
+/// the first cage.vertexCount(), bit-identical, frame.toWorld() of the others.
+std::vector<Vec3> worldVertices(const Cage& cage, const CageFrame& frame,
+                                std::span<const Vec3> localVertices);
 
 }  // namespace spacewarp

@@ -494,7 +494,7 @@ TEST_F(HarmonicFiles, RoundTripIsBitIdentical) {
   loaded->save(file_);
   EXPECT_EQ(bytes(), first);
   const HarmonicCoordinates::FileInfo info = HarmonicCoordinates::readFileInfo(file_);
-  EXPECT_EQ(info.version, 1u);
+  EXPECT_EQ(info.version, 2u);
   EXPECT_EQ(info.cageHash, HarmonicCoordinates::cageHash(*cage_));
   EXPECT_EQ(info.tetCount, harmonic_->mesh().tets.size());
 }
@@ -518,14 +518,40 @@ TEST_F(HarmonicFiles, RejectsCorruptFiles) {
   magic[0] = 'X';
   expectIoError(magic, "bad magic");
   std::string version = good;
-  version[8] = 2;
-  expectIoError(version, "unsupported harmonic coordinate file version 2");
+  version[8] = 3;
+  expectIoError(version, "unsupported harmonic coordinate file version 3");
   std::string counts = good;
   counts[40 + 7] = 0x7f;  // an absurd mesh vertex count
   expectIoError(counts, "impossible counts");
   EXPECT_THAT(
       test::messageOf<IoError>([&] { HarmonicCoordinates::load(dir_ / "missing.swh", cage_); }),
       HasSubstr("cannot open"));
+}
+
+// Version 1 stored the mesh vertices in world units; such caches still load, to the same
+// coordinates up to the round-off of moving the vertices into the cage's frame.
+TEST_F(HarmonicFiles, ReadsVersionOneFiles) {
+  std::string data = bytes();
+  data[8] = 1;
+  std::size_t offset = 72;
+  for (const Vec3& p : harmonic_->mesh().vertices) {
+    const double xyz[3] = {p.x, p.y, p.z};
+    std::memcpy(data.data() + offset, xyz, sizeof xyz);
+    offset += sizeof xyz;
+  }
+  std::uint64_t fnv = 0xcbf29ce484222325ull;  // FNV-1a of everything but the checksum
+  for (std::size_t i = 0; i + 8 < data.size(); ++i)
+    fnv = (fnv ^ static_cast<unsigned char>(data[i])) * 0x100000001b3ull;
+  std::memcpy(data.data() + data.size() - 8, &fnv, 8);
+  write(data);
+  const HarmonicPtr loaded = HarmonicCoordinates::load(file_, cage_);
+  EXPECT_EQ(loaded->mesh().tets, harmonic_->mesh().tets);
+  EXPECT_EQ(loaded->mesh().vertices, harmonic_->mesh().vertices);
+  const std::vector<Vec3> points = insidePoints(*harmonic_, 300, 3);
+  std::vector<double> a(points.size() * cage_->vertexCount()), b(a.size());
+  harmonic_->weightsBatch(points, a);
+  loaded->weightsBatch(points, b);
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a[i], b[i], 1e-13) << i;
 }
 
 TEST_F(HarmonicFiles, RejectsAnotherCage) {

@@ -10,11 +10,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "coords/properties.h"
 #include "core/binding.h"
 #include "core/coordinate_warp.h"
 #include "core/errors.h"
 #include "ffd/lattice_warp.h"
 #include "ffd_test_shapes.h"
+#include "placement.h"
 #include "test_util.h"
 
 namespace spacewarp {
@@ -144,6 +146,37 @@ TEST(LatticeCoordinates, RejectsBadArguments) {
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { coords.weightGradients(Vec3(0.5), gradients); }),
               HasSubstr("9 entries, 8 expected"));
 }
+
+// Issue 12: a lattice far from the origin and of any size has the weights of the lattice at the
+// origin (box coordinates are relative to the lattice's corner), and keeps partition of unity
+// and linear precision relative to its size. Bound: see tests/placement.h.
+class LatticePlaced : public ::testing::TestWithParam<test::Placement> {};
+
+TEST_P(LatticePlaced, WeightsAndPropertiesDoNotDependOnOffsetOrScale) {
+  const test::Placement at = GetParam();
+  for (const LatticeBasis basis : {LatticeBasis::Trilinear, LatticeBasis::Bernstein}) {
+    const LatticeParams params = test::orientedParams(basis);
+    LatticeParams placedParams = params;
+    placedParams.origin = test::place(params.origin, at);
+    placedParams.extents = params.extents * at.scale;
+    const LatticeCoordinates base{Lattice(params)}, placed{Lattice(placedParams)};
+    std::mt19937 rng(41);
+    const std::vector<Vec3> samples = test::boxPoints(base.lattice(), rng, 60, 0.01, 0.99);
+    std::vector<Vec3> placedSamples;
+    for (const Vec3& x : samples) placedSamples.push_back(test::place(x, at));
+    const double diagonal = placed.lattice().diagonal();
+    const double tolerance = 1e-12 + 10.0 * test::placementResolution(at, diagonal);
+    EXPECT_LE(test::placedWeightError(base, placed, samples, at), tolerance)
+        << test::basisName(basis);
+    const PropertyReport report = measureProperties(placed, placedSamples, diagonal);
+    EXPECT_LE(report.partitionOfUnity, tolerance) << test::basisName(basis);
+    EXPECT_LE(report.linearReproduction, tolerance) << test::basisName(basis);
+    EXPECT_LE(report.similarityReproduction, tolerance) << test::basisName(basis);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Placements, LatticePlaced, ::testing::ValuesIn(test::placements()),
+                         [](const auto& info) { return test::placementName(info.param); });
 
 }  // namespace
 }  // namespace spacewarp

@@ -1,5 +1,6 @@
 #include "nonlinear/mls.h"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -8,8 +9,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "coords/properties.h"
 #include "core/binding.h"
 #include "core/errors.h"
+#include "placement.h"
 #include "test_util.h"
 
 namespace spacewarp {
@@ -345,6 +348,48 @@ TEST(MlsAffineCoordinates, RejectsCoplanarHandles) {
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { MlsAffineCoordinates c(plane); }),
               HasSubstr("MlsAffineCoordinates: the handles are coplanar"));
 }
+
+// Issue 12: handles far from the origin and of any size. The affine MLS coordinates equal
+// those of the handles at the origin and keep partition of unity and linear precision; every
+// mode's warp commutes with the placement. Bound: see tests/placement.h.
+class MlsPlaced : public ::testing::TestWithParam<test::Placement> {};
+
+TEST_P(MlsPlaced, WeightsAndWarpsDoNotDependOnOffsetOrScale) {
+  const test::Placement at = GetParam();
+  std::mt19937 rng(52);
+  const Rig rig = randomRig(rng, 12);
+  const std::vector<Vec3> samples = pointsAwayFrom(rng, rig.handles, 50, 0.05);
+  Rig placedRig;
+  for (const Vec3& p : rig.handles) placedRig.handles.push_back(test::place(p, at));
+  for (const Vec3& q : rig.targets) placedRig.targets.push_back(test::place(q, at));
+  std::vector<Vec3> placedSamples;
+  for (const Vec3& x : samples) placedSamples.push_back(test::place(x, at));
+  const double diagonal = boundingBox(placedRig.handles).diagonal();
+  const double tolerance = 1e-11 + 1e2 * test::placementResolution(at, diagonal);
+
+  const MlsAffineCoordinates base(rig.handles), placed(placedRig.handles);
+  EXPECT_LE(test::placedWeightError(base, placed, samples, at), tolerance);
+  const PropertyReport report = measureProperties(placed, placedSamples, diagonal);
+  EXPECT_LE(report.partitionOfUnity, tolerance);
+  EXPECT_LE(report.linearReproduction, tolerance);
+  EXPECT_LE(report.similarityReproduction, tolerance);
+
+  for (const MlsMode mode : kModes) {
+    const MlsWarp baseWarp(rig.handles, rig.targets, optionsFor(mode));
+    const MlsWarp placedWarp(placedRig.handles, placedRig.targets, optionsFor(mode));
+    double worst = 0.0;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      // The displacements, compared in the base problem's units.
+      const Vec3 expected = baseWarp.apply(samples[i]) - samples[i];
+      const Vec3 actual = (placedWarp.apply(placedSamples[i]) - placedSamples[i]) / at.scale;
+      worst = std::max(worst, glm::length(actual - expected));
+    }
+    EXPECT_LE(worst / boundingBox(rig.handles).diagonal(), tolerance) << mlsModeName(mode);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Placements, MlsPlaced, ::testing::ValuesIn(test::placements()),
+                         [](const auto& info) { return test::placementName(info.param); });
 
 }  // namespace
 }  // namespace spacewarp

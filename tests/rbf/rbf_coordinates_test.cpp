@@ -10,9 +10,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "coords/properties.h"
 #include "core/binding.h"
 #include "core/coordinate_warp.h"
 #include "core/errors.h"
+#include "placement.h"
 #include "rbf/rbf_warp.h"
 #include "rbf_test_data.h"
 #include "test_util.h"
@@ -136,6 +138,46 @@ TEST(RbfCoordinates, RejectsDegenerateInput) {
   std::vector<double> shortRow(3);
   EXPECT_THROW(ok.weights(Vec3(0.0), shortRow), InvalidInput);
 }
+
+// Issue 12: handles far from the origin and of any size (the fit's conditioning at offset 1e6
+// and scale 1e-4 or 1e4 included) give the weights of the handles at the origin, with
+// partition of unity and linear precision relative to their size. The kernels r and r³ are
+// homogeneous, so the fit is similarity-invariant (r² log r and the kernels with a length
+// parameter are not). Bound: see tests/placement.h.
+class RbfPlaced : public ::testing::TestWithParam<test::Placement> {};
+
+TEST_P(RbfPlaced, WeightsAndPropertiesDoNotDependOnOffsetOrScale) {
+  const test::Placement at = GetParam();
+  std::mt19937 rng(33);
+  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
+  const std::vector<Vec3> samples = test::randomPoints(rng, 50, -1.0, 1.0);
+  std::vector<Vec3> placedCentres, placedSamples;
+  for (const Vec3& c : centres) placedCentres.push_back(test::place(c, at));
+  for (const Vec3& x : samples) placedSamples.push_back(test::place(x, at));
+  const double diagonal = boundingBox(placedCentres).diagonal();
+  const double tolerance = 1e-11 + 1e3 * test::placementResolution(at, diagonal);
+  for (const RbfKernel kernel : {RbfKernel::Triharmonic, RbfKernel::Biharmonic}) {
+    RbfOptions o;
+    o.kernel = kernel;
+    const RbfCoordinates base(centres, o), placed(placedCentres, o);
+    EXPECT_LE(test::placedWeightError(base, placed, samples, at), tolerance)
+        << rbfKernelName(kernel);
+    const PropertyReport report = measureProperties(placed, placedSamples, diagonal);
+    EXPECT_LE(report.partitionOfUnity, tolerance) << rbfKernelName(kernel);
+    EXPECT_LE(report.linearReproduction, tolerance) << rbfKernelName(kernel);
+    EXPECT_LE(report.similarityReproduction, tolerance) << rbfKernelName(kernel);
+  }
+}
+
+std::vector<test::Placement> rbfPlacements() {
+  std::vector<test::Placement> all = test::placements();
+  all.push_back({1e6, 1e-4});
+  all.push_back({1e6, 1e4});
+  return all;
+}
+
+INSTANTIATE_TEST_SUITE_P(Placements, RbfPlaced, ::testing::ValuesIn(rbfPlacements()),
+                         [](const auto& info) { return test::placementName(info.param); });
 
 }  // namespace
 }  // namespace spacewarp
