@@ -64,6 +64,9 @@ PolygonSoup readSoup(const std::filesystem::path& path) {
   } catch (const InvalidInput& e) {
     throw IoError(name + ": " + e.what());
   }
+  // An empty file is valid OBJ (and a PLY or OFF may declare 0 vertices), but as an input it
+  // is always a mistake, and every format must say so alike.
+  if (soup.size() == 0) throw IoError(name + ": no vertices (an empty soup or point cloud)");
   return soup;
 }
 

@@ -20,7 +20,8 @@ FileFormat formatFromPath(const std::filesystem::path& path);
 /// its extension names (see readObj, readOff, readPly for what each keeps). The result passes
 /// PolygonSoup::validate(). Throws IoError, and nothing else, naming the file: unknown
 /// extension, a file that cannot be opened ("cannot open"), a directory, malformed content
-/// (with the line or element at fault), or a soup that fails validation.
+/// (with the line or element at fault), a soup that fails validation, or a file with no
+/// vertices ("model.obj: no vertices ..."), empty or not.
 PolygonSoup readSoup(const std::filesystem::path& path);
 
 /// Options of writeSoup().
