@@ -197,6 +197,35 @@ TEST(MeshIoTest, AttributesSurviveFilesInTheirFormats) {
   EXPECT_EQ(ply.faceAttributes[0].values, colours.faceAttributes[0].values);
 }
 
+TEST(MeshIoTest, UnstoredContentNamesWhatAFormatDrops) {
+  PolygonSoup soup = sampleSoup(false, true);
+  EXPECT_TRUE(unstoredContent(soup, FileFormat::Off).empty()) << "positions and faces fit all";
+  soup.attributes = {{"red", ScalarType::UInt8, std::vector<double>(soup.size(), 1)},
+                     {"green", ScalarType::UInt8, std::vector<double>(soup.size(), 2)}};
+  soup.faceAttributes = {
+      {"material_index", ScalarType::Int32, std::vector<double>(soup.polygonCount(), 0)}};
+  soup.texcoords.values = {{0, 0, 0}};
+  soup.texcoords.indices.assign(soup.faceIndices.size(), 0);
+  soup.objStatements = {{0, "usemtl red"}};
+  using ::testing::ElementsAre;
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Obj),
+              ElementsAre("vertex attributes red, green", "face attributes material_index"));
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Ply),
+              ElementsAre("texture coordinates", "OBJ groups and materials"));
+  EXPECT_EQ(unstoredContent(soup, FileFormat::Off).size(), 4u);
+  // With blue too, OFF stores the colours; the rest is still lost.
+  soup.attributes.push_back({"blue", ScalarType::UInt8, std::vector<double>(soup.size(), 3)});
+  soup.attributes.push_back({"confidence", ScalarType::Float32, std::vector<double>(soup.size())});
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Off),
+              ElementsAre("vertex attributes confidence", "face attributes material_index",
+                          "texture coordinates", "OBJ groups and materials"));
+  soup.texcoords = {};
+  soup.cornerNormals.values = {{0, 0, 1}};
+  soup.cornerNormals.indices.assign(soup.faceIndices.size(), 0);
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Ply),
+              ElementsAre("per-corner normals", "OBJ groups and materials"));
+}
+
 TEST(MeshIoTest, WriteToMissingDirectoryThrowsAndLeavesNothing) {
   TempDir dir;
   const fs::path path = dir.path() / "missing" / "out.ply";
