@@ -3,6 +3,7 @@
 #include <bit>
 #include <charconv>
 #include <cstdint>
+#include <iostream>
 #include <span>
 #include <string>
 #include <vector>
@@ -19,14 +20,26 @@ void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
                     const ProgressCallback& progress) {
   formatFromPath(output);
   PolygonSoup soup = readSoup(input);
+  DeformReport report;
   try {
-    deform(warp, soup, progress);
+    report = deform(warp, soup, progress);
   } catch (const InvalidInput& e) {
     throw InvalidInput(input.string() + ": " + e.what());
   }
   WriteOptions options;
   if (ascii) options.plyEncoding = PlyEncoding::Ascii;
   writeSoup(soup, output, options);
+  if (const auto lost = unstoredContent(soup, formatFromPath(output)); !lost.empty()) {
+    std::cerr << "warning: " << output.string() << ": the format cannot store the input's ";
+    for (std::size_t k = 0; k < lost.size(); ++k) std::cerr << (k ? "; " : "") << lost[k];
+    std::cerr << "; they are not written\n";
+  }
+  if (report.singularNormals > 0) {
+    std::cerr << "warning: " << input.string() << ": the warp is singular at "
+              << report.singularNormals << " of " << soup.size()
+              << " vertices; their normals are undefined (written as the flattened surface's "
+                 "normal, or zero)\n";
+  }
 }
 
 namespace {
