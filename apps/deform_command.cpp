@@ -106,7 +106,7 @@ Command addDeformCommand(CLI::App& app, const CliContext& context) {
               if (s.points > 0) what += ", " + counted(s.points, "point");
               what += ", " + counted(s.inverseFailures, "inverse failure") + ")";
             } else {
-              deformSoup(*rig.warp, soup, args->input, args->output, args->ascii, progress);
+              deformSoup(*rig.warp, soup, args->input, args->output, args->ascii, context);
               what = counted(soup.size(), "point");
               if (soup.polygonCount() > 0)
                 what += " (" + counted(soup.polygonCount(), "face") + ")";

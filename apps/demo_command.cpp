@@ -124,7 +124,6 @@ void runDemo(const fs::path& dir, const CliContext& context) {
     rigs["harmonic"]["tets"] = 100000;
   }
 
-  const ProgressCallback progress = context.progress();
   for (const auto& [name, rig] : rigs) {
     const fs::path rigPath = dir / (name + ".json");
     writeJsonFile(rig, rigPath);
@@ -137,7 +136,7 @@ void runDemo(const fs::path& dir, const CliContext& context) {
         quietVolumes.quiet = true;
         deformVolumeFile(*warp, in, out, {}, quietVolumes);
       } else {
-        deformSoupFile(*warp, in, out, false, progress);
+        deformSoupFile(*warp, in, out, false, context);
       }
       context.say("spacewarp deform --rig " + rigPath.string() + " " + in.string() + " -o " +
                   out.string());

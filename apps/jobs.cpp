@@ -15,23 +15,35 @@
 namespace spacewarp::cli {
 
 void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path& input,
-                const std::filesystem::path& output, bool ascii, const ProgressCallback& progress) {
+                const std::filesystem::path& output, bool ascii, const CliContext& context) {
+  DeformReport report;
   try {
-    deform(warp, soup, progress);
+    report = deform(warp, soup, context.progress());
   } catch (const InvalidInput& e) {
     throw InvalidInput(input.string() + ": " + e.what());
   }
   WriteOptions options;
   if (ascii) options.plyEncoding = PlyEncoding::Ascii;
   writeSoup(soup, output, options);
+  if (const auto lost = unstoredContent(soup, formatFromPath(output)); !lost.empty()) {
+    std::string line = output.string() + ": the format cannot store the input's ";
+    for (std::size_t k = 0; k < lost.size(); ++k) line += (k ? "; " : "") + lost[k];
+    context.warn(line + "; they are not written");
+  }
+  if (report.singularNormals > 0) {
+    context.warn(input.string() + ": the warp is singular at " +
+                 std::to_string(report.singularNormals) + " of " + std::to_string(soup.size()) +
+                 " vertices; their normals are undefined (written as the flattened surface's "
+                 "normal, or zero)");
+  }
 }
 
 void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
                     const std::filesystem::path& output, bool ascii,
-                    const ProgressCallback& progress) {
+                    const CliContext& context) {
   formatFromPath(output);
   PolygonSoup soup = readSoup(input);
-  deformSoup(warp, soup, input, output, ascii, progress);
+  deformSoup(warp, soup, input, output, ascii, context);
 }
 
 namespace {

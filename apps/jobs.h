@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "apps/cli_context.h"
 #include "core/coordinates.h"
 #include "core/geometry.h"
 #include "core/progress.h"
@@ -13,16 +14,16 @@
 namespace spacewarp::cli {
 
 /// Warps `soup`, read from `input` (named in messages), and writes it to `output` atomically.
-/// `ascii` writes PLY as ASCII.
+/// `ascii` writes PLY as ASCII. Progress and warnings (formats that drop attributes, normals
+/// undefined where the warp is singular) go through `context`.
 void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path& input,
-                const std::filesystem::path& output, bool ascii,
-                const ProgressCallback& progress = {});
+                const std::filesystem::path& output, bool ascii, const CliContext& context);
 
 /// Reads a soup or point cloud (OBJ, OFF, PLY), warps it and writes it atomically (deformSoup).
 /// The output format is checked before any work.
 void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
                     const std::filesystem::path& output, bool ascii,
-                    const ProgressCallback& progress = {});
+                    const CliContext& context);
 
 /// The coordinate matrix of every point in `points` (any soup file; faces ignored), one row per
 /// point in input order and one column per coordinate, written atomically as CSV (a header of

@@ -5,6 +5,29 @@
 #include "core/errors.h"
 
 namespace spacewarp {
+namespace {
+
+void validateCornerAttribute(const CornerAttribute& attribute, const char* what,
+                             std::size_t cornerCount) {
+  if (!attribute.indices.empty() && attribute.indices.size() != cornerCount) {
+    throw InvalidInput(std::string(what) + ": " + std::to_string(attribute.indices.size()) +
+                       " corner indices for " + std::to_string(cornerCount) + " corners");
+  }
+  for (std::size_t c = 0; c < attribute.indices.size(); ++c) {
+    const std::uint32_t k = attribute.indices[c];
+    if (k != CornerAttribute::kNone && k >= attribute.values.size()) {
+      throw InvalidInput(std::string(what) + ": corner " + std::to_string(c) + " refers to value " +
+                         std::to_string(k) + " but there are only " +
+                         std::to_string(attribute.values.size()));
+    }
+  }
+  for (std::size_t k = 0; k < attribute.values.size(); ++k) {
+    if (!isFinite(attribute.values[k]))
+      throw InvalidInput(std::string(what) + ": value " + std::to_string(k) + " is not finite");
+  }
+}
+
+}  // namespace
 
 void PointSet::validate() const {
   const std::size_t n = positions.size();
@@ -43,6 +66,31 @@ void PolygonSoup::validate() const {
                            std::to_string(positions.size()) + " vertices");
       }
     }
+  }
+  for (const ScalarAttribute& a : faceAttributes) {
+    if (a.values.size() != polygonCount()) {
+      throw InvalidInput("face attribute '" + a.name + "' has " + std::to_string(a.values.size()) +
+                         " values for " + std::to_string(polygonCount()) + " polygons");
+    }
+  }
+  validateCornerAttribute(cornerNormals, "corner normals", faceIndices.size());
+  validateCornerAttribute(texcoords, "texture coordinates", faceIndices.size());
+  if (hasNormals() && !cornerNormals.empty())
+    throw InvalidInput("polygon soup has normals both per vertex and per corner");
+  for (std::size_t k = 0; k < objStatements.size(); ++k) {
+    const ObjStatement& statement = objStatements[k];
+    if (statement.polygon > polygonCount() ||
+        (k > 0 && statement.polygon < objStatements[k - 1].polygon)) {
+      throw InvalidInput("OBJ statement " + std::to_string(k) + " precedes polygon " +
+                         std::to_string(statement.polygon) +
+                         ", out of order or past the last polygon");
+    }
+    if (statement.text.empty() || statement.text.find_first_of("\r\n") != std::string::npos)
+      throw InvalidInput("OBJ statement " + std::to_string(k) + " is empty or not one line");
+  }
+  if (texcoordDimension < 1 || texcoordDimension > 3) {
+    throw InvalidInput("texture coordinate dimension " + std::to_string(texcoordDimension) +
+                       " is not 1, 2 or 3");
   }
 }
 

@@ -18,14 +18,13 @@ Mat3 cofactor(const Mat3& j) {
   return Mat3(glm::cross(j[1], j[2]), glm::cross(j[2], j[0]), glm::cross(j[0], j[1]));
 }
 
-// |det J| small against the product of its column lengths means J is numerically singular.
-bool isSingular(const Mat3& j) {
+}  // namespace
+
+bool isSingularJacobian(const Mat3& j) {
   const double det = glm::determinant(j);
   const double scale = glm::length(j[0]) * glm::length(j[1]) * glm::length(j[2]);
   return !std::isfinite(det) || std::abs(det) <= 1e-14 * scale;
 }
-
-}  // namespace
 
 Mat3 Warp::jacobian(const Vec3& x) const {
   const double h = std::cbrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, maxAbs(x));
@@ -54,7 +53,10 @@ void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
 }
 
 Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n) {
-  const Mat3 j = warp.jacobian(x);
+  return transformNormal(warp.jacobian(x), n);
+}
+
+Vec3 transformNormal(const Mat3& j, const Vec3& n) {
   Vec3 v = cofactor(j) * n;  // = det(J) J^-T n
   if (glm::determinant(j) < 0.0) v = -v;
   const double len = glm::length(v);
@@ -69,9 +71,8 @@ Vec3 transformVector(const Warp& warp, const Vec3& x, const Vec3& v) {
 InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options) {
   if (!isFinite(y)) throw InvalidInput("inverse: the target point is not finite");
   const Vec3 fy = warp.apply(y);
-  const double scale = options.lengthScale > 0.0
-                           ? options.lengthScale
-                           : std::max({maxAbs(y), maxAbs(fy - y), 1e-300});
+  const double scale = options.lengthScale > 0.0 ? options.lengthScale
+                                                 : std::max({maxAbs(y), maxAbs(fy - y), 1e-300});
   const double tolerance = options.tolerance * scale;
 
   InverseResult result;
@@ -89,7 +90,7 @@ InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& opt
     }
     if (result.iterations >= options.maxIterations) return result;
     const Mat3 j = warp.jacobian(result.x);
-    if (isSingular(j)) return result;
+    if (isSingularJacobian(j)) return result;
     const Vec3 dx = -(glm::inverse(j) * (warp.apply(result.x) - y));
     // Backtracking: halve the step until the residual decreases.
     bool accepted = false;

@@ -33,6 +33,14 @@ class Warp {
 /// the normal of the image plane, at rank 1 or 0 a zero vector (never NaN).
 Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n);
 
+/// The same with the Jacobian J at the normal's point given.
+Vec3 transformNormal(const Mat3& jacobian, const Vec3& n);
+
+/// Whether J is numerically singular (or not finite): |det J| at most 1e-14 times the product
+/// of its column lengths, i.e. zero up to rounding at J's own scale. Normals are undefined
+/// there. (A strongly anisotropic but invertible J is not singular: its normals are defined.)
+bool isSingularJacobian(const Mat3& jacobian);
+
 /// The tangent vector v at x carried through the warp: J v (not normalised).
 Vec3 transformVector(const Warp& warp, const Vec3& x, const Vec3& v);
 

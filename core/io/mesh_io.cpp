@@ -1,5 +1,6 @@
 #include "core/io/mesh_io.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstring>
@@ -7,6 +8,7 @@
 #include <new>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include "core/errors.h"
 #include "core/io/atomic_file.h"
@@ -21,7 +23,42 @@ std::string lowercase(std::string text) {
   return text;
 }
 
+/// "what a, b, c" for the named attributes.
+std::string namedList(const char* what, const std::vector<ScalarAttribute>& attributes) {
+  std::string text = what;
+  for (std::size_t a = 0; a < attributes.size(); ++a) {
+    text += a == 0 ? " " : ", ";
+    text += attributes[a].name;
+  }
+  return text;
+}
+
 }  // namespace
+
+std::vector<std::string> unstoredContent(const PolygonSoup& soup, FileFormat format) {
+  std::vector<std::string> lost;
+  if (format != FileFormat::Ply) {
+    // OFF stores colours, OBJ no attributes.
+    const auto unstored = [&](const std::vector<ScalarAttribute>& attributes) {
+      std::vector<ScalarAttribute> rest;
+      const auto colours = format == FileFormat::Off ? offColours(attributes)
+                                                     : std::vector<const ScalarAttribute*>{};
+      for (const ScalarAttribute& a : attributes)
+        if (std::find(colours.begin(), colours.end(), &a) == colours.end()) rest.push_back(a);
+      return rest;
+    };
+    if (const auto rest = unstored(soup.attributes); !rest.empty())
+      lost.push_back(namedList("vertex attributes", rest));
+    if (const auto rest = unstored(soup.faceAttributes); !rest.empty())
+      lost.push_back(namedList("face attributes", rest));
+  }
+  if (format != FileFormat::Obj) {
+    if (!soup.texcoords.empty()) lost.emplace_back("texture coordinates");
+    if (!soup.cornerNormals.empty()) lost.emplace_back("per-corner normals");
+    if (!soup.objStatements.empty()) lost.emplace_back("OBJ groups and materials");
+  }
+  return lost;
+}
 
 FileFormat formatFromPath(const std::filesystem::path& path) {
   const std::string extension = lowercase(path.extension().string());
@@ -64,6 +101,9 @@ PolygonSoup readSoup(const std::filesystem::path& path) {
   } catch (const InvalidInput& e) {
     throw IoError(name + ": " + e.what());
   }
+  // An empty file is valid OBJ (and a PLY or OFF may declare 0 vertices), but as an input it
+  // is always a mistake, and every format must say so alike.
+  if (soup.size() == 0) throw IoError(name + ": no vertices (an empty soup or point cloud)");
   return soup;
 }
 

@@ -3,6 +3,8 @@
 // extension.
 
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "core/geometry.h"
 #include "core/io/ply.h"
@@ -20,8 +22,16 @@ FileFormat formatFromPath(const std::filesystem::path& path);
 /// its extension names (see readObj, readOff, readPly for what each keeps). The result passes
 /// PolygonSoup::validate(). Throws IoError, and nothing else, naming the file: unknown
 /// extension, a file that cannot be opened ("cannot open"), a directory, malformed content
-/// (with the line or element at fault), or a soup that fails validation.
+/// (with the line or element at fault), a soup that fails validation, or a file with no
+/// vertices ("model.obj: no vertices ..."), empty or not.
 PolygonSoup readSoup(const std::filesystem::path& path);
+
+/// What writing `soup` in `format` would drop because the format cannot store it, as short
+/// phrases for a warning ("vertex attributes red, green", "face attributes material_index",
+/// "texture coordinates", "per-corner normals", "OBJ groups and materials"); empty when
+/// nothing is lost. OBJ stores no vertex or face attributes, PLY no per-corner data or OBJ
+/// statements, OFF only colours (offColours()) of these.
+std::vector<std::string> unstoredContent(const PolygonSoup& soup, FileFormat format);
 
 /// Options of writeSoup().
 struct WriteOptions {

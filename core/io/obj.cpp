@@ -1,5 +1,6 @@
 #include "core/io/obj.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -82,6 +83,27 @@ Vec3 parseTriple(const std::vector<std::string_view>& tokens, const ObjError& er
   return {xyz[0], xyz[1], xyz[2]};
 }
 
+/// Reads "u [v [w]] [more numbers]" after `vt`: one to three finite coordinates (the missing
+/// ones are 0), every token a number. Raises `dimension` to the count given.
+Vec3 parseTexcoord(const std::vector<std::string_view>& tokens, const ObjError& error,
+                   int& dimension) {
+  if (tokens.size() < 2) error.fail("texture coordinate has no values");
+  Vec3 uvw(0.0);
+  for (std::size_t t = 1; t < tokens.size(); ++t) {
+    double value = 0.0;
+    const detail::NumberStatus status = detail::parseDouble(tokens[t], value);
+    if (status == detail::NumberStatus::NotANumber)
+      error.fail("texture coordinate: '" + std::string(tokens[t]) + "' is not a number");
+    if (t <= 3) {
+      if (status == detail::NumberStatus::OutOfRange || !std::isfinite(value))
+        error.fail("texture coordinate has a non-finite value");
+      uvw[static_cast<int>(t) - 1] = value;
+    }
+  }
+  dimension = std::max(dimension, static_cast<int>(std::min<std::size_t>(tokens.size() - 1, 3)));
+  return uvw;
+}
+
 /// Checks one face corner "v", "v/t", "v//n" or "v/t/n" against the element counts so far.
 void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t texcoordCount,
                  std::int64_t normalCount, const ObjError& error) {
@@ -120,6 +142,9 @@ void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t
 struct Scan {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;
+  std::vector<Vec3> texcoords;  ///< u, v, w; the components a line omits are 0.
+  int texcoordDimension = 0;    ///< The most components a `vt` line has.
+  std::vector<ObjStatement> statements;
   std::vector<std::uint32_t> faceSizes;
   std::uint64_t cornerCount = 0;
   std::string forwarded;
@@ -129,7 +154,6 @@ Scan scanLines(std::string_view text, const std::string& name) {
   Scan scan;
   scan.forwarded.reserve(text.size() + 1);
   std::vector<std::string_view> tokens;
-  std::int64_t texcoordCount = 0;
   std::size_t lineNumber = 0;
   std::size_t pos = 0;
   while (pos < text.size()) {
@@ -161,12 +185,14 @@ Scan scanLines(std::string_view text, const std::string& name) {
         error.fail("too many normals");
       scan.normals.push_back(parseTriple(tokens, error, "normal"));
     } else if (keyword == "vt") {
-      if (texcoordCount >= kMaxVertices) error.fail("too many texture coordinates");
-      ++texcoordCount;
+      if (static_cast<std::int64_t>(scan.texcoords.size()) >= kMaxVertices)
+        error.fail("too many texture coordinates");
+      scan.texcoords.push_back(parseTexcoord(tokens, error, scan.texcoordDimension));
     } else if (keyword == "f") {
       if (tokens.size() < 4) error.fail("face has fewer than 3 vertices");
       for (std::size_t t = 1; t < tokens.size(); ++t) {
-        checkCorner(tokens[t], static_cast<std::int64_t>(scan.positions.size()), texcoordCount,
+        checkCorner(tokens[t], static_cast<std::int64_t>(scan.positions.size()),
+                    static_cast<std::int64_t>(scan.texcoords.size()),
                     static_cast<std::int64_t>(scan.normals.size()), error);
       }
       const std::uint64_t corners = tokens.size() - 1;
@@ -175,7 +201,16 @@ Scan scanLines(std::string_view text, const std::string& name) {
       scan.cornerCount += corners;
       scan.faceSizes.push_back(static_cast<std::uint32_t>(corners));
     } else {
-      scan.forwarded += '\n';  // Not needed for the soup: comments, groups, materials, ...
+      if (keyword == "o" || keyword == "g" || keyword == "s" || keyword == "usemtl" ||
+          keyword == "mtllib") {
+        ObjStatement statement{static_cast<std::uint32_t>(scan.faceSizes.size()), {}};
+        for (std::size_t t = 0; t < tokens.size(); ++t) {
+          if (t > 0) statement.text += ' ';
+          statement.text += tokens[t];
+        }
+        scan.statements.push_back(std::move(statement));
+      }
+      scan.forwarded += '\n';  // Not needed by tinyobjloader: comments, groups, materials, ...
       continue;
     }
     for (std::size_t t = 0; t < tokens.size(); ++t) {
@@ -187,36 +222,22 @@ Scan scanLines(std::string_view text, const std::string& name) {
   return scan;
 }
 
-/// Turns the per-corner normal indices into per-vertex normals when they are unambiguous
-/// (see readObj); otherwise leaves the soup without normals.
-void assignNormals(PolygonSoup& soup, const std::vector<Vec3>& fileNormals,
+/// Per-vertex normals from the per-corner normal indices when they are unambiguous (see
+/// readObj); false otherwise.
+bool vertexNormals(PolygonSoup& soup, const std::vector<Vec3>& fileNormals,
                    const std::vector<int>& cornerNormals) {
   const std::size_t n = soup.positions.size();
-  if (fileNormals.empty() || n == 0) return;
-  bool anyReferenced = false;
-  bool allReferenced = true;
-  for (int index : cornerNormals) {
-    if (index >= 0)
-      anyReferenced = true;
-    else
-      allReferenced = false;
-  }
-  if (!anyReferenced) {
-    if (fileNormals.size() == n) soup.normals = fileNormals;
-    return;
-  }
-  if (!allReferenced) return;
-
   constexpr int kUnset = -1;
   std::vector<int> normalOf(n, kUnset);
   for (std::size_t c = 0; c < cornerNormals.size(); ++c) {
     const std::uint32_t v = soup.faceIndices[c];
     const int k = cornerNormals[c];
+    if (k < 0) return false;
     if (normalOf[v] == kUnset) {
       normalOf[v] = k;
     } else if (normalOf[v] != k && fileNormals[static_cast<std::size_t>(normalOf[v])] !=
                                        fileNormals[static_cast<std::size_t>(k)]) {
-      return;  // Two different normals at one vertex (flat shading, creases).
+      return false;  // Two different normals at one vertex (flat shading, creases).
     }
   }
   std::vector<Vec3> normals(n);
@@ -226,10 +247,36 @@ void assignNormals(PolygonSoup& soup, const std::vector<Vec3>& fileNormals,
     } else if (fileNormals.size() == n) {
       normals[v] = fileNormals[v];  // Unreferenced vertex: one vn per v.
     } else {
-      return;
+      return false;
     }
   }
   soup.normals = std::move(normals);
+  return true;
+}
+
+/// The file's indexed corner values as a CornerAttribute (-1 in `corners`: no value).
+CornerAttribute cornerAttribute(std::vector<Vec3> values, const std::vector<int>& corners) {
+  CornerAttribute attribute;
+  attribute.values = std::move(values);
+  attribute.indices.reserve(corners.size());
+  for (int k : corners)
+    attribute.indices.push_back(k < 0 ? CornerAttribute::kNone : static_cast<std::uint32_t>(k));
+  return attribute;
+}
+
+/// Normals per vertex when the file gives them unambiguously, otherwise per corner when faces
+/// reference them (see readObj).
+void assignNormals(PolygonSoup& soup, std::vector<Vec3> fileNormals,
+                   const std::vector<int>& cornerNormals) {
+  if (fileNormals.empty()) return;
+  const bool anyReferenced =
+      std::any_of(cornerNormals.begin(), cornerNormals.end(), [](int k) { return k >= 0; });
+  if (!anyReferenced) {
+    if (fileNormals.size() == soup.positions.size()) soup.normals = std::move(fileNormals);
+    return;
+  }
+  if (vertexNormals(soup, fileNormals, cornerNormals)) return;
+  soup.cornerNormals = cornerAttribute(std::move(fileNormals), cornerNormals);
 }
 
 PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
@@ -254,25 +301,35 @@ PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
     throw IoError(name + ": tinyobjloader rejected the file: " + error);
   }
   if (attrib.vertices.size() != 3 * scan.positions.size() ||
-      attrib.normals.size() != 3 * scan.normals.size()) {
-    throw IoError(name + ": inconsistent vertex or normal count from tinyobjloader");
+      attrib.normals.size() != 3 * scan.normals.size() ||
+      attrib.texcoords.size() != 2 * scan.texcoords.size()) {
+    throw IoError(name +
+                  ": inconsistent vertex, normal or texture coordinate count from "
+                  "tinyobjloader");
   }
 
   PolygonSoup soup;
   soup.positions = std::move(scan.positions);
   soup.faceIndices.reserve(scan.cornerCount);
   std::vector<int> cornerNormals;
+  std::vector<int> cornerTexcoords;
   cornerNormals.reserve(scan.cornerCount);
+  cornerTexcoords.reserve(scan.cornerCount);
   const int vertexCount = static_cast<int>(soup.positions.size());
   const int normalCount = static_cast<int>(scan.normals.size());
+  const int texcoordCount = static_cast<int>(scan.texcoords.size());
+  bool anyTexcoord = false;
   for (const tinyobj::shape_t& shape : shapes) {
     for (const tinyobj::index_t& corner : shape.mesh.indices) {
       if (corner.vertex_index < 0 || corner.vertex_index >= vertexCount ||
-          corner.normal_index < -1 || corner.normal_index >= normalCount) {
+          corner.normal_index < -1 || corner.normal_index >= normalCount ||
+          corner.texcoord_index < -1 || corner.texcoord_index >= texcoordCount) {
         throw IoError(name + ": inconsistent face index from tinyobjloader");
       }
       soup.faceIndices.push_back(static_cast<std::uint32_t>(corner.vertex_index));
       cornerNormals.push_back(corner.normal_index);
+      cornerTexcoords.push_back(corner.texcoord_index);
+      anyTexcoord = anyTexcoord || corner.texcoord_index >= 0;
     }
   }
   if (soup.faceIndices.size() != scan.cornerCount)
@@ -284,7 +341,12 @@ PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
     offset += size;
     soup.faceOffsets.push_back(offset);
   }
-  assignNormals(soup, scan.normals, cornerNormals);
+  assignNormals(soup, std::move(scan.normals), cornerNormals);
+  soup.objStatements = std::move(scan.statements);
+  if (anyTexcoord) {
+    soup.texcoords = cornerAttribute(std::move(scan.texcoords), cornerTexcoords);
+    soup.texcoordDimension = scan.texcoordDimension;
+  }
   return soup;
 }
 
@@ -312,30 +374,60 @@ PolygonSoup readObj(std::istream& in, const std::string& name) {
 
 void writeObj(const PolygonSoup& soup, std::ostream& out) {
   soup.validate();
+  constexpr std::uint32_t kNone = CornerAttribute::kNone;
   std::string buffer;
   buffer.reserve(1u << 17);
   for (const Vec3& p : soup.positions) {
     appendVectorLine(buffer, "v", p);
     detail::drain(buffer, out);
   }
-  for (const Vec3& n : soup.normals) {
+  for (const Vec3& t : soup.texcoords.values) {
+    buffer += "vt";
+    for (int c = 0; c < soup.texcoordDimension; ++c) {
+      buffer += ' ';
+      detail::appendNumber(buffer, t[c]);
+    }
+    buffer += '\n';
+    detail::drain(buffer, out);
+  }
+  const bool perVertex = soup.hasNormals();
+  for (const Vec3& n : perVertex ? soup.normals : soup.cornerNormals.values) {
     appendVectorLine(buffer, "vn", n);
     detail::drain(buffer, out);
   }
-  const bool withNormals = soup.hasNormals();
+  std::size_t nextStatement = 0;
+  const auto statementsBefore = [&](std::size_t polygon) {
+    for (; nextStatement < soup.objStatements.size() &&
+           soup.objStatements[nextStatement].polygon <= polygon;
+         ++nextStatement) {
+      buffer += soup.objStatements[nextStatement].text;
+      buffer += '\n';
+    }
+  };
   for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
+    statementsBefore(p);
     buffer += 'f';
-    for (std::uint32_t v : soup.polygon(p)) {
+    for (std::uint32_t c = soup.faceOffsets[p]; c < soup.faceOffsets[p + 1]; ++c) {
+      const std::uint32_t v = soup.faceIndices[c];
+      const std::uint32_t t = soup.texcoords.empty() ? kNone : soup.texcoords.indices[c];
+      const std::uint32_t n = perVertex                    ? v
+                              : soup.cornerNormals.empty() ? kNone
+                                                           : soup.cornerNormals.indices[c];
       buffer += ' ';
       detail::appendInteger(buffer, std::uint64_t{v} + 1);
-      if (withNormals) {
-        buffer += "//";
-        detail::appendInteger(buffer, std::uint64_t{v} + 1);
+      if (t != kNone) {
+        buffer += '/';
+        detail::appendInteger(buffer, std::uint64_t{t} + 1);
+      }
+      if (n != kNone) {
+        buffer += t != kNone ? "/" : "//";
+        detail::appendInteger(buffer, std::uint64_t{n} + 1);
       }
     }
     buffer += '\n';
     detail::drain(buffer, out);
   }
+  statementsBefore(soup.polygonCount());
   detail::drain(buffer, out, true);
 }
 

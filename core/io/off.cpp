@@ -1,5 +1,7 @@
 #include "core/io/off.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -80,6 +82,7 @@ class LineReader {
 };
 
 struct Header {
+  bool colours = false;
   bool normals = false;
   bool valid = false;
 };
@@ -87,7 +90,10 @@ struct Header {
 /// Recognises OFF, NOFF, COFF and CNOFF.
 Header parseKeyword(std::string_view keyword) {
   Header header;
-  if (!keyword.empty() && keyword.front() == 'C') keyword.remove_prefix(1);
+  if (!keyword.empty() && keyword.front() == 'C') {
+    header.colours = true;
+    keyword.remove_prefix(1);
+  }
   if (!keyword.empty() && keyword.front() == 'N') {
     header.normals = true;
     keyword.remove_prefix(1);
@@ -95,6 +101,54 @@ Header parseKeyword(std::string_view keyword) {
   header.valid = keyword == "OFF";
   return header;
 }
+
+constexpr const char* kColourNames[4] = {"red", "green", "blue", "alpha"};
+
+/// Colours of one element kind (vertex or face), collected while reading: RGB or RGBA per
+/// element, integers 0..255 (stored as uchar) or any other numbers (stored as float).
+struct Colours {
+  std::size_t components = 0;  ///< 3 or 4 once the first colour is seen.
+  bool allBytes = true;        ///< Every value an integer token in 0..255.
+  bool consistent = true;      ///< Every element has a colour of the same size.
+  std::vector<double> values;  ///< components per element.
+
+  void add(const LineReader& reader, std::size_t first, std::size_t count, const char* what,
+           std::int64_t index) {
+    if (count != 3 && count != 4) {
+      consistent = false;
+      return;
+    }
+    if (components == 0) components = count;
+    if (count != components) {
+      consistent = false;
+      return;
+    }
+    for (std::size_t t = first; t < first + count; ++t) {
+      std::int64_t integer = 0;
+      allBytes = allBytes && detail::parseInteger(reader.tokens()[t], integer) && integer >= 0 &&
+                 integer <= 255;
+      const double value = reader.number(t, what, index);
+      if (!std::isfinite(value)) reader.fail(what, index, "is not a finite colour value", t);
+      values.push_back(value);
+    }
+  }
+
+  /// The colours as attributes red, green, blue [, alpha]; none unless every one of the
+  /// `count` elements had one of the same size.
+  std::vector<ScalarAttribute> attributes(std::size_t count) const {
+    std::vector<ScalarAttribute> result;
+    if (!consistent || components == 0 || values.size() != components * count) return result;
+    for (std::size_t c = 0; c < components; ++c) {
+      ScalarAttribute attribute{
+          kColourNames[c], allBytes ? ScalarType::UInt8 : ScalarType::Float32, {}};
+      attribute.values.reserve(count);
+      for (std::size_t e = 0; e < count; ++e)
+        attribute.values.push_back(values[e * components + c]);
+      result.push_back(std::move(attribute));
+    }
+    return result;
+  }
+};
 
 PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
   LineReader reader(in, name);
@@ -121,6 +175,8 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
 
   PolygonSoup soup;
   const std::size_t valuesPerVertex = header.normals ? 6 : 3;
+  Colours vertexColours;
+  Colours faceColours;
   for (std::int64_t v = 0; v < vertexCount; ++v) {
     if (!reader.next()) {
       reader.fail("unexpected end of file: declared " + std::to_string(vertexCount) +
@@ -135,6 +191,10 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
     for (std::size_t t = 0; t < tokens.size(); ++t) {
       const double value = reader.number(t, "vertex", v);
       if (t < valuesPerVertex) values[t] = value;
+    }
+    if (header.colours) {
+      const std::size_t extra = tokens.size() - valuesPerVertex;
+      vertexColours.add(reader, valuesPerVertex, std::min<std::size_t>(extra, 4), "vertex", v);
     }
     const Vec3 position(values[0], values[1], values[2]);
     if (!isFinite(position))
@@ -171,8 +231,9 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
       }
       polygon.push_back(static_cast<std::uint32_t>(index));
     }
-    for (std::size_t t = static_cast<std::size_t>(k) + 1; t < tokens.size(); ++t)
-      reader.number(t, "face", f);  // Colour: checked, ignored.
+    const std::size_t colourStart = static_cast<std::size_t>(k) + 1;
+    for (std::size_t t = colourStart; t < tokens.size(); ++t) reader.number(t, "face", f);
+    faceColours.add(reader, colourStart, tokens.size() - colourStart, "face", f);
     if (soup.faceIndices.size() + polygon.size() > std::numeric_limits<std::uint32_t>::max())
       reader.fail("too many face indices for 32-bit offsets");
     soup.addPolygon(polygon);
@@ -182,10 +243,41 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
     reader.fail("unexpected content after the last of the " + std::to_string(faceCount) +
                 " declared faces");
   }
+  if (header.colours && !vertexColours.consistent) {
+    throw IoError(name +
+                  ": COFF vertices need 3 or 4 colour values each, the same count on "
+                  "every vertex");
+  }
+  soup.attributes = vertexColours.attributes(soup.size());
+  soup.faceAttributes = faceColours.attributes(soup.polygonCount());
   return soup;
 }
 
+void appendColour(std::string& out, const std::vector<const ScalarAttribute*>& colours,
+                  std::size_t element) {
+  for (const ScalarAttribute* colour : colours) {
+    out += ' ';
+    const std::size_t start = out.size();
+    detail::appendNumber(out, colour->values[element]);
+    // Non-uchar colours keep a decimal point, so that they read back as float colours.
+    const bool integral = out.find_first_not_of("-0123456789", start) == std::string::npos;
+    if (colour->type != ScalarType::UInt8 && integral) out += ".0";
+  }
+}
+
 }  // namespace
+
+std::vector<const ScalarAttribute*> offColours(const std::vector<ScalarAttribute>& attributes) {
+  std::vector<const ScalarAttribute*> colours;
+  for (const char* name : kColourNames) {
+    const auto it = std::find_if(attributes.begin(), attributes.end(),
+                                 [&](const ScalarAttribute& a) { return a.name == name; });
+    if (it == attributes.end()) break;
+    colours.push_back(&*it);
+  }
+  if (colours.size() < 3) colours.clear();
+  return colours;
+}
 
 PolygonSoup readOff(std::istream& in, const std::string& name) {
   try {
@@ -198,8 +290,11 @@ PolygonSoup readOff(std::istream& in, const std::string& name) {
 void writeOff(const PolygonSoup& soup, std::ostream& out) {
   soup.validate();
   const bool withNormals = soup.hasNormals();
+  const std::vector<const ScalarAttribute*> vertexColours = offColours(soup.attributes);
+  const std::vector<const ScalarAttribute*> faceColours = offColours(soup.faceAttributes);
   std::string buffer;
   buffer.reserve(1u << 17);
+  if (!vertexColours.empty()) buffer += 'C';
   buffer += withNormals ? "NOFF\n" : "OFF\n";
   detail::appendInteger(buffer, std::uint64_t{soup.positions.size()});
   buffer += ' ';
@@ -216,6 +311,7 @@ void writeOff(const PolygonSoup& soup, std::ostream& out) {
         detail::appendNumber(buffer, soup.normals[v][c]);
       }
     }
+    appendColour(buffer, vertexColours, v);
     buffer += '\n';
     detail::drain(buffer, out);
   }
@@ -226,6 +322,7 @@ void writeOff(const PolygonSoup& soup, std::ostream& out) {
       buffer += ' ';
       detail::appendInteger(buffer, std::uint64_t{v});
     }
+    appendColour(buffer, faceColours, p);
     buffer += '\n';
     detail::drain(buffer, out);
   }

@@ -6,8 +6,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <initializer_list>
 #include <limits>
 #include <optional>
+#include <string>
 #include <string_view>
 #include <system_error>
 #include <vector>
@@ -669,11 +671,27 @@ void readFaces(const Element& face, std::uint64_t vertexCount, ValueReader& read
   if (!indices.isList) fail("face property '" + indices.name + "' is not a list");
   if (!isIntegral(indices.type)) fail("face property '" + indices.name + "' is not integral");
 
-  soup.faceOffsets.reserve(reservation(face, encoding, input) + 1);
+  // Every other scalar property is kept; the attribute of property p is attributeOf[p].
+  constexpr std::size_t kDropped = std::numeric_limits<std::size_t>::max();
+  std::vector<std::size_t> attributeOf(face.properties.size(), kDropped);
+  for (std::size_t p = 0; p < face.properties.size(); ++p) {
+    const Property& property = face.properties[p];
+    if (p == *list || property.isList) continue;
+    attributeOf[p] = soup.faceAttributes.size();
+    soup.faceAttributes.push_back({property.name, property.type, {}});
+  }
+  const std::size_t reserve = reservation(face, encoding, input);
+  soup.faceOffsets.reserve(reserve + 1);
+  for (ScalarAttribute& attribute : soup.faceAttributes) attribute.values.reserve(reserve);
   std::vector<std::uint32_t> polygon;
   for (std::uint64_t f = 0; f < face.count; ++f) {
     reader.begin(face, f);
     for (std::size_t p = 0; p < face.properties.size(); ++p) {
+      if (attributeOf[p] != kDropped) {
+        soup.faceAttributes[attributeOf[p]].values.push_back(
+            reader.scalar(face.properties[p].type));
+        continue;
+      }
       if (p != *list) {
         reader.skip(face.properties[p]);
         continue;
@@ -780,28 +798,32 @@ class Output {
   std::string buffer_;
 };
 
-void checkAttributes(const PolygonSoup& soup) {
-  const char* reserved[] = {"x", "y", "z", "nx", "ny", "nz"};
-  for (std::size_t a = 0; a < soup.attributes.size(); ++a) {
-    const VertexAttribute& attribute = soup.attributes[a];
-    const std::string label = "attribute " + std::to_string(a) + " '" + attribute.name + "'";
+/// Throws InvalidInput unless `attributes` can be written as the scalar properties of
+/// `element` next to the properties named in `reserved`.
+void checkAttributes(const std::vector<ScalarAttribute>& attributes, const std::string& element,
+                     std::initializer_list<const char*> reserved) {
+  const char* index = element == "vertex" ? "vertex " : "face ";
+  for (std::size_t a = 0; a < attributes.size(); ++a) {
+    const ScalarAttribute& attribute = attributes[a];
+    const std::string label =
+        element + " attribute " + std::to_string(a) + " '" + attribute.name + "'";
     if (attribute.name.empty())
-      throw InvalidInput("attribute " + std::to_string(a) + " has no name");
+      throw InvalidInput(element + " attribute " + std::to_string(a) + " has no name");
     for (char c : attribute.name) {
       if (detail::isSpace(c))
         throw InvalidInput(label + ": a PLY property name cannot contain white space");
     }
     for (const char* name : reserved) {
       if (attribute.name == name)
-        throw InvalidInput(label + ": the name is reserved for positions and normals");
+        throw InvalidInput(label + ": the name is reserved for the " + element + " element");
     }
     for (std::size_t b = 0; b < a; ++b) {
-      if (soup.attributes[b].name == attribute.name)
+      if (attributes[b].name == attribute.name)
         throw InvalidInput(label + ": the name is used twice");
     }
     for (std::size_t v = 0; v < attribute.values.size(); ++v) {
       if (const char* problem = unrepresentable(attribute.values[v], attribute.type)) {
-        throw InvalidInput(label + ": vertex " + std::to_string(v) + ": value " +
+        throw InvalidInput(label + ": " + index + std::to_string(v) + ": value " +
                            std::to_string(attribute.values[v]) + " " + problem + " for type " +
                            typeName(attribute.type));
       }
@@ -821,7 +843,8 @@ PolygonSoup readPly(std::istream& in, const std::string& name) {
 
 void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) {
   soup.validate();
-  checkAttributes(soup);
+  checkAttributes(soup.attributes, "vertex", {"x", "y", "z", "nx", "ny", "nz"});
+  checkAttributes(soup.faceAttributes, "face", {"vertex_indices", "vertex_index"});
   const bool withNormals = soup.hasNormals();
   std::size_t largestPolygon = 0;
   for (std::size_t p = 0; p < soup.polygonCount(); ++p)
@@ -856,6 +879,13 @@ void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) 
     output.text(" ");
     output.text(typeName(indexType));
     output.text(" vertex_indices\n");
+    for (const ScalarAttribute& attribute : soup.faceAttributes) {
+      output.text("property ");
+      output.text(typeName(attribute.type));
+      output.text(" ");
+      output.text(attribute.name);
+      output.text("\n");
+    }
   }
   output.text("end_header\n");
 
@@ -876,8 +906,14 @@ void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) 
   for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
     const auto polygon = soup.polygon(p);
     output.value(static_cast<double>(polygon.size()), lengthType, ' ');
+    const bool last = soup.faceAttributes.empty();
     for (std::size_t k = 0; k < polygon.size(); ++k)
-      output.value(polygon[k], indexType, k + 1 == polygon.size() ? '\n' : ' ');
+      output.value(polygon[k], indexType, last && k + 1 == polygon.size() ? '\n' : ' ');
+    for (std::size_t a = 0; a < soup.faceAttributes.size(); ++a) {
+      const ScalarAttribute& attribute = soup.faceAttributes[a];
+      output.value(attribute.values[p], attribute.type,
+                   a + 1 == soup.faceAttributes.size() ? '\n' : ' ');
+    }
     output.drain();
   }
   output.drain(true);

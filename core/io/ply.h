@@ -19,12 +19,13 @@ enum class PlyEncoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
 /// kept as a VertexAttribute with its PLY type and its values as double (float properties
 /// keep their float value exactly). The optional `face` element needs a list property
 /// `vertex_indices` (or `vertex_index`) with integer count and index types; each list is one
-/// polygon (0-based, at least 3 vertices). A file without a face element reads as a point
-/// cloud. Vertex list properties, other face properties and other elements (edge, material,
-/// ...) are read through and dropped. Type names and their sized aliases are both accepted
-/// (char/int8, uchar/uint8, short/int16, ushort/uint16, int/int32, uint/uint32,
-/// float/float32, double/float64). In ASCII files every element instance is one line;
-/// decimal values are parsed with correct rounding.
+/// polygon (0-based, at least 3 vertices); every other scalar face property (per-face colour,
+/// material index, ...) is kept as a face attribute (PolygonSoup::faceAttributes) in the same
+/// way. A file without a face element reads as a point cloud. List properties other than the
+/// face index list and other elements (edge, material, ...) are read through and dropped. Type
+/// names and their sized aliases are both accepted (char/int8, uchar/uint8, short/int16,
+/// ushort/uint16, int/int32, uint/uint32, float/float32, double/float64). In ASCII files every
+/// element instance is one line; decimal values are parsed with correct rounding.
 ///
 /// `name` only appears in messages (usually the path). Throws IoError, and nothing else:
 /// header errors name the header line ("cloud.ply:3: unknown property type 'foo'"): bad
@@ -38,15 +39,17 @@ enum class PlyEncoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
 /// grows with the data actually present.
 PolygonSoup readPly(std::istream& in, const std::string& name);
 
-/// Writes `soup` as PLY. Positions and normals are written as double, attributes in their
-/// own ScalarType (Float32 values rounded to float), faces as `list uchar int vertex_indices`
-/// (`list uint ...` when a polygon has more than 255 vertices, `... uint vertex_indices` when
-/// an index exceeds the int range); a soup without polygons gets no face element. Binary
+/// Writes `soup` as PLY. Positions and normals are written as double, vertex and face
+/// attributes in their own ScalarType (Float32 values rounded to float) after them, faces as
+/// `list uchar int vertex_indices` (`list uint ...` when a polygon has more than 255 vertices,
+/// `... uint vertex_indices` when an index exceeds the int range); a soup without polygons
+/// gets no face element. Per-corner normals and texture coordinates are not stored. Binary
 /// output reads back bit-exactly; ASCII output uses the shortest decimal form that reads back
 /// to the identical value, so it does too.
 ///
 /// Throws InvalidInput for an inconsistent soup (soup.validate()), an attribute whose name is
-/// empty, contains white space, repeats another or is one of x y z nx ny nz, or an attribute
+/// empty, contains white space, repeats another of its element or is one of x y z nx ny nz
+/// (vertex) or vertex_indices vertex_index (face), or an attribute
 /// value its integer type cannot hold (not integral or out of range) or that is finite but
 /// beyond the float range for Float32. Stream errors are left in the state of `out`.
 void writePly(const PolygonSoup& soup, std::ostream& out,

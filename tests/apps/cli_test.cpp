@@ -3,6 +3,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -334,6 +335,77 @@ TEST_F(CliTest, InvalidCagesExitWith3) {
   expectNoOutput(output);
   EXPECT_EQ(run("deform --method harmonica --cage a --pose b in.obj -o out.obj").exitCode, 2);
   EXPECT_EQ(run("deform --method mvc in.obj -o out.obj").exitCode, 2);  // --cage missing
+}
+
+TEST_F(CliTest, InputsWithoutVerticesAreBadInputNamingTheFile) {
+  write("affine.json",
+        R"({"method": "affine", "matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})");
+  for (const char* name : {"empty.obj", "empty.off", "empty.ply", "zero.off"}) {
+    SCOPED_TRACE(name);
+    write(name, std::string(name) == "zero.off" ? "OFF\n0 0 0\n" : "");
+    const fs::path output = dir_ / (std::string("out_") + name);
+    const CliResult r = run("deform --rig " + (dir_ / "affine.json").string() + " " +
+                            (dir_ / name).string() + " -o " + output.string());
+    EXPECT_EQ(r.exitCode, 3) << r.err;
+    EXPECT_THAT(r.err, HasSubstr((dir_ / name).string()));
+    expectNoOutput(output);
+  }
+}
+
+TEST_F(CliTest, SingularAffineRigWarnsThatNormalsAreUndefined) {
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1), Vec3(1), 50, 4);
+  cloud.normals.assign(cloud.size(), Vec3(0, 0, 1));
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("flatten.json",
+        R"({"method": "affine", "matrix": [[1,0,0,0],[0,1,0,0],[0,0,0,0],[0,0,0,1]]})");
+  write("move.json",
+        R"({"method": "affine", "matrix": [[0,-1,0,1],[1,0,0,2],[0,0,1,3],[0,0,0,1]]})");
+  const CliResult flat = run("deform --rig " + (dir_ / "flatten.json").string() + " " +
+                             (dir_ / "cloud.ply").string() + " -o " + (dir_ / "flat.ply").string());
+  ASSERT_EQ(flat.exitCode, 0) << flat.err;
+  EXPECT_THAT(flat.err, HasSubstr("warning: " + (dir_ / "cloud.ply").string() +
+                                  ": the warp is singular at 50 of 50 vertices; their normals "
+                                  "are undefined"));
+  EXPECT_EQ(std::count(flat.err.begin(), flat.err.end(), '\n'), 1) << flat.err;
+  const CliResult rigid =
+      run("deform --rig " + (dir_ / "move.json").string() + " " + (dir_ / "cloud.ply").string() +
+          " -o " + (dir_ / "moved.ply").string());
+  ASSERT_EQ(rigid.exitCode, 0) << rigid.err;
+  EXPECT_THAT(rigid.err, ::testing::Not(HasSubstr("warning")));
+}
+
+TEST_F(CliTest, TexturedObjKeepsItsTextureCoordinatesAndCornerNormals) {
+  // A flat-shaded textured quad pair: the shared vertices have two normals each.
+  write("quads.obj",
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 1 0 -1\nv 1 1 -1\n"
+        "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\nvn 1 0 0\n"
+        "f 1/1/1 2/2/1 3/3/1 4/4/1\nf 2/1/2 5/2/2 6/3/2 3/4/2\n");
+  write("move.json",
+        R"({"method": "affine", "matrix": [[0,-1,0,1],[1,0,0,2],[0,0,1,3],[0,0,0,1]]})");
+  const CliResult r = run("deform --rig " + (dir_ / "move.json").string() + " " +
+                          (dir_ / "quads.obj").string() + " -o " + (dir_ / "out.obj").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const PolygonSoup in = readSoup(dir_ / "quads.obj");
+  const PolygonSoup out = readSoup(dir_ / "out.obj");
+  EXPECT_EQ(out.faceIndices, in.faceIndices);
+  EXPECT_EQ(out.texcoords.values, in.texcoords.values);
+  EXPECT_EQ(out.texcoords.indices, in.texcoords.indices);
+  EXPECT_EQ(out.cornerNormals.indices, in.cornerNormals.indices);
+  // A quarter turn about z: (0, 0, 1) stays, (1, 0, 0) becomes (0, 1, 0).
+  ASSERT_EQ(out.cornerNormals.values.size(), 2u);
+  EXPECT_LT(glm::length(out.cornerNormals.values[0] - Vec3(0, 0, 1)), 1e-15);
+  EXPECT_LT(glm::length(out.cornerNormals.values[1] - Vec3(0, 1, 0)), 1e-15);
+  EXPECT_EQ(out.positions[4], Vec3(1, 3, 2));
+  EXPECT_EQ(r.err, "") << "nothing dropped, nothing to warn about";
+
+  // To PLY the per-corner data cannot go: one warning line says so.
+  const CliResult ply = run("deform --rig " + (dir_ / "move.json").string() + " " +
+                            (dir_ / "quads.obj").string() + " -o " + (dir_ / "out.ply").string());
+  ASSERT_EQ(ply.exitCode, 0) << ply.err;
+  EXPECT_EQ(ply.err, "warning: " + (dir_ / "out.ply").string() +
+                         ": the format cannot store the input's texture coordinates; per-corner "
+                         "normals; they are not written\n");
 }
 
 }  // namespace

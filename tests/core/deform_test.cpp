@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "core/bend.h"
+#include "core/combinators.h"
 #include "core/errors.h"
 #include "core/twist.h"
 #include "test_util.h"
@@ -167,6 +168,133 @@ TEST(Deform, RejectsMalformedSets) {
   static_cast<PointSet&>(soup) = samplePointSet(3, false);
   soup.addPolygon({0, 1, 3});
   EXPECT_THROW(deform(warp, soup), InvalidInput);
+}
+
+/// The affine warp x -> a x + b.
+AffineWarp affine(const Mat3& a, const Vec3& b) {
+  Mat4 m(a);
+  m[3] = glm::dvec4(b, 1.0);
+  return AffineWarp(m);
+}
+
+/// A rotation by `angle` about the unit `axis` (Rodrigues).
+Mat3 rotation(const Vec3& axis, double angle) {
+  const Mat3 k(Vec3(0, axis.z, -axis.y), Vec3(-axis.z, 0, axis.x), Vec3(axis.y, -axis.x, 0));
+  return Mat3(1.0) + std::sin(angle) * k + (1.0 - std::cos(angle)) * (k * k);
+}
+
+/// Flat-shaded quads with every attribute a soup can carry: texture coordinates with a seam,
+/// per-corner normals shared by corners of different vertices, vertex and face attributes.
+PolygonSoup attributedSoup() {
+  PolygonSoup soup;
+  static_cast<PointSet&>(soup) = samplePointSet(8, false);
+  soup.addPolygon({0, 1, 2, 3});
+  soup.addPolygon({4, 5, 6, 7});
+  soup.addPolygon({1, 2, 6, 5});
+  soup.faceAttributes = {{"material_index", ScalarType::Int32, {3, -1, 7}}};
+  std::mt19937 rng(5);
+  for (int k = 0; k < 3; ++k) soup.cornerNormals.values.push_back(test::randomUnit(rng));
+  soup.cornerNormals.indices = {0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, CornerAttribute::kNone};
+  soup.texcoords.values = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5, 0.25, 0}};
+  soup.texcoords.indices = {0, 1, 2, 3, 0, 1, 2, 3, 4, 2, 1, 0};
+  return soup;
+}
+
+void expectAttributesCopied(const PolygonSoup& before, const PolygonSoup& after) {
+  expectSameAttributes(before, after);
+  ASSERT_EQ(after.faceAttributes.size(), before.faceAttributes.size());
+  EXPECT_EQ(after.faceAttributes[0].values, before.faceAttributes[0].values);
+  EXPECT_EQ(after.texcoords.values, before.texcoords.values);
+  EXPECT_EQ(after.texcoords.indices, before.texcoords.indices);
+  EXPECT_EQ(after.faceOffsets, before.faceOffsets);
+  EXPECT_EQ(after.faceIndices, before.faceIndices);
+}
+
+TEST(Deform, RigidMotionRotatesCornerNormalsAndCopiesTheRest) {
+  const Mat3 r = rotation(glm::normalize(Vec3(1, 2, -0.5)), 0.7);
+  const AffineWarp warp = affine(r, Vec3(3, -1, 2));
+  const PolygonSoup before = attributedSoup();
+  PolygonSoup after = before;
+  const DeformReport report = deform(warp, after);
+  EXPECT_EQ(report.singularNormals, 0u);
+  expectAttributesCopied(before, after);
+  EXPECT_EQ(after.cornerNormals.indices, before.cornerNormals.indices) << "sharing kept";
+  ASSERT_EQ(after.cornerNormals.values.size(), before.cornerNormals.values.size());
+  for (std::size_t k = 0; k < before.cornerNormals.values.size(); ++k) {
+    const Vec3 expected = r * before.cornerNormals.values[k];
+    EXPECT_LT(glm::length(after.cornerNormals.values[k] - expected), 1e-14) << k;
+  }
+  for (std::size_t i = 0; i < before.size(); ++i)
+    EXPECT_TRUE(test::bitEqual(after.positions[i], warp.apply(before.positions[i]))) << i;
+}
+
+TEST(Deform, NonUniformScaleCarriesCornerNormalsByTheInverseTranspose) {
+  // J = diag(2, 0.5, 3): J^-T n = (nx / 2, 2 ny, nz / 3), then normalised.
+  const AffineWarp warp = affine(Mat3(Vec3(2, 0, 0), Vec3(0, 0.5, 0), Vec3(0, 0, 3)), Vec3(0.0));
+  const PolygonSoup before = attributedSoup();
+  PolygonSoup after = before;
+  EXPECT_EQ(deform(warp, after).singularNormals, 0u);
+  expectAttributesCopied(before, after);
+  EXPECT_EQ(after.cornerNormals.indices, before.cornerNormals.indices);
+  for (std::size_t k = 0; k < before.cornerNormals.values.size(); ++k) {
+    const Vec3 n = before.cornerNormals.values[k];
+    const Vec3 expected = glm::normalize(Vec3(n.x / 2.0, 2.0 * n.y, n.z / 3.0));
+    EXPECT_LT(glm::length(after.cornerNormals.values[k] - expected), 1e-14) << k;
+  }
+}
+
+TEST(Deform, NonlinearWarpGivesEachCornerItsVertexNormal) {
+  // Under a bend the shared normals differ from vertex to vertex: the sharing splits, and
+  // every corner gets J^-T n at its own vertex.
+  const BendWarp warp = sampleBend();
+  const PolygonSoup before = attributedSoup();
+  PolygonSoup after = before;
+  deform(warp, after);
+  expectAttributesCopied(before, after);
+  ASSERT_EQ(after.cornerNormals.indices.size(), before.cornerNormals.indices.size());
+  EXPECT_GT(after.cornerNormals.values.size(), before.cornerNormals.values.size());
+  for (std::size_t c = 0; c < before.faceIndices.size(); ++c) {
+    const std::uint32_t k = before.cornerNormals.indices[c];
+    if (k == CornerAttribute::kNone) {
+      EXPECT_EQ(after.cornerNormals.indices[c], CornerAttribute::kNone);
+      continue;
+    }
+    const Vec3 expected = transformNormal(warp, before.positions[before.faceIndices[c]],
+                                          before.cornerNormals.values[k]);
+    EXPECT_TRUE(
+        test::bitEqual(after.cornerNormals.values[after.cornerNormals.indices[c]], expected))
+        << "corner " << c;
+  }
+  EXPECT_NO_THROW(after.validate());
+}
+
+TEST(Deform, SingularWarpReportsTheVerticesWithUndefinedNormals) {
+  // A projection onto the plane z = 0: J is singular everywhere.
+  const AffineWarp flatten = affine(Mat3(Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 0)), Vec3(0.0));
+  PointSet withNormals = samplePointSet(100, true);
+  EXPECT_EQ(deform(flatten, withNormals).singularNormals, 100u);
+  PointSet withoutNormals = samplePointSet(100, false);
+  EXPECT_EQ(deform(flatten, withoutNormals).singularNormals, 0u) << "no normals, no warning";
+  // Per-corner normals: counted once per vertex (8), not per corner (11 with a normal).
+  PolygonSoup soup = attributedSoup();
+  EXPECT_EQ(deform(flatten, soup).singularNormals, 8u);
+  // A reflection is not singular.
+  const AffineWarp mirror = affine(Mat3(Vec3(-1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)), Vec3(0.0));
+  PointSet mirrored = samplePointSet(100, true);
+  EXPECT_EQ(deform(mirror, mirrored).singularNormals, 0u);
+  // Singular up to rounding, at any scale: a projection onto a tilted plane, whose computed
+  // determinant is not exactly 0.
+  const Vec3 u = glm::normalize(Vec3(1, 2, 3));
+  for (const double scale : {1e-6, 1.0, 1e6}) {
+    const AffineWarp project = affine(scale * (Mat3(1.0) - glm::outerProduct(u, u)), Vec3(0.0));
+    PointSet projected = samplePointSet(10, true);
+    EXPECT_EQ(deform(project, projected).singularNormals, 10u) << scale;
+  }
+  // Strongly anisotropic but invertible: the normals are defined (along z).
+  const AffineWarp squash =
+      affine(Mat3(Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1e-10)), Vec3(0.0));
+  PointSet squashed = samplePointSet(10, true);
+  EXPECT_EQ(deform(squash, squashed).singularNormals, 0u);
 }
 
 TEST(Deform, EmptySetIsFine) {

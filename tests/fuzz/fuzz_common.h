@@ -27,17 +27,12 @@ inline bool sameBits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
          (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0);
 }
 
-/// Compares what both soups hold; attributes only when `withAttributes`.
-inline void expectSame(const PolygonSoup& a, const PolygonSoup& b, bool withAttributes) {
-  if (!sameBits(a.positions, b.positions)) finding("round trip changed the positions");
-  if (!sameBits(a.normals, b.normals)) finding("round trip changed the normals");
-  if (a.faceOffsets != b.faceOffsets || a.faceIndices != b.faceIndices)
-    finding("round trip changed the polygons");
-  if (!withAttributes) return;
-  if (a.attributes.size() != b.attributes.size()) finding("round trip changed the attributes");
-  for (std::size_t k = 0; k < a.attributes.size(); ++k) {
-    const VertexAttribute& x = a.attributes[k];
-    const VertexAttribute& y = b.attributes[k];
+inline void expectSameAttributes(const std::vector<ScalarAttribute>& a,
+                                 const std::vector<ScalarAttribute>& b) {
+  if (a.size() != b.size()) finding("round trip changed the attributes");
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const ScalarAttribute& x = a[k];
+    const ScalarAttribute& y = b[k];
     if (x.name != y.name || x.type != y.type || x.values.size() != y.values.size())
       finding("round trip changed an attribute");
     for (std::size_t v = 0; v < x.values.size(); ++v) {
@@ -46,6 +41,31 @@ inline void expectSame(const PolygonSoup& a, const PolygonSoup& b, bool withAttr
         finding("round trip changed an attribute value");
     }
   }
+}
+
+/// Compares what both soups hold; vertex and face attributes only when `withAttributes`.
+inline void expectSame(const PolygonSoup& a, const PolygonSoup& b, bool withAttributes) {
+  if (!sameBits(a.positions, b.positions)) finding("round trip changed the positions");
+  if (!sameBits(a.normals, b.normals)) finding("round trip changed the normals");
+  if (a.faceOffsets != b.faceOffsets || a.faceIndices != b.faceIndices)
+    finding("round trip changed the polygons");
+  // Per-corner data and OBJ statements: the format that reads them also writes them.
+  if (!sameBits(a.texcoords.values, b.texcoords.values) ||
+      a.texcoords.indices != b.texcoords.indices || a.texcoordDimension != b.texcoordDimension)
+    finding("round trip changed the texture coordinates");
+  if (!sameBits(a.cornerNormals.values, b.cornerNormals.values) ||
+      a.cornerNormals.indices != b.cornerNormals.indices)
+    finding("round trip changed the corner normals");
+  if (a.objStatements.size() != b.objStatements.size())
+    finding("round trip changed the OBJ statements");
+  for (std::size_t k = 0; k < a.objStatements.size(); ++k) {
+    if (a.objStatements[k].polygon != b.objStatements[k].polygon ||
+        a.objStatements[k].text != b.objStatements[k].text)
+      finding("round trip changed an OBJ statement");
+  }
+  if (!withAttributes) return;
+  expectSameAttributes(a.attributes, b.attributes);
+  expectSameAttributes(a.faceAttributes, b.faceAttributes);
 }
 
 /// Runs `read` on the bytes; if it succeeds, validates the soup, writes it with `write` and

@@ -6,6 +6,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -139,6 +140,90 @@ TEST(MeshIoTest, MalformedFilesNameTheFileAndLine) {
                 std::string(20, '\0'));
   EXPECT_THAT(readError(dir.path() / "bad.ply"),
               HasSubstr((dir.path() / "bad.ply").string() + ": vertex 1: unexpected end of file"));
+}
+
+TEST(MeshIoTest, InputsWithoutVerticesAreErrorsNamingTheFile) {
+  TempDir dir;
+  const std::pair<const char*, const char*> files[] = {
+      {"empty.obj", ""},
+      {"comments.obj", "# nothing here\ng group\n"},
+      {"empty.off", ""},
+      {"zero.off", "OFF\n0 0 0\n"},
+      {"empty.ply", ""},
+      {"zero.ply",
+       "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
+       "property float y\nproperty float z\nend_header\n"},
+      {"novertex.ply", "ply\nformat ascii 1.0\nend_header\n"}};
+  for (const auto& [name, text] : files) {
+    SCOPED_TRACE(name);
+    writeFile(dir.path() / name, text);
+    EXPECT_THAT(readError(dir.path() / name), HasSubstr((dir.path() / name).string() + ": "));
+  }
+  EXPECT_THAT(readError(dir.path() / "empty.obj"), HasSubstr("empty.obj: no vertices"));
+  EXPECT_THAT(readError(dir.path() / "zero.ply"), HasSubstr("zero.ply: no vertices"));
+}
+
+TEST(MeshIoTest, AttributesSurviveFilesInTheirFormats) {
+  TempDir dir;
+  PolygonSoup soup = sampleSoup(false, true);
+  soup.texcoords.values = {{0.25, 0.5, 0}, {1, 0, 0}};
+  soup.cornerNormals.values = {{0, 0, 1}, {0, 1, 0}};
+  for (std::size_t c = 0; c < soup.faceIndices.size(); ++c) {
+    soup.texcoords.indices.push_back(static_cast<std::uint32_t>(c % 2));
+    // No normals on the first triangle, so they cannot read back as per-vertex normals.
+    soup.cornerNormals.indices.push_back(c < 3 ? CornerAttribute::kNone
+                                               : static_cast<std::uint32_t>(c % 3 == 0));
+  }
+  writeSoup(soup, dir.path() / "a.obj");
+  const PolygonSoup obj = readSoup(dir.path() / "a.obj");
+  expectSameSoup(obj, soup);
+  EXPECT_EQ(obj.texcoords.values, soup.texcoords.values);
+  EXPECT_EQ(obj.texcoords.indices, soup.texcoords.indices);
+  EXPECT_EQ(obj.cornerNormals.values, soup.cornerNormals.values);
+  EXPECT_EQ(obj.cornerNormals.indices, soup.cornerNormals.indices);
+
+  PolygonSoup colours = sampleSoup(true, true);
+  colours.attributes = {{"red", ScalarType::UInt8, std::vector<double>(colours.size(), 7)}};
+  colours.faceAttributes = {
+      {"material_index", ScalarType::Int32, std::vector<double>(colours.polygonCount(), -2)}};
+  writeSoup(colours, dir.path() / "a.ply");
+  const PolygonSoup ply = readSoup(dir.path() / "a.ply");
+  expectSameSoup(ply, colours);
+  ASSERT_EQ(ply.attributes.size(), 1u);
+  EXPECT_EQ(ply.attributes[0].values, colours.attributes[0].values);
+  ASSERT_EQ(ply.faceAttributes.size(), 1u);
+  EXPECT_EQ(ply.faceAttributes[0].name, "material_index");
+  EXPECT_EQ(ply.faceAttributes[0].type, ScalarType::Int32);
+  EXPECT_EQ(ply.faceAttributes[0].values, colours.faceAttributes[0].values);
+}
+
+TEST(MeshIoTest, UnstoredContentNamesWhatAFormatDrops) {
+  PolygonSoup soup = sampleSoup(false, true);
+  EXPECT_TRUE(unstoredContent(soup, FileFormat::Off).empty()) << "positions and faces fit all";
+  soup.attributes = {{"red", ScalarType::UInt8, std::vector<double>(soup.size(), 1)},
+                     {"green", ScalarType::UInt8, std::vector<double>(soup.size(), 2)}};
+  soup.faceAttributes = {
+      {"material_index", ScalarType::Int32, std::vector<double>(soup.polygonCount(), 0)}};
+  soup.texcoords.values = {{0, 0, 0}};
+  soup.texcoords.indices.assign(soup.faceIndices.size(), 0);
+  soup.objStatements = {{0, "usemtl red"}};
+  using ::testing::ElementsAre;
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Obj),
+              ElementsAre("vertex attributes red, green", "face attributes material_index"));
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Ply),
+              ElementsAre("texture coordinates", "OBJ groups and materials"));
+  EXPECT_EQ(unstoredContent(soup, FileFormat::Off).size(), 4u);
+  // With blue too, OFF stores the colours; the rest is still lost.
+  soup.attributes.push_back({"blue", ScalarType::UInt8, std::vector<double>(soup.size(), 3)});
+  soup.attributes.push_back({"confidence", ScalarType::Float32, std::vector<double>(soup.size())});
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Off),
+              ElementsAre("vertex attributes confidence", "face attributes material_index",
+                          "texture coordinates", "OBJ groups and materials"));
+  soup.texcoords = {};
+  soup.cornerNormals.values = {{0, 0, 1}};
+  soup.cornerNormals.indices.assign(soup.faceIndices.size(), 0);
+  EXPECT_THAT(unstoredContent(soup, FileFormat::Ply),
+              ElementsAre("per-corner normals", "OBJ groups and materials"));
 }
 
 TEST(MeshIoTest, WriteToMissingDirectoryThrowsAndLeavesNothing) {

@@ -82,6 +82,7 @@ TEST(OffTest, ReadsCountsOnHeaderLineFaceColoursAndCrLf) {
   ASSERT_EQ(soup.size(), 4u);
   ASSERT_EQ(soup.polygonCount(), 2u);
   EXPECT_THAT(soup.polygon(1), ElementsAre(1, 3, 2));
+  EXPECT_TRUE(soup.faceAttributes.empty()) << "colours of different sizes are dropped";
 }
 
 TEST(OffTest, ReadsNoffNormalsAndCoffColours) {
@@ -93,6 +94,52 @@ TEST(OffTest, ReadsNoffNormalsAndCoffColours) {
       readText("COFF\n3 1 0\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n0 1 0 0 0 255 255\n3 0 1 2\n");
   EXPECT_FALSE(coff.hasNormals());
   EXPECT_EQ(coff.positions[1], Vec3(1, 0, 0));
+  ASSERT_EQ(coff.attributes.size(), 4u);
+  const char* names[] = {"red", "green", "blue", "alpha"};
+  for (std::size_t c = 0; c < 4; ++c) {
+    EXPECT_EQ(coff.attributes[c].name, names[c]);
+    EXPECT_EQ(coff.attributes[c].type, ScalarType::UInt8);
+  }
+  EXPECT_THAT(coff.attributes[1].values, ElementsAre(0, 255, 0));
+  EXPECT_THAT(coff.attributes[3].values, ElementsAre(255, 255, 255));
+}
+
+TEST(OffTest, ColoursRoundTripWithTheirTypes) {
+  // Float vertex colours (RGB, some integral) on NOFF, uchar RGBA face colours.
+  const PolygonSoup soup = readText(
+      "CNOFF\n3 2 0\n0 0 0 0 0 1 0.25 1 0\n1 0 0 0 0 1 0.5 0.125 1\n0 1 0 0 0 1 1 1 1\n"
+      "3 0 1 2 10 20 30 40\n3 2 1 0 0 0 0 255\n");
+  ASSERT_TRUE(soup.hasNormals());
+  ASSERT_EQ(soup.attributes.size(), 3u);
+  EXPECT_EQ(soup.attributes[0].type, ScalarType::Float32);
+  EXPECT_THAT(soup.attributes[0].values, ElementsAre(0.25, 0.5, 1));
+  ASSERT_EQ(soup.faceAttributes.size(), 4u);
+  EXPECT_EQ(soup.faceAttributes[3].name, "alpha");
+  EXPECT_EQ(soup.faceAttributes[3].type, ScalarType::UInt8);
+  EXPECT_THAT(soup.faceAttributes[0].values, ElementsAre(10, 0));
+
+  const PolygonSoup back = roundTrip(soup);
+  test::expectSameSoup(back, soup);
+  const auto expectSame = [](const std::vector<ScalarAttribute>& a,
+                             const std::vector<ScalarAttribute>& b) {
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      EXPECT_EQ(a[k].name, b[k].name);
+      EXPECT_EQ(a[k].type, b[k].type) << b[k].name;
+      EXPECT_EQ(a[k].values, b[k].values) << b[k].name;
+    }
+  };
+  expectSame(back.attributes, soup.attributes);
+  expectSame(back.faceAttributes, soup.faceAttributes);
+}
+
+TEST(OffTest, RejectsCoffVerticesWithoutColours) {
+  EXPECT_THAT(errorOf("COFF\n3 1 0\n0 0 0 1 1 1\n1 0 0\n0 1 0 1 1 1\n3 0 1 2\n"),
+              HasSubstr("mesh.off: COFF vertices need 3 or 4 colour values each"));
+  EXPECT_THAT(errorOf("COFF\n2 0 0\n0 0 0 1 1 1\n1 0 0 1 1 1 1\n"),
+              HasSubstr("the same count on every vertex"));
+  EXPECT_THAT(errorOf("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 1 1e999 1\n"),
+              HasSubstr("mesh.off:6: face 0: '1e999' is not a finite colour value"));
 }
 
 TEST(OffTest, ReadsPointCloudWithZeroFaces) {

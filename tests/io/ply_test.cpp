@@ -29,8 +29,9 @@ using test::randomSoup;
 const PlyEncoding kEncodings[] = {PlyEncoding::Ascii, PlyEncoding::BinaryLittleEndian,
                                   PlyEncoding::BinaryBigEndian};
 
-/// One attribute of every type with values that each type holds exactly.
-void addAttributes(PolygonSoup& soup, std::uint64_t seed) {
+/// One attribute of every type with `count` values that each type holds exactly.
+std::vector<ScalarAttribute> randomAttributes(std::size_t count, std::uint64_t seed) {
+  std::vector<ScalarAttribute> attributes;
   std::mt19937_64 rng(seed);
   const struct {
     const char* name;
@@ -46,8 +47,8 @@ void addAttributes(PolygonSoup& soup, std::uint64_t seed) {
                {"confidence", ScalarType::Float32, 0, 0},
                {"quality", ScalarType::Float64, 0, 0}};
   for (const auto& kind : kinds) {
-    VertexAttribute attribute{kind.name, kind.type, {}};
-    for (std::size_t v = 0; v < soup.size(); ++v) {
+    ScalarAttribute attribute{kind.name, kind.type, {}};
+    for (std::size_t v = 0; v < count; ++v) {
       double value = 0.0;
       if (kind.type == ScalarType::Float32) {
         const std::uint32_t bits = static_cast<std::uint32_t>(rng());
@@ -68,24 +69,35 @@ void addAttributes(PolygonSoup& soup, std::uint64_t seed) {
       }
       attribute.values.push_back(value);
     }
-    soup.attributes.push_back(std::move(attribute));
+    attributes.push_back(std::move(attribute));
   }
+  return attributes;
 }
 
-void expectSameAttributes(const PolygonSoup& a, const PolygonSoup& b) {
-  ASSERT_EQ(a.attributes.size(), b.attributes.size());
-  for (std::size_t k = 0; k < a.attributes.size(); ++k) {
-    const VertexAttribute& x = a.attributes[k];
-    const VertexAttribute& y = b.attributes[k];
+void addAttributes(PolygonSoup& soup, std::uint64_t seed) {
+  soup.attributes = randomAttributes(soup.size(), seed);
+}
+
+void expectSameAttributes(const std::vector<ScalarAttribute>& a,
+                          const std::vector<ScalarAttribute>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    const ScalarAttribute& x = a[k];
+    const ScalarAttribute& y = b[k];
     EXPECT_EQ(x.name, y.name);
     EXPECT_EQ(x.type, y.type) << x.name;
     ASSERT_EQ(x.values.size(), y.values.size()) << x.name;
     for (std::size_t v = 0; v < x.values.size(); ++v) {
       ASSERT_EQ(std::bit_cast<std::uint64_t>(x.values[v]),
                 std::bit_cast<std::uint64_t>(y.values[v]))
-          << x.name << " vertex " << v << ": " << x.values[v] << " vs " << y.values[v];
+          << x.name << " element " << v << ": " << x.values[v] << " vs " << y.values[v];
     }
   }
+}
+
+void expectSameAttributes(const PolygonSoup& a, const PolygonSoup& b) {
+  expectSameAttributes(a.attributes, b.attributes);
+  expectSameAttributes(a.faceAttributes, b.faceAttributes);
 }
 
 std::string write(const PolygonSoup& soup, PlyEncoding encoding) {
@@ -260,7 +272,53 @@ TEST(PlyTest, ReadsAsciiFileWithColoursConfidenceAndExtraElements) {
   EXPECT_EQ(soup.attributes[3].name, "confidence");
   EXPECT_EQ(soup.attributes[3].type, ScalarType::Float32);
   EXPECT_THAT(soup.attributes[3].values, ElementsAre(0.5, static_cast<double>(0.1f), 1.0, 0.125));
+  ASSERT_EQ(soup.faceAttributes.size(), 1u);
+  EXPECT_EQ(soup.faceAttributes[0].name, "material");
+  EXPECT_EQ(soup.faceAttributes[0].type, ScalarType::UInt8);
+  EXPECT_THAT(soup.faceAttributes[0].values, ElementsAre(1, 2));
   EXPECT_NO_THROW(soup.validate());
+}
+
+TEST(PlyTest, RoundTripWithFaceAttributesIsExact) {
+  for (const PlyEncoding encoding : kEncodings) {
+    SCOPED_TRACE(static_cast<int>(encoding));
+    PolygonSoup soup = randomSoup(40, 50, 70, true);
+    addAttributes(soup, 41);
+    soup.faceAttributes = randomAttributes(soup.polygonCount(), 42);
+    const PolygonSoup back = roundTrip(soup, encoding);
+    expectSameSoup(back, soup);
+    expectSameAttributes(back, soup);
+  }
+}
+
+TEST(PlyTest, ReadsFacePropertiesAroundTheIndexListAndDropsFaceLists) {
+  // Binary: a per-face colour before the index list, a quality after it, and a texture
+  // coordinate list, which is read through and dropped.
+  std::string bytes =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 2\nproperty uchar red\n"
+      "property list uchar int vertex_indices\nproperty list uchar float texcoord\n"
+      "property float quality\nend_header\n";
+  for (int v = 0; v < 3; ++v)
+    for (int c = 0; c < 3; ++c) appendLittleEndian(bytes, static_cast<float>(v == c));
+  for (int f = 0; f < 2; ++f) {
+    appendLittleEndian(bytes, static_cast<std::uint8_t>(200 + f));
+    appendLittleEndian(bytes, std::uint8_t{3});
+    for (int k = 0; k < 3; ++k) appendLittleEndian(bytes, static_cast<std::int32_t>((k + f) % 3));
+    appendLittleEndian(bytes, std::uint8_t{2});
+    appendLittleEndian(bytes, 0.5f);
+    appendLittleEndian(bytes, 0.25f);
+    appendLittleEndian(bytes, f == 0 ? 0.1f : -3.0f);
+  }
+  const PolygonSoup soup = readBytes(bytes);
+  ASSERT_EQ(soup.polygonCount(), 2u);
+  EXPECT_THAT(soup.polygon(1), ElementsAre(1, 2, 0));
+  ASSERT_EQ(soup.faceAttributes.size(), 2u);
+  EXPECT_EQ(soup.faceAttributes[0].name, "red");
+  EXPECT_THAT(soup.faceAttributes[0].values, ElementsAre(200, 201));
+  EXPECT_EQ(soup.faceAttributes[1].name, "quality");
+  EXPECT_EQ(soup.faceAttributes[1].type, ScalarType::Float32);
+  EXPECT_THAT(soup.faceAttributes[1].values, ElementsAre(static_cast<double>(0.1f), -3.0));
 }
 
 TEST(PlyTest, ReadsBigEndianFileAssembledByteByByte) {
@@ -488,6 +546,27 @@ TEST(PlyTest, WriteRejectsBadAttributes) {
   EXPECT_THROW(writePly(soup, out), InvalidInput);
   soup.attributes = {{"short", ScalarType::Float32, {1}}};
   EXPECT_THROW(writePly(soup, out), InvalidInput);
+}
+
+TEST(PlyTest, WriteRejectsBadFaceAttributes) {
+  PolygonSoup soup;
+  soup.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  soup.addPolygon({0, 1, 2});
+  const auto messageOf = [&] {
+    std::ostringstream out;
+    return test::messageOf<InvalidInput>([&] { writePly(soup, out); });
+  };
+  soup.faceAttributes = {{"vertex_indices", ScalarType::UInt8, {0}}};
+  EXPECT_THAT(messageOf(), HasSubstr("face attribute 0 'vertex_indices': the name is reserved"));
+  soup.faceAttributes = {{"red", ScalarType::UInt8, {300}}};
+  EXPECT_THAT(messageOf(), HasSubstr("face attribute 0 'red': face 0: value"));
+  soup.faceAttributes = {{"red", ScalarType::UInt8, {1, 2}}};
+  EXPECT_THAT(messageOf(), HasSubstr("face attribute 'red' has 2 values for 1 polygons"));
+  // A vertex attribute may share a face attribute's name: they are properties of different
+  // elements.
+  soup.faceAttributes = {{"red", ScalarType::UInt8, {1}}};
+  soup.attributes = {{"red", ScalarType::UInt8, {1, 2, 3}}};
+  EXPECT_EQ(messageOf(), "");
 }
 
 }  // namespace
