@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -132,6 +133,19 @@ TEST_F(RigErrorsCliTest, TheSameJobsRunUnderTheLimitWhenSmall) {
                  (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
   EXPECT_EQ(r.exitCode, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir_ / "out.ply"));
+}
+
+TEST_F(RigErrorsCliTest, RunningOutOfMemoryWithoutAnEstimateIsStillOneLineAndExit3) {
+  // 20,000 RBF centres: a dense 20,004² system (3.2 GB) that no estimate guards, so the
+  // allocation fails under the limit; the bad_alloc must not reach the user bare.
+  std::vector<Vec3> centres = makeRandomPoints(Vec3(0.0), Vec3(1.0), 20000, 7).positions;
+  write("rbf.json", R"({"method": "rbf", "centers": )" + test::jsonPoints(centres) +
+                        R"(, "targets": )" + test::jsonPoints(centres) + "}");
+  const test::CliResult r =
+      runLimited("deform --rig " + (dir_ / "rbf.json").string() + " " +
+                 (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
+  expectRefused(r, dir_ / "out.ply");
+  EXPECT_THAT(r.err, HasSubstr("out of memory in 'spacewarp deform'"));
 }
 
 #ifdef SPACEWARP_HAVE_HARMONIC
