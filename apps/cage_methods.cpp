@@ -126,7 +126,10 @@ Rig cageRig(const std::string& method, const std::filesystem::path& cage,
             const ProgressCallback& progress) {
   auto rest = std::make_shared<const Cage>(Cage::fromFile(cage));
   const std::vector<Vec3> posed = rest->posedVerticesFromFile(pose);
-  auto coordinates = cageCoordinates(method, rest, options, progress);
+  // The coordinates' own checks (TetGen's self-intersection, a solver's failure) do not know
+  // the cage's file.
+  auto coordinates =
+      namingFile(cage.string(), [&] { return cageCoordinates(method, rest, options, progress); });
 #ifdef SPACEWARP_HAVE_HARMONIC
   // Harmonic coordinates have a faster Warp view (a 4-term mix per point).
   if (auto harmonic = std::dynamic_pointer_cast<const HarmonicCoordinates>(coordinates))

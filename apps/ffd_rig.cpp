@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "core/errors.h"
 #include "ffd/lattice_coordinates.h"
 #include "ffd/lattice_fit.h"
 #include "ffd/lattice_warp.h"
@@ -83,7 +84,17 @@ Rig ffdRig(RigReader& r) {
     constraints.finish();
     LatticeFitOptions options;
     options.smoothness = r.number("smoothness", options.smoothness);
-    posed = fitControlPoints(lattice, from, to, options).controlPoints;
+    try {
+      posed = fitControlPoints(lattice, from, to, options).controlPoints;
+    } catch (const SolverError&) {
+      // Without smoothing, control points that no constraint reaches are free: the user's
+      // choice of key, not a numerical accident.
+      if (options.smoothness == 0.0)
+        r.fail("smoothness",
+               "is 0 and the fit is singular: constraints do not reach every control point "
+               "(give a smoothness > 0, or constraints near every control point)");
+      throw;
+    }
   }
   auto warp = std::make_shared<LatticeWarp>(lattice, posed);
   auto coordinates = std::make_shared<LatticeCoordinates>(lattice);

@@ -1,5 +1,6 @@
 #include "apps/jobs.h"
 
+#include <algorithm>
 #include <bit>
 #include <charconv>
 #include <cstdint>
@@ -7,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "apps/cli_context.h"
 #include "core/deform.h"
+#include "core/detail/memory_budget.h"
 #include "core/errors.h"
 #include "core/io/atomic_file.h"
 #include "core/io/mesh_io.h"
@@ -16,12 +19,8 @@ namespace spacewarp::cli {
 
 void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path& input,
                 const std::filesystem::path& output, bool ascii, const CliContext& context) {
-  DeformReport report;
-  try {
-    report = deform(warp, soup, context.progress());
-  } catch (const InvalidInput& e) {
-    throw InvalidInput(input.string() + ": " + e.what());
-  }
+  const DeformReport report =
+      namingFile(input.string(), [&] { return deform(warp, soup, context.progress()); });
   WriteOptions options;
   if (ascii) options.plyEncoding = PlyEncoding::Ascii;
   writeSoup(soup, output, options);
@@ -39,8 +38,7 @@ void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path
 }
 
 void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
-                    const std::filesystem::path& output, bool ascii,
-                    const CliContext& context) {
+                    const std::filesystem::path& output, bool ascii, const CliContext& context) {
   formatFromPath(output);
   PolygonSoup soup = readSoup(input);
   deformSoup(warp, soup, input, output, ascii, context);
@@ -49,9 +47,8 @@ void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
 namespace {
 
 // NumPy's .npy format, version 1.0: magic, header length, a Python dict literal padded with
-// spaces to a multiple of 64 bytes and ended by a newline, then the raw little-endian data.
-void writeNpy(std::ostream& out, std::span<const double> values, std::size_t rows,
-              std::size_t columns) {
+// spaces to a multiple of 64 bytes and ended by a newline; the raw little-endian data follows.
+void writeNpyHeader(std::ostream& out, std::size_t rows, std::size_t columns) {
   static_assert(std::endian::native == std::endian::little, "the .npy writer assumes '<f8'");
   std::string header = "{'descr': '<f8', 'fortran_order': False, 'shape': (" +
                        std::to_string(rows) + ", " + std::to_string(columns) + "), }";
@@ -63,28 +60,33 @@ void writeNpy(std::ostream& out, std::span<const double> values, std::size_t row
   const char lengthBytes[2] = {static_cast<char>(length & 0xff), static_cast<char>(length >> 8)};
   out.write(lengthBytes, 2);
   out << header;
-  out.write(reinterpret_cast<const char*>(values.data()),
-            static_cast<std::streamsize>(values.size() * sizeof(double)));
 }
 
-void writeCsv(std::ostream& out, const Coordinates& coordinates, std::span<const double> rows,
-              std::size_t count) {
-  const std::size_t m = coordinates.columnCount();
-  for (std::size_t c = 0; c < m; ++c) out << (c ? "," : "") << coordinates.columnName(c);
+void writeCsvHeader(std::ostream& out, const Coordinates& coordinates) {
+  for (std::size_t c = 0; c < coordinates.columnCount(); ++c)
+    out << (c ? "," : "") << coordinates.columnName(c);
   out << '\n';
+}
+
+void writeCsvRows(std::ostream& out, std::span<const double> rows, std::size_t count,
+                  std::size_t columns) {
   std::string line;
   char buffer[32];
   for (std::size_t i = 0; i < count; ++i) {
     line.clear();
-    for (std::size_t c = 0; c < m; ++c) {
+    for (std::size_t c = 0; c < columns; ++c) {
       if (c) line += ',';
-      const auto result = std::to_chars(buffer, buffer + sizeof buffer, rows[i * m + c]);
+      const auto result = std::to_chars(buffer, buffer + sizeof buffer, rows[i * columns + c]);
       line.append(buffer, result.ptr);
     }
     line += '\n';
     out << line;
   }
 }
+
+// Rows of weights are computed and written in blocks of about this many bytes, so the matrix of
+// millions of points by thousands of columns is never held at once.
+constexpr std::size_t kWeightsBlockBytes = std::size_t{64} << 20;
 
 }  // namespace
 
@@ -95,14 +97,30 @@ void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::pat
     throw InvalidInput(output.string() + ": weights are written as .csv or .npy");
   formatFromPath(pointsPath);
   const PolygonSoup points = readSoup(pointsPath);
+  const std::size_t n = points.size();
   const std::size_t m = coordinates.columnCount();
-  std::vector<double> rows(points.size() * m);
-  coordinates.weightsBatch(points.positions, rows);
+  // At least 64 rows a block, so that weightsBatch still has work for every core.
+  const std::size_t rowBytes = std::max<std::size_t>(m, 1) * sizeof(double);
+  const std::size_t block = std::min(n, std::max<std::size_t>(kWeightsBlockBytes / rowBytes, 64));
+  detail::checkMemory(double(block) * double(m) * sizeof(double),
+                      pointsPath.string() + ": the weights of " + std::to_string(block) +
+                          " points (a block of the output) by " + std::to_string(m) + " columns");
+  std::vector<double> rows(block * m);
   writeFileAtomically(output, [&](std::ostream& out) {
     if (extension == ".npy")
-      writeNpy(out, rows, points.size(), m);
+      writeNpyHeader(out, n, m);
     else
-      writeCsv(out, coordinates, rows, points.size());
+      writeCsvHeader(out, coordinates);
+    for (std::size_t begin = 0; begin < n; begin += block) {
+      const std::size_t count = std::min(block, n - begin);
+      const std::span<double> values(rows.data(), count * m);
+      coordinates.weightsBatch(std::span(points.positions).subspan(begin, count), values);
+      if (extension == ".npy")
+        out.write(reinterpret_cast<const char*>(values.data()),
+                  static_cast<std::streamsize>(values.size() * sizeof(double)));
+      else
+        writeCsvRows(out, values, count, m);
+    }
   });
 }
 

@@ -22,8 +22,7 @@ void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path
 /// Reads a soup or point cloud (OBJ, OFF, PLY), warps it and writes it atomically (deformSoup).
 /// The output format is checked before any work.
 void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
-                    const std::filesystem::path& output, bool ascii,
-                    const CliContext& context);
+                    const std::filesystem::path& output, bool ascii, const CliContext& context);
 
 /// The coordinate matrix of every point in `points` (any soup file; faces ignored), one row per
 /// point in input order and one column per coordinate, written atomically as CSV (a header of

@@ -10,7 +10,9 @@
 
 #include <charconv>
 #include <cstdio>
+#include <new>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -90,6 +92,9 @@ void addGlobalOptions(CLI::App& app, CliContext& context, int cores) {
                "no progress display, no informational output (warnings and errors remain)");
 }
 
+// The subcommand being run, for the out-of-memory message.
+std::string running = "spacewarp";
+
 int run(int argc, char** argv) {
   CLI::App app{"spacewarp: space deformations and cage coordinates"};
   app.require_subcommand(1);
@@ -126,8 +131,11 @@ int run(int argc, char** argv) {
   if (context.threads > 0)
     threads.emplace(tbb::global_control::max_allowed_parallelism,
                     static_cast<std::size_t>(context.threads));
-  for (const Command& command : commands)
-    if (command.app->parsed()) command.run();
+  for (const Command& command : commands) {
+    if (!command.app->parsed()) continue;
+    running = "spacewarp " + command.app->get_name();
+    command.run();
+  }
   return kOk;
 }
 
@@ -138,19 +146,33 @@ int main(int argc, char** argv) {
   try {
     return run(argc, argv);
   } catch (const IoError& e) {
-    std::fprintf(stderr, "spacewarp: error: %s\n", e.what());
+    std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
     return kBadInput;
   } catch (const InvalidInput& e) {
-    std::fprintf(stderr, "spacewarp: error: %s\n", e.what());
+    std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
     return kBadInput;
   } catch (const SolverError& e) {
-    std::fprintf(stderr, "spacewarp: numerical failure: %s\n", e.what());
+    std::fprintf(stderr, "spacewarp: numerical failure: %s\n", printable(e.what()).c_str());
     return kNumerical;
   } catch (const Cancelled& e) {
-    std::fprintf(stderr, "spacewarp: %s\n", e.what());
+    std::fprintf(stderr, "spacewarp: %s\n", printable(e.what()).c_str());
     return kOther;
+  } catch (const std::bad_alloc&) {
+    // The estimates (core/detail/memory_budget.h) catch most jobs too big for the machine
+    // before they start; this is the rest: still a clear one-line message and exit 3.
+    std::fprintf(stderr,
+                 "spacewarp: error: out of memory in '%s': the input is too large for "
+                 "the memory available\n",
+                 running.c_str());
+    return kBadInput;
+  } catch (const std::length_error&) {
+    std::fprintf(stderr,
+                 "spacewarp: error: in '%s': the input asks for an array larger than "
+                 "this machine can hold\n",
+                 running.c_str());
+    return kBadInput;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "spacewarp: error: %s\n", e.what());
+    std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
     return kOther;
   }
 }

@@ -3,6 +3,7 @@
 #include <memory>
 #include <mutex>
 #include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -18,8 +19,12 @@ namespace {
 // paid by `spacewarp weights`, not by every `deform` with an RBF rig.
 class LazyRbfCoordinates final : public Coordinates {
  public:
-  LazyRbfCoordinates(std::vector<Vec3> centres, std::vector<Vec3> fixed, const RbfOptions& options)
-      : centres_(std::move(centres)), fixed_(std::move(fixed)), options_(options) {}
+  LazyRbfCoordinates(std::vector<Vec3> centres, std::vector<Vec3> fixed, const RbfOptions& options,
+                     std::string where)
+      : centres_(std::move(centres)),
+        fixed_(std::move(fixed)),
+        options_(options),
+        where_(std::move(where)) {}
 
   std::size_t controlPointCount() const override { return centres_.size(); }
   std::span<const Vec3> restControlPoints() const override { return centres_; }
@@ -33,14 +38,18 @@ class LazyRbfCoordinates final : public Coordinates {
 
  private:
   const RbfCoordinates& get() const {
+    // Built after the rig was read: its errors still name the rig.
     std::call_once(once_, [this] {
-      coordinates_ = std::make_unique<const RbfCoordinates>(centres_, fixed_, options_);
+      coordinates_ = namingFile(where_, [this] {
+        return std::make_unique<const RbfCoordinates>(centres_, fixed_, options_);
+      });
     });
     return *coordinates_;
   }
 
   std::vector<Vec3> centres_, fixed_;
   RbfOptions options_;
+  std::string where_;
   mutable std::once_flag once_;
   mutable std::unique_ptr<const RbfCoordinates> coordinates_;
 };
@@ -79,13 +88,8 @@ Rig rbfRig(RigReader& r) {
   if (!(options.scale > 0.0)) r.fail("scale", "must be > 0");
   if (!(options.radius > 0.0)) r.fail("radius", "must be > 0");
   Rig rig;
-  try {
-    rig.warp = std::make_shared<RbfWarp>(centres, targets, fixed, options);
-    rig.coordinates = std::make_shared<LazyRbfCoordinates>(centres, fixed, options);
-  } catch (const SolverError& e) {
-    // Name the rig, as rigFromJson does for InvalidInput.
-    throw SolverError(r.where() + ": " + e.what());
-  }
+  rig.warp = std::make_shared<RbfWarp>(centres, targets, fixed, options);
+  rig.coordinates = std::make_shared<LazyRbfCoordinates>(centres, fixed, options, r.where());
   return rig;
 }
 

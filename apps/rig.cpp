@@ -2,6 +2,8 @@
 
 #include <fstream>
 #include <map>
+#include <set>
+#include <sstream>
 
 #include "apps/cage_methods.h"
 #include "apps/ffd_rig.h"
@@ -20,7 +22,8 @@ namespace {
 
 using nlohmann::json;
 
-using nlohmann::json;
+Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const std::string& where,
+             int depth);
 
 Rig warpOnly(std::shared_ptr<const Warp> warp) { return {std::move(warp), nullptr}; }
 
@@ -68,10 +71,14 @@ const std::map<std::string, RigFactory>& factories() {
        [](RigReader& r) {
          std::shared_ptr<const Warp> result;
          const json& warps = r.array("warps");
+         // Each level recurses here: bounded so that hostile nesting cannot overflow the stack.
+         if (r.depth() + 1 >= kMaxComposeDepth)
+           r.fail("warps",
+                  "nests compose rigs deeper than " + std::to_string(kMaxComposeDepth) + " levels");
          for (std::size_t i = 0; i < warps.size(); ++i) {
-           auto next =
-               rigFromJson(warps[i], r.baseDir(), r.where() + ": warps[" + std::to_string(i) + "]")
-                   .warp;
+           auto next = buildRig(warps[i], r.baseDir(),
+                                r.where() + ": warps[" + std::to_string(i) + "]", r.depth() + 1)
+                           .warp;
            result = result ? std::make_shared<ComposedWarp>(result, next) : next;
          }
          return warpOnly(result);
@@ -80,10 +87,48 @@ const std::map<std::string, RigFactory>& factories() {
   return table;
 }
 
-}  // namespace
+// The JSON path of the value being parsed ("warps[2].rate") and the keys seen in each open
+// object, kept by parseRigJson's callback.
+class ParsePath {
+ public:
+  void open(bool object) { frames_.push_back({object, {}, {}, 0}); }
+  void close() {
+    frames_.pop_back();
+    valueDone();
+  }
+  // Returns false if the open object already has this key.
+  bool key(const std::string& k) {
+    frames_.back().key = k;
+    return frames_.back().keys.insert(k).second;
+  }
+  void valueDone() {
+    if (!frames_.empty() && !frames_.back().object) ++frames_.back().index;
+  }
+  std::size_t depth() const { return frames_.size(); }
+  std::string str() const {
+    std::string p;
+    for (const Frame& f : frames_) {
+      if (f.object)
+        p += (p.empty() ? "" : ".") + f.key;
+      else
+        p += "[" + std::to_string(f.index) + "]";
+    }
+    return p;
+  }
 
-Rig rigFromJson(const json& rig, const std::filesystem::path& baseDir, const std::string& where) {
-  RigReader reader(rig, baseDir, where);
+ private:
+  struct Frame {
+    bool object;
+    std::set<std::string> keys;
+    std::string key;
+    std::size_t index;
+  };
+  std::vector<Frame> frames_;
+};
+
+Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const std::string& where,
+             int depth) {
+  RigReader reader(rig, baseDir, where, depth);
   const std::string method = reader.string("method");
   const auto it = factories().find(method);
   if (it == factories().end()) {
@@ -91,31 +136,79 @@ Rig rigFromJson(const json& rig, const std::filesystem::path& baseDir, const std
     for (const std::string& m : rigMethods()) known += (known.empty() ? "" : ", ") + m;
     reader.fail("method", "'" + method + "' is not one of: " + known);
   }
-  Rig result;
-  try {
-    result = it->second(reader);
-  } catch (const InvalidInput& e) {
-    // Messages from the warps' own validation: say which rig they came from.
-    const std::string what = e.what();
-    if (what.rfind(where, 0) == 0) throw;
-    throw InvalidInput(where + ": " + what);
-  }
+  // Errors from the warps' own validation and solvers: say which rig they came from.
+  Rig result = namingFile(where, [&] { return it->second(reader); });
   reader.finish();
   return result;
 }
 
-json readRigFile(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError(path.string() + ": cannot open the rig file");
+}  // namespace
+
+json parseRigJson(std::string_view text, const std::string& where) {
+  ParsePath path;
+  // The path of the value at fault, its start only when deep: "'warps[0].warps[0]...' what".
+  auto located = [&](const std::string& what) {
+    std::string at = path.str();
+    if (at.size() > 60) at = at.substr(0, 60) + "...";
+    return InvalidInput(printable(where + ": '" + at + "' " + what));
+  };
+  const json::parser_callback_t callback = [&](int, json::parse_event_t event, json& parsed) {
+    using Event = json::parse_event_t;
+    switch (event) {
+      case Event::object_start:
+      case Event::array_start:
+        // nlohmann's parser is iterative, but what reads the result may not be: bounded here.
+        if (path.depth() >= std::size_t(kMaxJsonDepth))
+          throw located("nests arrays and objects deeper than " + std::to_string(kMaxJsonDepth) +
+                        " levels");
+        path.open(event == Event::object_start);
+        break;
+      case Event::object_end:
+      case Event::array_end:
+        path.close();
+        break;
+      case Event::key:
+        if (!path.key(parsed.get<std::string>())) throw located("is given twice");
+        break;
+      case Event::value:
+        path.valueDone();
+        break;
+    }
+    return true;
+  };
   try {
-    return json::parse(in);
+    return json::parse(text.begin(), text.end(), callback);
   } catch (const json::parse_error& e) {
-    throw IoError(path.string() + ": not valid JSON: " + e.what());
+    throw IoError(printable(where + ": not valid JSON: " + e.what()));
+  } catch (const json::out_of_range&) {
+    // The only range error of the parser: a number too large for a double (406).
+    throw located("is a number outside the range of double");
   }
 }
 
+Rig rigFromJson(const json& rig, const std::filesystem::path& baseDir, const std::string& where) {
+  return buildRig(rig, baseDir, where, 0);
+}
+
+json readRigFile(const std::filesystem::path& path) {
+  const std::string where = printable(path.string());
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw IoError(where + ": is a directory, not a rig file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(where + ": cannot open the rig file");
+  std::ostringstream text;
+  try {
+    text << in.rdbuf();
+  } catch (const std::ios_base::failure& e) {
+    throw IoError(where + ": cannot read the rig file: " + e.what());
+  }
+  if (in.bad()) throw IoError(where + ": cannot read the rig file");
+  return parseRigJson(text.view(), where);
+}
+
 Rig loadRig(const std::filesystem::path& path) {
-  return rigFromJson(readRigFile(path), path.parent_path(), path.string());
+  return rigFromJson(readRigFile(path), path.parent_path(), printable(path.string()));
 }
 
 std::vector<std::string> rigMethods() {

@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -28,18 +29,30 @@ struct Rig {
 /// reports unknown keys once the factory returns.
 using RigFactory = std::function<Rig(RigReader&)>;
 
+/// The deepest nesting of compose rigs (a compose inside a compose ... ), and of JSON arrays and
+/// objects in a rig file: deeper input is refused rather than recursed into.
+inline constexpr int kMaxComposeDepth = 64;
+inline constexpr int kMaxJsonDepth = 256;
+
+/// Parses the text of a rig file. Throws IoError (naming `where` and the position) if it is not
+/// JSON, and InvalidInput naming `where` and the key for a key given twice in one object, a
+/// number outside the range of double ("1e999") or nesting deeper than kMaxJsonDepth.
+nlohmann::json parseRigJson(std::string_view text, const std::string& where);
+
 /// Builds the rig that `rig` describes. `baseDir` resolves relative paths inside the rig;
 /// `where` names the rig in messages (usually its path). Throws InvalidInput naming the key
-/// at fault for a missing, mistyped, unknown or out-of-range key or an unknown method.
+/// at fault for a missing, mistyped, unknown or out-of-range key, an unknown method or compose
+/// rigs nested deeper than kMaxComposeDepth; errors of the library while building the warp
+/// (InvalidInput, SolverError, InvalidInput) are rethrown with `where` in front.
 Rig rigFromJson(const nlohmann::json& rig, const std::filesystem::path& baseDir,
                 const std::string& where);
 
-/// The JSON of a rig file, not yet checked as a rig. Throws IoError naming the file if it
-/// cannot be read or is not JSON.
+/// The JSON of a rig file, checked as JSON (duplicate keys, depth, number range) but not yet
+/// as a rig. Throws IoError naming the file if it cannot be read (a folder, a missing file) or
+/// is not JSON, and InvalidInput as parseRigJson does.
 nlohmann::json readRigFile(const std::filesystem::path& path);
 
-/// Reads and builds a rig file. Throws IoError if it cannot be read or is not JSON, and
-/// InvalidInput as rigFromJson does.
+/// Reads and builds a rig file: readRigFile, then rigFromJson.
 Rig loadRig(const std::filesystem::path& path);
 
 /// The method names a rig may use, sorted.

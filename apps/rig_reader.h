@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "apps/cli_context.h"
 #include "core/errors.h"
 #include "core/math.h"
 
@@ -23,8 +24,9 @@ class RigReader {
  public:
   using json = nlohmann::json;
 
-  RigReader(const json& object, std::filesystem::path baseDir, std::string where)
-      : object_(object), baseDir_(std::move(baseDir)), where_(std::move(where)) {
+  /// `depth` counts the rigs this one is nested in (compose's "warps").
+  RigReader(const json& object, std::filesystem::path baseDir, std::string where, int depth = 0)
+      : object_(object), baseDir_(std::move(baseDir)), where_(std::move(where)), depth_(depth) {
     if (!object_.is_object()) fail("", "a rig must be a JSON object");
   }
 
@@ -111,6 +113,7 @@ class RigReader {
 
   const std::filesystem::path& baseDir() const { return baseDir_; }
   const std::string& where() const { return where_; }
+  int depth() const { return depth_; }
 
   /// Rejects keys that no reader asked for.
   void finish() const {
@@ -120,7 +123,8 @@ class RigReader {
   }
 
   [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw InvalidInput(where_ + ": " + (key.empty() ? "" : "'" + key + "' ") + what);
+    // Keys and values come from the user: escaped, so a "\u0000" cannot cut the message short.
+    throw InvalidInput(printable(where_ + ": " + (key.empty() ? "" : "'" + key + "' ") + what));
   }
 
  private:
@@ -145,6 +149,7 @@ class RigReader {
   const json& object_;
   std::filesystem::path baseDir_;
   std::string where_;
+  int depth_ = 0;
   std::set<std::string> seen_{"method"};
 };
 

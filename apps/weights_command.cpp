@@ -47,9 +47,10 @@ Command addWeightsCommand(CLI::App& app, const CliContext& context) {
   return {cmd, [args, &context] {
             std::shared_ptr<const Coordinates> coordinates;
             if (args->rig.empty()) {
-              coordinates = cageCoordinates(
-                  args->method, std::make_shared<const Cage>(Cage::fromFile(args->cage)),
-                  args->cageOptions, context.progress());
+              auto cage = std::make_shared<const Cage>(Cage::fromFile(args->cage));
+              coordinates = namingFile(args->cage, [&] {
+                return cageCoordinates(args->method, cage, args->cageOptions, context.progress());
+              });
             } else {
               coordinates = loadRig(args->rig).coordinates;
               if (!coordinates)

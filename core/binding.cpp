@@ -12,6 +12,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "core/detail/memory_budget.h"
 #include "core/errors.h"
 
 namespace spacewarp {
@@ -95,6 +96,9 @@ Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const
   sparse_ = 4 * k <= m;
   ProgressTracker tracker(progress, "bind", n);
   if (!sparse_) {
+    detail::checkMemory(double(n) * double(m) * sizeof(double),
+                        "Binding: the dense weights of " + std::to_string(n) + " points by " +
+                            std::to_string(m) + " columns");
     dense_.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m));
     adviseHugePages(dense_.data(), n * m * sizeof(double));
     // Without a display, one batch; with one, blocks big enough to keep every core busy.

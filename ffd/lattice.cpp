@@ -3,6 +3,7 @@
 #include <cmath>
 #include <string>
 
+#include "core/detail/memory_budget.h"
 #include "core/errors.h"
 #include "ffd/detail/lattice_basis.h"
 
@@ -63,6 +64,9 @@ void validate(const LatticeParams& p) {
 Lattice::Lattice(const LatticeParams& params) : params_(params) {
   validate(params_);
   const auto [l, m, n] = params_.resolution;
+  detail::checkMemory(double(l) * m * n * sizeof(Vec3),
+                      "Lattice: the resolution " + std::to_string(l) + " x " + std::to_string(m) +
+                          " x " + std::to_string(n));
   rest_.resize(static_cast<std::size_t>(l) * m * n);
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < m; ++j)

@@ -51,8 +51,9 @@ class CliFixture : public ::testing::Test {
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
 
-  CliResult run(const std::string& args) {
-    const std::string cmd = std::string(SPACEWARP_CLI) + " " + args + " >" +
+  /// `shellPrefix` runs before the executable in the same shell (e.g. "ulimit -v 1000000; ").
+  CliResult run(const std::string& args, const std::string& shellPrefix = "") {
+    const std::string cmd = shellPrefix + std::string(SPACEWARP_CLI) + " " + args + " >" +
                             (dir_ / "stdout.txt").string() + " 2>" + (dir_ / "stderr.txt").string();
     const int status = std::system(cmd.c_str());
     CliResult r;

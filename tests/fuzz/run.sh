@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Builds the reader fuzzers (fuzz_obj, fuzz_off, fuzz_ply) with clang in build-fuzz/ and runs
+# Builds the fuzzers (fuzz_obj, fuzz_off, fuzz_ply, fuzz_rig) with clang in build-fuzz/ and runs
 # each one for a number of seconds on a copy of the seed corpus in tests/fuzz/corpus/.
 #
 #   tests/fuzz/run.sh [SECONDS]        (default: $FUZZ_SECONDS, else 60)
 #
 # Environment: FUZZ_SECONDS, FUZZ_BUILD_DIR (default <repo>/build-fuzz), FUZZ_JOBS (build
-# parallelism, default 2), FUZZ_TARGETS (default "obj off ply").
+# parallelism, default 2), FUZZ_TARGETS (default "obj off ply rig").
 # Exits non-zero when a fuzzer reports a finding (crash, sanitizer error, leak, timeout); the
 # reproducer is saved in $FUZZ_BUILD_DIR/fuzz-artifacts/<format>/.
 set -euo pipefail
@@ -14,7 +14,7 @@ seconds="${1:-${FUZZ_SECONDS:-60}}"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="${FUZZ_BUILD_DIR:-$root/build-fuzz}"
 jobs="${FUZZ_JOBS:-2}"
-targets="${FUZZ_TARGETS:-obj off ply}"
+targets="${FUZZ_TARGETS:-obj off ply rig}"
 
 cmake -S "$root" -B "$build" -G Ninja \
   -DCMAKE_CXX_COMPILER=clang++ \
