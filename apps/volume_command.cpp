@@ -13,6 +13,7 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
 
+#include "core/volume/read_vdb.h"
 #include "core/volume/warp_grid.h"
 #include "core/volume/warp_points.h"
 #endif
@@ -27,6 +28,12 @@ void addVolumeOptions(CLI::App* command, VolumeCliOptions& options) {
       ->check(CLI::IsMember({"trilinear", "triquadratic"}));
   command->add_flag("--conserve-mass", options.conserveMass,
                     "fog volumes: scale densities by 1/|det J| so that the total is kept");
+  command
+      ->add_option("--vectors", options.vectors,
+                   "vector grids: how vectors follow the warp: auto (by the grid's vector type; "
+                   "J v when it says nothing), push (J v), normal (J^-T v, length kept) or keep "
+                   "(default auto)")
+      ->check(CLI::IsMember({"auto", "push", "normal", "keep"}));
 }
 
 bool isVolumePath(const std::filesystem::path& path) { return path.extension() == ".vdb"; }
@@ -47,31 +54,6 @@ void deformVolumeFile(const Warp&, const std::filesystem::path& input, const std
 #else
 
 namespace {
-
-struct VdbContent {
-  openvdb::GridPtrVec grids;
-  openvdb::MetaMap::Ptr metadata;
-};
-
-VdbContent readVdb(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw IoError(path.string() + ": no such file");
-  if (std::filesystem::is_directory(path, ec)) throw IoError(path.string() + ": is a directory");
-  VdbContent content;
-  try {
-    openvdb::io::File file(path.string());
-    file.open(/*delayLoad=*/false);
-    content.grids = *file.getGrids();
-    content.metadata = file.getMetadata();
-    file.close();
-  } catch (const openvdb::Exception& e) {
-    throw IoError(path.string() + ": not a readable OpenVDB file (" + e.what() + ")");
-  } catch (const std::ios_base::failure& e) {
-    throw IoError(path.string() + ": cannot be read (" + e.what() + ")");
-  }
-  if (!content.metadata) content.metadata = std::make_shared<openvdb::MetaMap>();
-  return content;
-}
 
 // Writes to a temporary beside `path` and renames it; the temporary is removed on failure.
 void writeVdbAtomically(const std::filesystem::path& path, const openvdb::GridCPtrVec& grids,
@@ -131,7 +113,7 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                       const std::filesystem::path& output, const VolumeCliOptions& options,
                       const CliContext& context) {
   openvdb::initialize();
-  const VdbContent content = readVdb(input);
+  const VdbFile content = readVdbFile(input);
 
   std::string found;
   std::size_t supported = 0;
@@ -149,6 +131,10 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
   volumeOptions.sampler =
       options.sampler == "triquadratic" ? VolumeSampler::Triquadratic : VolumeSampler::Trilinear;
   volumeOptions.conserveMass = options.conserveMass;
+  volumeOptions.vectors = options.vectors == "push"     ? VectorTransform::Push
+                          : options.vectors == "normal" ? VectorTransform::Normal
+                          : options.vectors == "keep"   ? VectorTransform::Keep
+                                                        : VectorTransform::Auto;
   volumeOptions.progress = context.progress();
 
   openvdb::GridCPtrVec warped;
@@ -172,6 +158,11 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
           << "did not converge at " << r.inverseFailures << " of " << r.solvedVoxels
           << " voxels, which are left inactive (the warp folds space or is not invertible there)\n";
     }
+    if (r.vectorFailures > 0) {
+      std::cerr << "warning: " << input.string() << ": grid " << name << ": " << r.vectorFailures
+                << " vectors could not be transformed (" << r.vectors
+                << " with a singular Jacobian) and are left inactive\n";
+    }
     if (r.unmappedVoxels > 0) {
       std::cerr << "warning: " << input.string() << ": grid " << name << ": " << r.unmappedVoxels
                 << " input voxels could not be mapped (the warp is not finite or singular "
@@ -184,6 +175,7 @@ void deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
       line = "grid " + name + ": " + std::to_string(r.inputActiveVoxels) + " -> " +
              std::to_string(r.outputActiveVoxels) + " active voxels, at most " +
              std::to_string(r.maxNewtonIterations) + " Newton iterations";
+      if (!r.vectors.empty()) line += ", vectors " + r.vectors;
       if (r.massBefore != 0.0) {
         line += ", mass " + std::to_string(r.massBefore) + " -> " + std::to_string(r.massAfter);
       }
