@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iomanip>
 #include <limits>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <type_traits>
 #include <unordered_map>
@@ -592,6 +594,9 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
     throw InvalidInput("warpVolume: seedSpacing must be at least 1 voxel, got " +
                        std::to_string(options.seedSpacing));
   }
+  if (!(options.maxCandidateVoxels > 0.0)) {
+    throw InvalidInput("warpVolume: maxCandidateVoxels must be > 0");
+  }
   if (options.maxNewtonIterations < 1 || !(options.inverseTolerance > 0.0)) {
     throw InvalidInput("warpVolume: maxNewtonIterations must be >= 1 and inverseTolerance > 0");
   }
@@ -732,6 +737,38 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
       const CoordBBox box(cell.lo, cell.lo + Coord(cell.size - 1));
       for (auto ijk = box.begin(); ijk; ++ijk)
         if (acc.isValueOn(*ijk)) ++report.unmappedVoxels;
+    }
+  }
+
+  // The work and memory below follow the images of the cells: refuse before allocating when a
+  // warp that is not smooth at the voxel scale spreads them over far more than the bound.
+  {
+    double candidates = 0.0, worst = 0.0;
+    const Cell* worstCell = nullptr;
+    for (const Cell& cell : cells) {
+      if (!cell.valid) continue;
+      const Vec3 extent =
+          Vec3(cell.outBox.max().x(), cell.outBox.max().y(), cell.outBox.max().z()) -
+          Vec3(cell.outBox.min().x(), cell.outBox.min().y(),
+               cell.outBox.min().z()) +
+          Vec3(1.0);  // in double: int32 extents may overflow
+      candidates += extent.x * extent.y * extent.z;
+      const double stretch = maxAbs(extent) / cell.size;
+      if (stretch > worst) {
+        worst = stretch;
+        worstCell = &cell;
+      }
+    }
+    if (candidates > options.maxCandidateVoxels && worstCell) {
+      const Vec3 at = frame.toWorld(worstCell->centre);
+      std::ostringstream m;
+      m << std::setprecision(3) << "warpVolume: grid '" << in.getName()
+        << "': the warp is not smooth at the scale of its voxels: it spreads the "
+        << report.inputActiveVoxels << " active voxels over about " << candidates
+        << " output voxels (more than maxCandidateVoxels = " << options.maxCandidateVoxels
+        << "); near world (" << at.x << ", " << at.y << ", " << at.z << ") one voxel's image spans "
+        << worst << " voxels. Use finer voxels or a gentler warp there";
+      throw InvalidInput(m.str());
     }
   }
 

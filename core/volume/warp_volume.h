@@ -132,6 +132,15 @@ struct WarpVolumeOptions {
   /// cacheError × |∇value| × |J⁻¹|. Default 0: the exact warp.
   double cacheSpacing = 0.0;
 
+  /// Bound on the output voxels whose preimage may be solved for (the sum over the seeding
+  /// cells of the voxels in the box around each cell's image), checked before any of them is
+  /// allocated. A warp that is not smooth at the scale of a voxel (e.g. a twist far from its
+  /// axis, where one voxel's corners land millions of voxels apart) would otherwise make the
+  /// cost follow the extent of those images rather than the active voxels; beyond the bound
+  /// warpVolume() throws InvalidInput naming the grid, where the warp stretches most and by
+  /// how much. Default 2^30 (about 4 GB of float output at most).
+  double maxCandidateVoxels = 1073741824.0;
+
   /// Receives stage "warp volume" with the fraction of output blocks done; returning false
   /// cancels (the function then throws Cancelled). Default none.
   ProgressCallback progress;
@@ -190,7 +199,8 @@ struct WarpedGrid {
 
 /// Warps a float, double or float-vector grid (vectors transformed as options.vectors says).
 /// Throws InvalidInput naming the grid if its transform is not linear (frustum maps), if a
-/// level set's voxels are not cubes, or for invalid options; Cancelled if progress asks.
+/// level set's voxels are not cubes, if the output would exceed options.maxCandidateVoxels,
+/// or for invalid options; Cancelled if progress asks.
 WarpedGrid<openvdb::FloatGrid> warpVolume(const Warp& warp, const openvdb::FloatGrid& grid,
                                           const WarpVolumeOptions& options = {});
 WarpedGrid<openvdb::DoubleGrid> warpVolume(const Warp& warp, const openvdb::DoubleGrid& grid,

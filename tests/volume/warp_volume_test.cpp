@@ -12,6 +12,7 @@
 #include <utility>
 
 #include <gtest/gtest.h>
+#include <openvdb/tools/Composite.h>
 #include <openvdb/tools/GridTransformer.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -503,6 +504,34 @@ TEST(WarpVolume, VectorsFollowANonlinearShearThroughItsFiniteDifferenceJacobian)
           [](const Vec3& x, const Vec3&) { return Vec3(1.0, -1.2 * std::cos(4.0 * x.y), 0.0); },
           1e-5),
       300u);
+}
+
+TEST(WarpVolume, SparseGridFarFromATwistAxisFailsFastNamingTheGrid) {
+  // Two small spheres 1e6 apart, twisted about the z axis through the first: at the second,
+  // one voxel's corners land 1e5 voxels apart, so its image box alone has 1e10 voxels. That
+  // used to be allocated (std::bad_alloc after minutes); it must be a quick InvalidInput.
+  auto grid = makeSphere(1.0, Vec3(0.0), 0.1);
+  openvdb::tools::csgUnion(*grid, *makeSphere(1.0, Vec3(1e6, 0.0, 0.0), 0.1));
+  TwistParams p;
+  p.rate = 0.5;
+  const TwistWarp twist(p);
+  try {
+    warpVolume(twist, *grid);
+    FAIL() << "expected InvalidInput";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("'sphere'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not smooth at the scale"), std::string::npos);
+  }
+  // The same grid twisted about the x axis through both is rigid near each sphere: its cost
+  // follows the active voxels, not the 1e7-voxel bounding box.
+  TwistParams alongX;
+  alongX.axis = Vec3(1.0, 0.0, 0.0);
+  alongX.rate = 0.5;
+  const auto w = warpVolume(TwistWarp(alongX), *grid);
+  EXPECT_EQ(w.report.inverseFailures, 0u);
+  EXPECT_NEAR(double(w.report.outputActiveVoxels), double(w.report.inputActiveVoxels),
+              0.1 * double(w.report.inputActiveVoxels));
+  EXPECT_LT(w.report.solvedVoxels, 20 * w.report.inputActiveVoxels);
 }
 
 TEST(WarpVolume, ProgressReportsAndCancels) {
