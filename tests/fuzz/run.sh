@@ -5,7 +5,7 @@
 #   tests/fuzz/run.sh [SECONDS]        (default: $FUZZ_SECONDS, else 60)
 #
 # Environment: FUZZ_SECONDS, FUZZ_BUILD_DIR (default <repo>/build-fuzz), FUZZ_JOBS (build
-# parallelism, default 2), FUZZ_TARGETS (default "obj off ply").
+# parallelism, default 2), FUZZ_TARGETS (default "obj off ply vdb").
 # Exits non-zero when a fuzzer reports a finding (crash, sanitizer error, leak, timeout); the
 # reproducer is saved in $FUZZ_BUILD_DIR/fuzz-artifacts/<format>/.
 set -euo pipefail
@@ -14,7 +14,7 @@ seconds="${1:-${FUZZ_SECONDS:-60}}"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="${FUZZ_BUILD_DIR:-$root/build-fuzz}"
 jobs="${FUZZ_JOBS:-2}"
-targets="${FUZZ_TARGETS:-obj off ply}"
+targets="${FUZZ_TARGETS:-obj off ply vdb}"
 
 cmake -S "$root" -B "$build" -G Ninja \
   -DCMAKE_CXX_COMPILER=clang++ \
@@ -33,9 +33,12 @@ for format in $targets; do
   corpus="$build/fuzz-corpus/$format"
   artifacts="$build/fuzz-artifacts/$format/"
   mkdir -p "$corpus" "$artifacts"
+  max_len=4096
+  # The smallest VDB file is about 10 kB (the masks of a tree's internal nodes are raw bytes).
+  if [[ "$format" == vdb ]]; then max_len=32768; fi
   echo "== fuzz_$format for ${seconds}s"
   if ! "$build/tests/fuzz/fuzz_$format" \
-      -max_total_time="$seconds" -max_len=4096 -timeout=10 -rss_limit_mb=2048 \
+      -max_total_time="$seconds" -max_len="$max_len" -timeout=10 -rss_limit_mb=2048 \
       -print_final_stats=1 -artifact_prefix="$artifacts" \
       "$corpus" "$root/tests/fuzz/corpus/$format"; then
     echo "fuzz_$format: FINDING (reproducer in $artifacts)" >&2
