@@ -18,6 +18,7 @@
 #include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/MeshToVolume.h>
 
+#include "core/volume/read_vdb.h"
 #include "core/volume/warp_grid.h"
 #include "core/volume/warp_points.h"
 #endif
@@ -32,6 +33,12 @@ void addVolumeOptions(CLI::App* command, VolumeCliOptions& options) {
       ->check(CLI::IsMember({"trilinear", "triquadratic"}));
   command->add_flag("--conserve-mass", options.conserveMass,
                     "fog volumes: scale densities by 1/|det J| so that the total is kept");
+  command
+      ->add_option("--vectors", options.vectors,
+                   "vector grids: how vectors follow the warp: auto (by the grid's vector type; "
+                   "J v when it says nothing), push (J v), normal (J^-T v, length kept) or keep "
+                   "(default auto)")
+      ->check(CLI::IsMember({"auto", "push", "normal", "keep"}));
 }
 
 bool isVolumePath(const std::filesystem::path& path) { return path.extension() == ".vdb"; }
@@ -60,35 +67,6 @@ VolumeSummary deformVolumeFile(const Warp&, const std::filesystem::path& input,
 #else
 
 namespace {
-
-struct VdbContent {
-  openvdb::GridPtrVec grids;
-  openvdb::MetaMap::Ptr metadata;
-};
-
-// The grids and metadata of a VDB file; with `headerOnly`, nothing but the check that it is
-// one (the file is opened with delayed loading and no grid is read).
-VdbContent readVdb(const std::filesystem::path& path, bool headerOnly = false) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw IoError(path.string() + ": no such file");
-  if (std::filesystem::is_directory(path, ec)) throw IoError(path.string() + ": is a directory");
-  VdbContent content;
-  try {
-    openvdb::io::File file(path.string());
-    file.open(/*delayLoad=*/headerOnly);
-    if (!headerOnly) {
-      content.grids = *file.getGrids();
-      content.metadata = file.getMetadata();
-    }
-    file.close();
-  } catch (const openvdb::Exception& e) {
-    throw IoError(path.string() + ": not a readable OpenVDB file (" + e.what() + ")");
-  } catch (const std::ios_base::failure& e) {
-    throw IoError(path.string() + ": cannot be read (" + e.what() + ")");
-  }
-  if (!content.metadata) content.metadata = std::make_shared<openvdb::MetaMap>();
-  return content;
-}
 
 // OpenVDB's own file writer (io::File) opens the file itself and checks no write; this writes
 // the same seekable format (with grid offsets, for delayed loading) to the stream of the one
@@ -141,14 +119,14 @@ void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
 
 void checkVolumeFile(const std::filesystem::path& path) {
   openvdb::initialize();
-  readVdb(path, /*headerOnly=*/true);
+  readVdbFile(path, /*headerOnly=*/true);
 }
 
 VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                                const std::filesystem::path& output, const VolumeCliOptions& options,
                                const CliContext& context) {
   openvdb::initialize();
-  const VdbContent content = readVdb(input);
+  const VdbFile content = readVdbFile(input);
 
   std::string found;
   std::size_t supported = 0;
@@ -166,6 +144,10 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
   volumeOptions.sampler =
       options.sampler == "triquadratic" ? VolumeSampler::Triquadratic : VolumeSampler::Trilinear;
   volumeOptions.conserveMass = options.conserveMass;
+  volumeOptions.vectors = options.vectors == "push"     ? VectorTransform::Push
+                          : options.vectors == "normal" ? VectorTransform::Normal
+                          : options.vectors == "keep"   ? VectorTransform::Keep
+                                                        : VectorTransform::Auto;
   volumeOptions.progress = context.progress();
 
   openvdb::GridCPtrVec warped;
@@ -190,6 +172,11 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
                    " voxels, which are left inactive (the warp folds space or is not invertible "
                    "there)");
     }
+    if (r.vectorFailures > 0) {
+      context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.vectorFailures) +
+                   " vectors could not be transformed (" + r.vectors +
+                   " with a singular Jacobian) and are left inactive");
+    }
     if (r.unmappedVoxels > 0) {
       context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.unmappedVoxels) +
                    " input voxels could not be mapped (the warp is not finite or singular there) "
@@ -202,6 +189,7 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
       line = "grid " + name + ": " + std::to_string(r.inputActiveVoxels) + " -> " +
              std::to_string(r.outputActiveVoxels) + " active voxels, at most " +
              std::to_string(r.maxNewtonIterations) + " Newton iterations";
+      if (!r.vectors.empty()) line += ", vectors " + r.vectors;
       if (r.massBefore != 0.0) {
         line += ", mass " + std::to_string(r.massBefore) + " -> " + std::to_string(r.massAfter);
       }

@@ -16,6 +16,7 @@ namespace spacewarp::cli {
 struct VolumeCliOptions {
   std::string sampler = "trilinear";  ///< --sampler trilinear|triquadratic
   bool conserveMass = false;          ///< --conserve-mass (fog volumes)
+  std::string vectors = "auto";       ///< --vectors auto|push|normal|keep (vec3s grids)
 };
 
 /// Adds the volume options to `command`.

@@ -2,7 +2,7 @@
 // voxels) twisted by warpVolume() and, as the baseline measured in the same run, by OpenVDB's
 // own non-affine GridResampler with a transformer that maps through the closed-form inverse
 // twist. Also a mean-value cage warp of the same grid, exact and cached as a displacement
-// field. Items are input active voxels.
+// field. Items are input active voxels. Last, two small spheres far apart (sparse volumes).
 
 #include <chrono>
 #include <cmath>
@@ -14,6 +14,7 @@
 
 #include <benchmark/benchmark.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/Composite.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
 #include "coords/cage.h"
@@ -161,6 +162,67 @@ BENCHMARK(BM_VolumeMeanValueCage)
     ->ArgName("cacheSpacing")
     ->Arg(0)
     ->Arg(4)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// Sparse volumes: two level-set spheres of radius 1 (voxels of 0.1, about 8k active voxels
+// together) `distance` world units apart along x, warped by a mean-value cage around both (a
+// long box whose far end is pushed sideways) and by a twist about the x axis through both.
+// Cost and memory must follow the active voxels, not the bounding box of everything.
+const openvdb::FloatGrid& sparseSpheres(double distance) {
+  static std::map<double, openvdb::FloatGrid::Ptr> grids;
+  auto& grid = grids[distance];
+  if (!grid) {
+    openvdb::initialize();
+    grid = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(1.0f, openvdb::Vec3f(0.0f),
+                                                                    0.1f, 3.0f);
+    auto far = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+        1.0f, openvdb::Vec3f(float(distance), 0.0f, 0.0f), 0.1f, 3.0f);
+    openvdb::tools::csgUnion(*grid, *far);
+  }
+  return *grid;
+}
+
+const CoordinateWarp& sparseCageWarp(double distance) {
+  static std::map<double, std::unique_ptr<CoordinateWarp>> warps;
+  auto& warp = warps[distance];
+  if (!warp) {
+    const PolygonSoup box = makeBoxSurface(Vec3(-3.0), Vec3(distance + 3.0, 3.0, 3.0), {1, 1, 1});
+    auto cage = std::make_shared<const Cage>(box, "sparse bench cage");
+    auto coords = std::make_shared<const MeanValueCoordinates>(cage);
+    std::vector<Vec3> posed(cage->vertices().begin(), cage->vertices().end());
+    for (Vec3& v : posed)
+      if (v.x > 0.0) v += Vec3(0.0, 0.5, 0.2);
+    warp = std::make_unique<CoordinateWarp>(coords, posed);
+  }
+  return *warp;
+}
+
+void BM_VolumeSparseSpheres(benchmark::State& state) {
+  const double distance = std::pow(10.0, static_cast<double>(state.range(1)));
+  const auto& grid = sparseSpheres(distance);
+  TwistParams twistAlongX;
+  twistAlongX.axis = Vec3(1.0, 0.0, 0.0);
+  twistAlongX.rate = 0.5;
+  const TwistWarp twistX(twistAlongX);
+  const Warp& warp = state.range(0) == 0 ? static_cast<const Warp&>(sparseCageWarp(distance))
+                                         : static_cast<const Warp&>(twistX);
+  std::size_t out = 0, failures = 0;
+  for (auto _ : state) {
+    const auto r = warpVolume(warp, grid);
+    out = r.report.outputActiveVoxels;
+    failures = r.report.inverseFailures;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * grid.activeVoxelCount()));
+  state.counters["in_voxels"] = static_cast<double>(grid.activeVoxelCount());
+  state.counters["out_voxels"] = static_cast<double>(out);
+  state.counters["failures"] = static_cast<double>(failures);
+}
+BENCHMARK(BM_VolumeSparseSpheres)
+    ->ArgNames({"twist", "log10_distance"})  // warp 0: mean-value cage, 1: twist about x
+    ->Args({0, 5})
+    ->Args({0, 6})
+    ->Args({1, 6})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iomanip>
 #include <limits>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <type_traits>
 #include <unordered_map>
@@ -501,6 +503,77 @@ class CachedWarp final : public Warp {
   double error_ = 0.0;
 };
 
+// What happens to the values of a vector grid, VectorTransform resolved for its VecType.
+enum class VectorRule { Keep, Push, Covariant, CovariantNormalize, Normal, Position };
+
+VectorRule vectorRule(VectorTransform mode, openvdb::VecType type) {
+  switch (mode) {
+    case VectorTransform::Push:
+      return VectorRule::Push;
+    case VectorTransform::Normal:
+      return VectorRule::Normal;
+    case VectorTransform::Keep:
+      return VectorRule::Keep;
+    case VectorTransform::Auto:
+      break;
+  }
+  switch (type) {
+    case openvdb::VEC_COVARIANT:
+      return VectorRule::Covariant;
+    case openvdb::VEC_COVARIANT_NORMALIZE:
+      return VectorRule::CovariantNormalize;
+    case openvdb::VEC_CONTRAVARIANT_ABSOLUTE:
+      return VectorRule::Position;
+    default:  // contravariant relative, and invariant: what files that say nothing hold
+      return VectorRule::Push;
+  }
+}
+
+const char* describe(VectorRule rule) {
+  switch (rule) {
+    case VectorRule::Keep:
+      return "unchanged";
+    case VectorRule::Push:
+      return "J v";
+    case VectorRule::Covariant:
+      return "J^-T v";
+    case VectorRule::CovariantNormalize:
+      return "J^-T v normalised";
+    case VectorRule::Normal:
+      return "J^-T v, length kept";
+    case VectorRule::Position:
+      return "warp(v)";
+  }
+  return "";
+}
+
+// The vector v (world units, or index units when `local`) of the input at x (world) carried to
+// the image of x; false when it cannot be (singular J for the covariant rules, not finite).
+bool transformVector(const Warp& warp, const IndexFrame& frame, VectorRule rule, bool local,
+                     const Vec3& x, Vec3& v) {
+  if (rule == VectorRule::Keep) return true;
+  if (rule == VectorRule::Position) {
+    const Vec3 image = warp.apply(local ? frame.toWorld(v) : v);
+    v = local ? frame.toIndex(image) : image;
+    return isFinite(v);
+  }
+  Mat3 j = warp.jacobian(x);
+  if (local) j = frame.aInverse * j * frame.a;
+  if (rule == VectorRule::Push) {
+    v = j * v;
+    return isFinite(v);
+  }
+  if (isSingular(j)) return false;
+  const Vec3 w = glm::transpose(glm::inverse(j)) * v;
+  const double length = glm::length(w);
+  if (rule == VectorRule::Covariant || !(length > 0.0)) {
+    v = w;
+  } else {
+    v = w * ((rule == VectorRule::Normal ? glm::length(v) : 1.0) / length);
+  }
+  return isFinite(v);
+}
+
 template <typename GridT>
 WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
                            const WarpVolumeOptions& options) {
@@ -520,6 +593,9 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   if (options.seedSpacing < 1) {
     throw InvalidInput("warpVolume: seedSpacing must be at least 1 voxel, got " +
                        std::to_string(options.seedSpacing));
+  }
+  if (!(options.maxCandidateVoxels > 0.0)) {
+    throw InvalidInput("warpVolume: maxCandidateVoxels must be > 0");
   }
   if (options.maxNewtonIterations < 1 || !(options.inverseTolerance > 0.0)) {
     throw InvalidInput("warpVolume: maxNewtonIterations must be >= 1 and inverseTolerance > 0");
@@ -664,6 +740,38 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
     }
   }
 
+  // The work and memory below follow the images of the cells: refuse before allocating when a
+  // warp that is not smooth at the voxel scale spreads them over far more than the bound.
+  {
+    double candidates = 0.0, worst = 0.0;
+    const Cell* worstCell = nullptr;
+    for (const Cell& cell : cells) {
+      if (!cell.valid) continue;
+      const Vec3 extent =
+          Vec3(cell.outBox.max().x(), cell.outBox.max().y(), cell.outBox.max().z()) -
+          Vec3(cell.outBox.min().x(), cell.outBox.min().y(),
+               cell.outBox.min().z()) +
+          Vec3(1.0);  // in double: int32 extents may overflow
+      candidates += extent.x * extent.y * extent.z;
+      const double stretch = maxAbs(extent) / cell.size;
+      if (stretch > worst) {
+        worst = stretch;
+        worstCell = &cell;
+      }
+    }
+    if (candidates > options.maxCandidateVoxels && worstCell) {
+      const Vec3 at = frame.toWorld(worstCell->centre);
+      std::ostringstream m;
+      m << std::setprecision(3) << "warpVolume: grid '" << in.getName()
+        << "': the warp is not smooth at the scale of its voxels: it spreads the "
+        << report.inputActiveVoxels << " active voxels over about " << candidates
+        << " output voxels (more than maxCandidateVoxels = " << options.maxCandidateVoxels
+        << "); near world (" << at.x << ", " << at.y << ", " << at.z << ") one voxel's image spans "
+        << worst << " voxels. Use finer voxels or a gentler warp there";
+      throw InvalidInput(m.str());
+    }
+  }
+
   // 3. Which cells may reach which output leaf: (leaf origin, cell) pairs, sorted.
   using Pair = std::pair<Coord, std::uint32_t>;
   std::vector<Pair> pairs;
@@ -703,7 +811,7 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   struct LeafResult {
     std::unique_ptr<LeafT> leaf;
     std::vector<Retry> retries;  // voxels where the first solve failed
-    std::size_t solved = 0, failures = 0, iterations = 0;
+    std::size_t solved = 0, failures = 0, vectorFailures = 0, iterations = 0;
     int maxIterations = 0;
     double mass = 0.0;
   };
@@ -712,6 +820,9 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   const double tolerance = options.inverseTolerance * frame.voxelSize;
   const ValueT background = in.background();
   const bool toDistance = levelSet && options.redistance == LevelSetRedistance::Normalize && !rigid;
+  const VectorRule vectors = vectorRule(options.vectors, in.getVectorType());
+  const bool localVectors = !in.isInWorldSpace();
+  if constexpr (!kScalar) report.vectors = describe(vectors);
 
   // Samples the input at the preimage x (world) of voxel n of the leaf at `origin`.
   auto settle = [&](openvdb::tree::ValueAccessor<const TreeT>& acc, LeafResult& out,
@@ -749,6 +860,13 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
         }
       }
       if (!levelSet) out.mass += static_cast<double>(value);
+    } else {
+      Vec3 v(value[0], value[1], value[2]);
+      if (!transformVector(warp, frame, vectors, localVectors, x, v)) {
+        ++out.vectorFailures;
+        return;
+      }
+      value = ValueT(static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z));
     }
     if (!out.leaf) out.leaf = std::make_unique<LeafT>(origin, background, false);
     out.leaf->setValueOn(static_cast<openvdb::Index>(n), value);
@@ -851,6 +969,7 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   for (LeafResult& lr : leafResults) {
     report.solvedVoxels += lr.solved;
     report.inverseFailures += lr.failures;
+    report.vectorFailures += lr.vectorFailures;
     report.totalNewtonIterations += lr.iterations;
     report.maxNewtonIterations = std::max(report.maxNewtonIterations, lr.maxIterations);
     massAfter += lr.mass;

@@ -19,6 +19,10 @@
 // affine model over the cell, so the region is complete for warps that are smooth at the
 // scale of a cell. Voxels where the inverse fails are counted, never filled silently.
 //
+// Vector grids (vec3s) are resampled the same way, and then their vectors follow the warp as
+// the grid's openvdb::VecType says (see VectorTransform): a velocity carried by the flow is
+// pushed forward by J at the preimage, a gradient by J⁻ᵀ, a position is warped itself.
+//
 // Level sets are re-distanced after resampling with OpenVDB's own tools (LevelSetTracker by
 // default, levelSetRebuild as an option), so the output has a proper narrow band of the
 // input's half-width (in voxels); a warp that is rigid over the band (an isometry: Jᵀ J = I
@@ -28,6 +32,7 @@
 // Results are bit-identical for any number of threads.
 
 #include <cstddef>
+#include <string>
 
 #include <openvdb/openvdb.h>
 
@@ -58,6 +63,26 @@ enum class LevelSetRedistance {
   None
 };
 
+/// How the values of a vector grid (vec3s) follow the warp, J = Jacobian of the warp at the
+/// preimage x of the output voxel (applied in index space for grids whose vectors are in
+/// local space, openvdb::GridBase::isInWorldSpace() false).
+enum class VectorTransform {
+  /// By the grid's openvdb::VecType: VEC_CONTRAVARIANT_RELATIVE (velocities, displacements)
+  /// J v; VEC_COVARIANT (gradients) J⁻ᵀ v; VEC_COVARIANT_NORMALIZE (normals) J⁻ᵀ v normalised;
+  /// VEC_CONTRAVARIANT_ABSOLUTE (positions) warp(v). VEC_INVARIANT is OpenVDB's default, which
+  /// most files keep whatever the field is (velocity fields included), so it is taken as a
+  /// field carried by the space: J v. Use Keep for fields that truly do not move (colours).
+  Auto,
+  /// J v for every vector grid, whatever its VecType (velocities, displacements, tangents).
+  Push,
+  /// J⁻ᵀ v rescaled to the length of v, for every vector grid: normal-like fields, whose
+  /// directions stay perpendicular to warped surfaces and whose lengths (unit normals stay
+  /// unit) are kept.
+  Normal,
+  /// Values resampled only, never transformed (colours and other invariant vectors).
+  Keep
+};
+
 /// Options of warpVolume().
 struct WarpVolumeOptions {
   /// The sampler. Default trilinear (OpenVDB's default for resampling).
@@ -72,6 +97,10 @@ struct WarpVolumeOptions {
   /// Level sets only: how the narrow band is re-distanced after resampling (skipped when the
   /// warp is rigid over the band). Default Normalize.
   LevelSetRedistance redistance = LevelSetRedistance::Normalize;
+
+  /// Vector grids only: how their vectors follow the warp. Default Auto (the grid's VecType;
+  /// J v when it says nothing).
+  VectorTransform vectors = VectorTransform::Auto;
 
   /// LevelSetRedistance::Normalize: Eikonal steps over the band (and per grown layer). The
   /// resampled values are first divided by |J⁻ᵀ ∇φ| / |∇φ| (J of the seeding cell), which
@@ -102,6 +131,15 @@ struct WarpVolumeOptions {
   /// WarpVolumeReport::cacheError (world units). Sampled values then move by at most about
   /// cacheError × |∇value| × |J⁻¹|. Default 0: the exact warp.
   double cacheSpacing = 0.0;
+
+  /// Bound on the output voxels whose preimage may be solved for (the sum over the seeding
+  /// cells of the voxels in the box around each cell's image), checked before any of them is
+  /// allocated. A warp that is not smooth at the scale of a voxel (e.g. a twist far from its
+  /// axis, where one voxel's corners land millions of voxels apart) would otherwise make the
+  /// cost follow the extent of those images rather than the active voxels; beyond the bound
+  /// warpVolume() throws InvalidInput naming the grid, where the warp stretches most and by
+  /// how much. Default 2^30 (about 4 GB of float output at most).
+  double maxCandidateVoxels = 1073741824.0;
 
   /// Receives stage "warp volume" with the fraction of output blocks done; returning false
   /// cancels (the function then throws Cancelled). Default none.
@@ -142,6 +180,12 @@ struct WarpVolumeReport {
   /// Largest deviation of the cached displacement field from the warp at the cache-cell
   /// centres (world units); 0 without cacheSpacing.
   double cacheError = 0.0;
+  /// Vector grids: what was done to the vectors ("J v", "J^-T v", "J^-T v normalised",
+  /// "J^-T v, length kept", "warp(v)" or "unchanged"); empty for other grids.
+  std::string vectors;
+  /// Voxels left inactive because their vector could not be transformed (J singular at the
+  /// preimage for J⁻ᵀ, or a non-finite result).
+  std::size_t vectorFailures = 0;
   /// Point data grids (warpPoints): the points moved.
   std::size_t points = 0;
 };
@@ -153,9 +197,10 @@ struct WarpedGrid {
   WarpVolumeReport report;
 };
 
-/// Warps a float, double or float-vector grid (vector values are resampled, not rotated).
+/// Warps a float, double or float-vector grid (vectors transformed as options.vectors says).
 /// Throws InvalidInput naming the grid if its transform is not linear (frustum maps), if a
-/// level set's voxels are not cubes, or for invalid options; Cancelled if progress asks.
+/// level set's voxels are not cubes, if the output would exceed options.maxCandidateVoxels,
+/// or for invalid options; Cancelled if progress asks.
 WarpedGrid<openvdb::FloatGrid> warpVolume(const Warp& warp, const openvdb::FloatGrid& grid,
                                           const WarpVolumeOptions& options = {});
 WarpedGrid<openvdb::DoubleGrid> warpVolume(const Warp& warp, const openvdb::DoubleGrid& grid,

@@ -285,6 +285,44 @@ TEST_F(VolumeCliTest, BadFilesExitThreeNamingTheFileWithNoOutput) {
   expectNoOutput();
 }
 
+TEST_F(VolumeCliTest, VectorGridsAreRotatedUnlessKept) {
+  // A uniform velocity field (VecType left at OpenVDB's default) under a quarter turn about z.
+  openvdb::initialize();
+  auto velocity = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  velocity->setName("velocity");
+  velocity->setTransform(openvdb::math::Transform::createLinearTransform(kVoxel));
+  for (int i = -4; i <= 4; ++i)
+    for (int j = -4; j <= 4; ++j)
+      for (int k = -4; k <= 4; ++k)
+        velocity->tree().setValue(openvdb::Coord(i, j, k), openvdb::Vec3s(1.0f, 0.0f, 0.0f));
+  {
+    openvdb::io::File file((dir_ / "in.vdb").string());
+    file.write({velocity});
+    file.close();
+  }
+  write("turn.json",
+        R"({"method": "affine", "matrix": [[0,-1,0,0],[1,0,0,0],[0,0,1,0],[0,0,0,1]]})");
+  for (const std::string mode : {"", "keep"}) {
+    const CliResult r = deformVolume("--rig " + (dir_ / "turn.json").string() +
+                                     (mode.empty() ? "" : " --vectors " + mode));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_THAT(r.out, HasSubstr(mode.empty() ? "vectors J v" : "vectors unchanged"));
+    openvdb::io::File file((dir_ / "out.vdb").string());
+    file.open();
+    const auto out = openvdb::gridPtrCast<openvdb::Vec3SGrid>(file.readGrid("velocity"));
+    file.close();
+    ASSERT_TRUE(out);
+    // The centre voxel's preimage is the centre: its stencil is inside the field.
+    const openvdb::Vec3s v = out->tree().getValue(openvdb::Coord(0, 0, 0));
+    const openvdb::Vec3s expected =
+        mode.empty() ? openvdb::Vec3s(0, 1, 0) : openvdb::Vec3s(1, 0, 0);
+    EXPECT_NEAR((v - expected).length(), 0.0, 1e-6) << v;
+  }
+  const CliResult bad =
+      deformVolume("--rig " + (dir_ / "turn.json").string() + " --vectors sideways");
+  EXPECT_EQ(bad.exitCode, 2);
+}
+
 TEST_F(VolumeCliTest, UnknownSamplerIsAUsageError) {
   writeInput();
   write("twist.json", R"({"method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": 1})");

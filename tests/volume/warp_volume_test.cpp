@@ -6,11 +6,13 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <utility>
 
 #include <gtest/gtest.h>
+#include <openvdb/tools/Composite.h>
 #include <openvdb/tools/GridTransformer.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -358,6 +360,178 @@ TEST(WarpVolume, DoubleAndVectorGridsAreWarped) {
   EXPECT_DOUBLE_EQ(d.grid->tree().getValue(Coord(7, 0, 0)), 1.5);
   EXPECT_FALSE(d.grid->tree().isValueOn(Coord(-4, 0, 0)));
   EXPECT_EQ(v.grid->tree().getValue(Coord(3, 1, 2)), openvdb::Vec3s(1, 1, 2));
+}
+
+// A vec3s grid holding field(world position) on the voxels -6..6 per axis (voxels of 0.25),
+// tagged with `type`.
+openvdb::Vec3SGrid::Ptr makeVectorField(const std::function<Vec3(const Vec3&)>& field,
+                                        openvdb::VecType type) {
+  openvdb::initialize();
+  auto grid = openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f));
+  grid->setTransform(openvdb::math::Transform::createLinearTransform(0.25));
+  grid->setVectorType(type);
+  for (int i = -6; i <= 6; ++i)
+    for (int j = -6; j <= 6; ++j)
+      for (int k = -6; k <= 6; ++k) {
+        const Vec3 v = field(worldOf(*grid, Coord(i, j, k)));
+        grid->tree().setValue(Coord(i, j, k), openvdb::Vec3s(float(v.x), float(v.y), float(v.z)));
+      }
+  return grid;
+}
+
+// Checks every output voxel whose preimage (by `inverse`) lies in the input's interior, where
+// trilinear sampling does not reach the background; returns how many were checked.
+std::size_t expectVectors(const openvdb::Vec3SGrid& out,
+                          const std::function<Vec3(const Vec3&)>& inverse,
+                          const std::function<Vec3(const Vec3& x, const Vec3& y)>& expected,
+                          double tolerance) {
+  std::size_t checked = 0;
+  for (auto it = out.cbeginValueOn(); it; ++it) {
+    const Vec3 y = worldOf(out, it.getCoord());
+    const Vec3 x = inverse(y);
+    if (maxAbs(x) > 4.5 * 0.25) continue;
+    const Vec3 want = expected(x, y);
+    const Vec3 got((*it)[0], (*it)[1], (*it)[2]);
+    EXPECT_LT(glm::length(got - want), tolerance) << it.getCoord();
+    ++checked;
+  }
+  return checked;
+}
+
+TEST(WarpVolume, VectorFieldRotatedByARigidWarpComesBackRotated) {
+  const Vec3 u(1.0, 0.5, -0.25);
+  const Mat4 m = glm::translate(Mat4(1.0), Vec3(0.3, -0.2, 0.1)) *
+                 glm::rotate(Mat4(1.0), 0.6, glm::normalize(Vec3(1.0, 2.0, 3.0)));
+  const AffineWarp rigid(m);
+  const Mat3 r = rigid.linear();
+  auto inverse = [&](const Vec3& y) { return glm::transpose(r) * (y - rigid.translation()); };
+  // A file that says nothing (VEC_INVARIANT) and an explicit velocity: pushed forward, R u.
+  for (const auto type : {openvdb::VEC_INVARIANT, openvdb::VEC_CONTRAVARIANT_RELATIVE,
+                          openvdb::VEC_COVARIANT_NORMALIZE}) {
+    const auto field = makeVectorField([&](const Vec3&) { return u; }, type);
+    const auto w = warpVolume(rigid, *field);
+    EXPECT_EQ(w.report.inverseFailures, 0u);
+    EXPECT_GT(expectVectors(
+                  *w.grid, inverse,
+                  [&](const Vec3&, const Vec3&) {
+                    return type == openvdb::VEC_COVARIANT_NORMALIZE ? r * glm::normalize(u) : r * u;
+                  },
+                  1e-5),
+              300u)
+        << type;
+    EXPECT_EQ(w.grid->getVectorType(), type);
+  }
+  // Keep: resampled only.
+  const auto field = makeVectorField([&](const Vec3&) { return u; }, openvdb::VEC_INVARIANT);
+  WarpVolumeOptions keep;
+  keep.vectors = VectorTransform::Keep;
+  const auto kept = warpVolume(rigid, *field, keep);
+  EXPECT_EQ(kept.report.vectors, "unchanged");
+  EXPECT_GT(expectVectors(
+                *kept.grid, inverse, [&](const Vec3&, const Vec3&) { return u; }, 1e-5),
+            300u);
+}
+
+TEST(WarpVolume, CovariantAndPositionFieldsFollowTheirVecType) {
+  // A linear map that is neither rigid nor symmetric: J⁻ᵀ differs from J.
+  Mat3 a(1.0);
+  a[0] = Vec3(1.4, 0.2, 0.0);
+  a[1] = Vec3(0.5, 0.9, 0.1);
+  a[2] = Vec3(0.0, -0.3, 1.2);
+  Mat4 m(1.0);
+  for (int c = 0; c < 3; ++c) m[c] = glm::dvec4(a[c], 0.0);
+  m[3] = glm::dvec4(0.1, 0.2, -0.1, 1.0);
+  const AffineWarp linear(m);
+  const Mat3 aInverse = glm::inverse(a);
+  auto inverse = [&](const Vec3& y) { return aInverse * (y - linear.translation()); };
+  const Vec3 g(0.3, -1.0, 0.6);
+
+  const auto gradient = makeVectorField([&](const Vec3&) { return g; }, openvdb::VEC_COVARIANT);
+  const auto wg = warpVolume(linear, *gradient);
+  EXPECT_EQ(wg.report.vectors, "J^-T v");
+  EXPECT_GT(expectVectors(
+                *wg.grid, inverse,
+                [&](const Vec3&, const Vec3&) { return glm::transpose(aInverse) * g; }, 1e-5),
+            300u);
+
+  // Normal (whatever the grid says): J⁻ᵀ v with the length of v.
+  WarpVolumeOptions normal;
+  normal.vectors = VectorTransform::Normal;
+  const auto wn = warpVolume(linear, *gradient, normal);
+  EXPECT_GT(expectVectors(
+                *wn.grid, inverse,
+                [&](const Vec3&, const Vec3&) {
+                  return glm::normalize(glm::transpose(aInverse) * g) * glm::length(g);
+                },
+                1e-5),
+            300u);
+
+  // Positions (VEC_CONTRAVARIANT_ABSOLUTE): v(x) = x is carried to warp(x), i.e. every output
+  // voxel holds its own position, even where sampling is exact only to first order.
+  const auto positions =
+      makeVectorField([](const Vec3& x) { return x; }, openvdb::VEC_CONTRAVARIANT_ABSOLUTE);
+  const auto wp = warpVolume(linear, *positions);
+  EXPECT_EQ(wp.report.vectors, "warp(v)");
+  EXPECT_GT(expectVectors(
+                *wp.grid, inverse, [](const Vec3&, const Vec3& y) { return y; }, 1e-5),
+            300u);
+}
+
+TEST(WarpVolume, VectorsFollowANonlinearShearThroughItsFiniteDifferenceJacobian) {
+  // F(x) = (x + 0.3 sin(4y), y, z) with the default (central-difference) Jacobian: J v for a
+  // velocity, and J⁻ᵀ of the gradient of x₀ is the gradient of its warped copy,
+  // ∇(y₀ - 0.3 sin(4y₁)) = (1, -1.2 cos(4y₁), 0).
+  const FunctionWarp shear(
+      [](const Vec3& x) { return Vec3(x.x + 0.3 * std::sin(4.0 * x.y), x.y, x.z); });
+  auto inverse = [](const Vec3& y) { return Vec3(y.x - 0.3 * std::sin(4.0 * y.y), y.y, y.z); };
+  const auto velocity =
+      makeVectorField([](const Vec3&) { return Vec3(0.0, 1.0, 0.0); }, openvdb::VEC_INVARIANT);
+  const auto wv = warpVolume(shear, *velocity);
+  EXPECT_EQ(wv.report.inverseFailures, 0u);
+  EXPECT_EQ(wv.report.vectors, "J v");
+  EXPECT_GT(
+      expectVectors(
+          *wv.grid, inverse,
+          [](const Vec3& x, const Vec3&) { return Vec3(1.2 * std::cos(4.0 * x.y), 1.0, 0.0); },
+          1e-5),
+      300u);
+  const auto gradient =
+      makeVectorField([](const Vec3&) { return Vec3(1.0, 0.0, 0.0); }, openvdb::VEC_COVARIANT);
+  const auto wg = warpVolume(shear, *gradient);
+  EXPECT_GT(
+      expectVectors(
+          *wg.grid, inverse,
+          [](const Vec3& x, const Vec3&) { return Vec3(1.0, -1.2 * std::cos(4.0 * x.y), 0.0); },
+          1e-5),
+      300u);
+}
+
+TEST(WarpVolume, SparseGridFarFromATwistAxisFailsFastNamingTheGrid) {
+  // Two small spheres 1e6 apart, twisted about the z axis through the first: at the second,
+  // one voxel's corners land 1e5 voxels apart, so its image box alone has 1e10 voxels. That
+  // used to be allocated (std::bad_alloc after minutes); it must be a quick InvalidInput.
+  auto grid = makeSphere(1.0, Vec3(0.0), 0.1);
+  openvdb::tools::csgUnion(*grid, *makeSphere(1.0, Vec3(1e6, 0.0, 0.0), 0.1));
+  TwistParams p;
+  p.rate = 0.5;
+  const TwistWarp twist(p);
+  try {
+    warpVolume(twist, *grid);
+    FAIL() << "expected InvalidInput";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("'sphere'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not smooth at the scale"), std::string::npos);
+  }
+  // The same grid twisted about the x axis through both is rigid near each sphere: its cost
+  // follows the active voxels, not the 1e7-voxel bounding box.
+  TwistParams alongX;
+  alongX.axis = Vec3(1.0, 0.0, 0.0);
+  alongX.rate = 0.5;
+  const auto w = warpVolume(TwistWarp(alongX), *grid);
+  EXPECT_EQ(w.report.inverseFailures, 0u);
+  EXPECT_NEAR(double(w.report.outputActiveVoxels), double(w.report.inputActiveVoxels),
+              0.1 * double(w.report.inputActiveVoxels));
+  EXPECT_LT(w.report.solvedVoxels, 20 * w.report.inputActiveVoxels);
 }
 
 TEST(WarpVolume, ProgressReportsAndCancels) {

@@ -1,0 +1,65 @@
+// libFuzzer target for the VDB input path of `spacewarp deform`: the bytes are written to a
+// file, read by readVdbFile() and every grid goes through the dispatch (isWarpableGrid,
+// warpGrid) with a mild twist. Malformed files must be rejected with IoError, grids that cannot
+// be warped with InvalidInput; any other exception, a crash, a sanitizer report or a hang is
+// a finding. OpenVDB itself is not instrumented: the aim is our code path, not OpenVDB's.
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "core/errors.h"
+#include "core/twist.h"
+#include "core/volume/read_vdb.h"
+#include "core/volume/warp_grid.h"
+
+namespace {
+
+[[noreturn]] void finding(const char* what, const char* detail) {
+  std::fprintf(stderr, "fuzz finding: %s: %s\n", what, detail);
+  std::abort();
+}
+
+// Grids larger than this are read but not warped: warping is linear in the active voxels (an
+// active root tile holds 4096³), so a few bytes could otherwise ask for hours of honest work.
+constexpr openvdb::Index64 kMaxWarpedVoxels = 1 << 14;
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace spacewarp;
+  static const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("fuzz_vdb_" + std::to_string(::getpid()) + ".vdb");
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  }
+  VdbFile file;
+  try {
+    file = readVdbFile(path);
+  } catch (const IoError&) {
+    return 0;
+  } catch (const std::exception& e) {
+    finding("readVdbFile threw something other than IoError", e.what());
+  }
+  static const TwistWarp twist(
+      TwistParams{.origin = Vec3(0.0), .axis = Vec3(0, 0, 1), .rate = 0.3});
+  WarpVolumeOptions options;
+  options.maxNewtonIterations = 8;
+  for (const openvdb::GridBase::Ptr& grid : file.grids) {
+    if (!isWarpableGrid(*grid) || grid->activeVoxelCount() > kMaxWarpedVoxels) continue;
+    try {
+      const WarpedGrid<openvdb::GridBase> warped = warpGrid(twist, *grid, options);
+      if (!warped.grid) finding("warpGrid returned no grid", grid->getName().c_str());
+    } catch (const InvalidInput&) {
+    } catch (const std::exception& e) {
+      finding("warpGrid threw something other than InvalidInput", e.what());
+    }
+  }
+  return 0;
+}
