@@ -12,16 +12,16 @@
 
 #include <tbb/parallel_for.h>
 
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/atomic_file.h>
+#include <spacewarp/core/progress.h>
+#include <spacewarp/ffd/lattice.h>
+#include <spacewarp/ffd/lattice_coordinates.h>
+#include <spacewarp/rbf/rbf_coordinates.h>
 #include "apps/heat_map.h"
 #include "apps/jobs.h"
-#include "coords/cage.h"
-#include "coords/properties.h"
-#include "core/errors.h"
-#include "core/io/atomic_file.h"
-#include "core/progress.h"
-#include "ffd/lattice.h"
-#include "ffd/lattice_coordinates.h"
-#include "rbf/rbf_coordinates.h"
 
 namespace spacewarp::cli {
 

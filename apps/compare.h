@@ -8,9 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "apps/cage_methods.h"
+#include <spacewarp/core/math.h>
+#include <spacewarp/rig/cage_rig.h>
 #include "apps/cli_context.h"
-#include "core/math.h"
 
 namespace spacewarp::cli {
 

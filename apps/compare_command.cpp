@@ -9,9 +9,10 @@
 #include <algorithm>
 #include <charconv>
 
+#include <spacewarp/core/errors.h>
+#include "apps/cage_options.h"
 #include "apps/commands.h"
 #include "apps/compare.h"
-#include "core/errors.h"
 
 namespace spacewarp::cli {
 

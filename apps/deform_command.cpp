@@ -4,13 +4,13 @@
 #include <chrono>
 #include <cstdio>
 
-#include "apps/cage_methods.h"
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/rig/rig.h>
+#include "apps/cage_options.h"
 #include "apps/commands.h"
 #include "apps/file_kinds.h"
 #include "apps/jobs.h"
-#include "apps/rig.h"
 #include "apps/volume_command.h"
-#include "core/io/mesh_io.h"
 
 namespace spacewarp::cli {
 

@@ -9,14 +9,14 @@
 #include <map>
 #include <numbers>
 
-#include "apps/cage_methods.h"
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/rig/cage_rig.h>
+#include <spacewarp/rig/rig.h>
 #include "apps/commands.h"
 #include "apps/compare.h"
 #include "apps/jobs.h"
-#include "apps/rig.h"
 #include "apps/volume_command.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
 
 namespace spacewarp::cli {
 

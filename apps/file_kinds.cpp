@@ -5,7 +5,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp::cli {
 

@@ -10,8 +10,8 @@
 #include <stb_easy_font.h>
 #include <stb_image_write.h>
 
-#include "core/errors.h"
-#include "core/io/atomic_file.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/atomic_file.h>
 
 namespace spacewarp::cli {
 

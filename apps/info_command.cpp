@@ -5,11 +5,11 @@
 #include <cstdio>
 #include <map>
 
+#include <spacewarp/core/io/mesh_io.h>
 #include "apps/commands.h"
 #include "apps/file_kinds.h"
 #include "apps/rig_info.h"
 #include "apps/volume_command.h"
-#include "core/io/mesh_io.h"
 
 namespace spacewarp::cli {
 

@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
+#include <spacewarp/core/deform.h>
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/atomic_file.h>
+#include <spacewarp/core/io/mesh_io.h>
 #include "apps/cli_context.h"
-#include "core/deform.h"
-#include "core/detail/memory_budget.h"
-#include "core/errors.h"
-#include "core/io/atomic_file.h"
-#include "core/io/mesh_io.h"
 
 namespace spacewarp::cli {
 

@@ -5,11 +5,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/core/progress.h>
+#include <spacewarp/core/warp.h>
 #include "apps/cli_context.h"
-#include "core/coordinates.h"
-#include "core/geometry.h"
-#include "core/progress.h"
-#include "core/warp.h"
 
 namespace spacewarp::cli {
 

@@ -20,9 +20,9 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/atomic_file.h>
 #include "apps/commands.h"
-#include "core/errors.h"
-#include "core/io/atomic_file.h"
 
 using namespace spacewarp;
 using namespace spacewarp::cli;

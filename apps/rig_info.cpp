@@ -5,10 +5,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/rig/rig.h>
 #include "apps/cli_context.h"
-#include "apps/rig.h"
-#include "core/errors.h"
-#include "core/io/mesh_io.h"
 
 namespace spacewarp::cli {
 

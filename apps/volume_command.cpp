@@ -7,8 +7,8 @@
 #include <string>
 #include <system_error>
 
-#include "core/errors.h"
-#include "core/io/atomic_file.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/atomic_file.h>
 
 #ifdef SPACEWARP_WITH_OPENVDB
 #include <openvdb/io/Archive.h>
@@ -18,9 +18,9 @@
 #include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/MeshToVolume.h>
 
-#include "core/volume/read_vdb.h"
-#include "core/volume/warp_grid.h"
-#include "core/volume/warp_points.h"
+#include <spacewarp/core/volume/read_vdb.h>
+#include <spacewarp/core/volume/warp_grid.h>
+#include <spacewarp/core/volume/warp_points.h>
 #endif
 
 namespace spacewarp::cli {
@@ -236,7 +236,7 @@ const char* className(openvdb::GridClass c) {
 
 void printVolumeInfo(const std::filesystem::path& path) {
   openvdb::initialize();
-  const VdbContent content = readVdb(path);
+  const VdbFile content = readVdbFile(path);
   std::printf("file:       %s\n", path.string().c_str());
   std::printf("grids:      %zu\n", content.grids.size());
   printMetadata("metadata:   ", *content.metadata);

@@ -6,9 +6,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/core/warp.h>
 #include "apps/cli_context.h"
-#include "core/geometry.h"
-#include "core/warp.h"
 
 namespace spacewarp::cli {
 

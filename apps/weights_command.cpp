@@ -1,11 +1,11 @@
 // spacewarp weights (--rig RIG | --method M --cage C) POINTS -o OUT.csv|OUT.npy: the
 // coordinate matrix of a set of points.
 
-#include "apps/cage_methods.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/rig/rig.h>
+#include "apps/cage_options.h"
 #include "apps/commands.h"
 #include "apps/jobs.h"
-#include "apps/rig.h"
-#include "core/errors.h"
 
 namespace spacewarp::cli {
 

@@ -9,7 +9,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/primitives.h"
+#include <spacewarp/core/primitives.h>
 
 namespace spacewarp::bench {
 

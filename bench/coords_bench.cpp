@@ -26,12 +26,12 @@
 #include <tbb/parallel_reduce.h>
 #include "bench/bench.h"
 
-#include "coords/cage.h"
-#include "coords/green.h"
-#include "coords/mean_value.h"
-#include "core/binding.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/green.h>
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
 
 namespace {
 

@@ -10,8 +10,8 @@
 
 #include "bench/bench.h"
 
-#include "core/primitives.h"
-#include "core/twist.h"
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/core/twist.h>
 
 namespace {
 

@@ -9,8 +9,8 @@
 
 #include "bench/bench.h"
 
-#include "core/primitives.h"
-#include "ffd/lattice_warp.h"
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/ffd/lattice_warp.h>
 
 namespace {
 

@@ -23,12 +23,12 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/harmonic.h>
+#include <spacewarp/coords/harmonic_warp.h>
+#include <spacewarp/coords/tet_mesh.h>
+#include <spacewarp/core/coordinate_warp.h>
 #include "bench/bench.h"
-#include "coords/cage.h"
-#include "coords/harmonic.h"
-#include "coords/harmonic_warp.h"
-#include "coords/tet_mesh.h"
-#include "core/coordinate_warp.h"
 
 namespace {
 

@@ -7,9 +7,9 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/binding.h"
-#include "core/primitives.h"
-#include "nonlinear/mls.h"
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/nonlinear/mls.h>
 
 namespace {
 

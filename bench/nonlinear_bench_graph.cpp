@@ -9,8 +9,8 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/primitives.h"
-#include "nonlinear/deformation_graph.h"
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/nonlinear/deformation_graph.h>
 
 namespace {
 

@@ -10,9 +10,9 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/LU>
 
-#include "core/primitives.h"
-#include "rbf/rbf_coordinates.h"
-#include "rbf/rbf_warp.h"
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/rbf/rbf_coordinates.h>
+#include <spacewarp/rbf/rbf_warp.h>
 
 namespace {
 

@@ -17,12 +17,12 @@
 #include <openvdb/tools/Composite.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
-#include "coords/cage.h"
-#include "coords/mean_value.h"
-#include "core/coordinate_warp.h"
-#include "core/primitives.h"
-#include "core/twist.h"
-#include "core/volume/warp_volume.h"
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/core/twist.h>
+#include <spacewarp/core/volume/warp_volume.h>
 
 namespace {
 

@@ -4,6 +4,8 @@ function(spacewarp_configure_target target)
   target_compile_features(${target} PUBLIC cxx_std_20)
   set_target_properties(${target} PROPERTIES CXX_EXTENSIONS OFF)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic)
+  # <spacewarp/...> includes, also for targets that compile sources without linking core.
+  target_include_directories(${target} PRIVATE ${SPACEWARP_BUILD_INCLUDE_DIR})
   if(SPACEWARP_WARNINGS_AS_ERRORS)
     target_compile_options(${target} PRIVATE -Werror)
   endif()

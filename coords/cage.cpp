@@ -1,4 +1,4 @@
-#include "coords/cage.h"
+#include <spacewarp/coords/cage.h>
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,8 @@
 #include <string>
 #include <utility>
 
-#include "core/errors.h"
-#include "core/io/mesh_io.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/mesh_io.h>
 
 namespace spacewarp {
 

@@ -10,7 +10,7 @@
 
 #include <glm/vec3.hpp>
 
-#include "core/geometry.h"
+#include <spacewarp/core/geometry.h>
 
 namespace spacewarp {
 

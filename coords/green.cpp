@@ -1,4 +1,4 @@
-#include "coords/green.h"
+#include <spacewarp/coords/green.h>
 
 #include <emmintrin.h>
 
@@ -17,8 +17,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/detail/aligned_buffer.h"
-#include "core/errors.h"
+#include <spacewarp/core/detail/aligned_buffer.h>
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "coords/harmonic.h"
+#include <spacewarp/coords/harmonic.h>
 
 // The solve
 // =========
@@ -42,10 +42,10 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
-#include "coords/tet_locator.h"
-#include "core/detail/serial_blas.h"
-#include "core/errors.h"
-#include "core/io/atomic_file.h"
+#include <spacewarp/coords/tet_locator.h>
+#include <spacewarp/core/detail/serial_blas.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/atomic_file.h>
 
 namespace spacewarp {
 

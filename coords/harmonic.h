@@ -34,10 +34,10 @@
 #include <span>
 #include <string>
 
-#include "coords/cage.h"
-#include "coords/tet_mesh.h"
-#include "core/coordinates.h"
-#include "core/progress.h"
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/tet_mesh.h>
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/progress.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "coords/harmonic_warp.h"
+#include <spacewarp/coords/harmonic_warp.h>
 
 #include <algorithm>
 #include <limits>
@@ -9,7 +9,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -8,8 +8,8 @@
 #include <span>
 #include <vector>
 
-#include "coords/harmonic.h"
-#include "core/warp.h"
+#include <spacewarp/coords/harmonic.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "coords/mean_value.h"
+#include <spacewarp/coords/mean_value.h>
 
 // Numerics
 // ========
@@ -78,8 +78,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/detail/aligned_buffer.h"
-#include "core/errors.h"
+#include <spacewarp/core/detail/aligned_buffer.h>
+#include <spacewarp/core/errors.h>
 
 // See "lanes" below.
 #if defined(__clang__)

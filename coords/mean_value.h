@@ -15,8 +15,8 @@
 #include <memory>
 #include <span>
 
-#include "coords/cage.h"
-#include "core/coordinates.h"
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/core/coordinates.h>
 
 namespace spacewarp {
 

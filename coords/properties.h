@@ -6,8 +6,8 @@
 #include <span>
 #include <vector>
 
-#include "coords/cage.h"
-#include "core/coordinates.h"
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/core/coordinates.h>
 
 namespace spacewarp {
 

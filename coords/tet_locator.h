@@ -7,7 +7,7 @@
 #include <span>
 #include <vector>
 
-#include "core/math.h"
+#include <spacewarp/core/math.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "coords/tet_mesh.h"
+#include <spacewarp/coords/tet_mesh.h>
 
 // TetGen is used as a library (compiled with TETLIBRARY): it reports failures by `throw int`
 // (1 out of memory, 2 internal error, 3 self-intersection, 4 tiny feature, 5 close facets,
@@ -16,7 +16,7 @@
 
 #include <tetgen.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

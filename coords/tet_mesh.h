@@ -9,8 +9,8 @@
 #include <span>
 #include <vector>
 
-#include "coords/cage.h"
-#include "core/progress.h"
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/core/progress.h>
 
 namespace spacewarp {
 

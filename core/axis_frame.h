@@ -7,8 +7,8 @@
 #include <limits>
 #include <string>
 
-#include "core/errors.h"
-#include "core/math.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/math.h>
 
 namespace spacewarp::detail {
 

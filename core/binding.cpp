@@ -1,4 +1,4 @@
-#include "core/binding.h"
+#include <spacewarp/core/binding.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -12,8 +12,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/detail/memory_budget.h"
-#include "core/errors.h"
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -9,8 +9,8 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
-#include "core/coordinates.h"
-#include "core/progress.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/progress.h>
 
 namespace spacewarp {
 

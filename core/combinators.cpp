@@ -1,9 +1,9 @@
-#include "core/combinators.h"
+#include <spacewarp/core/combinators.h>
 
 #include <cmath>
 #include <string>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 
@@ -11,8 +11,8 @@ AffineWarp::AffineWarp(const Mat4& m) : linear_(m), translation_(m[3]) {
   for (int c = 0; c < 4; ++c) {
     for (int r = 0; r < 4; ++r) {
       if (!std::isfinite(m[c][r]))
-        throw InvalidInput("affine matrix entry (" + std::to_string(r) + ", " +
-                           std::to_string(c) + ") is not finite");
+        throw InvalidInput("affine matrix entry (" + std::to_string(r) + ", " + std::to_string(c) +
+                           ") is not finite");
     }
   }
   if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)

@@ -3,7 +3,7 @@
 
 #include <memory>
 
-#include "core/warp.h"
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

@@ -1,11 +1,11 @@
-#include "core/coordinate_warp.h"
+#include <spacewarp/core/coordinate_warp.h>
 
 #include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -6,8 +6,8 @@
 #include <span>
 #include <vector>
 
-#include "core/coordinates.h"
-#include "core/warp.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

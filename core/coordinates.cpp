@@ -1,11 +1,11 @@
-#include "core/coordinates.h"
+#include <spacewarp/core/coordinates.h>
 
 #include <string>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "core/math.h"
+#include <spacewarp/core/math.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "core/deform.h"
+#include <spacewarp/core/deform.h>
 
 #include <algorithm>
 #include <array>
@@ -13,7 +13,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 namespace {

@@ -1,9 +1,9 @@
 #pragma once
 // Applying a warp to geometry: positions move through the warp, normals through J^-T.
 
-#include "core/geometry.h"
-#include "core/progress.h"
-#include "core/warp.h"
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/core/progress.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace spacewarp {
 
@@ -25,5 +26,28 @@ class IoError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// `text` with control characters (a NUL, a newline in a JSON key or a file name) written as
+/// \uXXXX, so that a message stays one whole line.
+std::string printable(std::string_view text);
+
+/// `what` with "<name>: " in front, unless it already starts with `name`.
+std::string prefixed(const std::string& name, const std::string& what);
+
+/// Runs `work` and rethrows the typed errors it throws (InvalidInput, SolverError, IoError) with
+/// `name` (usually a file) in front of their message, so that errors from the library, which does
+/// not know where its input came from, name the file at fault.
+template <typename Work>
+decltype(auto) namingFile(const std::string& name, Work&& work) {
+  try {
+    return work();
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(prefixed(name, e.what()));
+  } catch (const SolverError& e) {
+    throw SolverError(prefixed(name, e.what()));
+  } catch (const IoError& e) {
+    throw IoError(prefixed(name, e.what()));
+  }
+}
 
 }  // namespace spacewarp

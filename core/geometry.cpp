@@ -1,8 +1,8 @@
-#include "core/geometry.h"
+#include <spacewarp/core/geometry.h>
 
 #include <string>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 namespace {

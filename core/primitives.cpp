@@ -1,11 +1,11 @@
-#include "core/primitives.h"
+#include <spacewarp/core/primitives.h>
 
 #include <array>
 #include <map>
 #include <random>
 #include <string>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

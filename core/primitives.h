@@ -4,7 +4,7 @@
 
 #include <cstdint>
 
-#include "core/geometry.h"
+#include <spacewarp/core/geometry.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "core/taper.h"
+#include <spacewarp/core/taper.h>
 
 #include <algorithm>
 #include <string>
@@ -6,7 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -5,8 +5,8 @@
 #include <limits>
 #include <span>
 
-#include "core/axis_frame.h"
-#include "core/warp.h"
+#include <spacewarp/core/axis_frame.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

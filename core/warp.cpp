@@ -1,4 +1,4 @@
-#include "core/warp.h"
+#include <spacewarp/core/warp.h>
 
 #include <cmath>
 #include <limits>
@@ -7,7 +7,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

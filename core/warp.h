@@ -4,7 +4,7 @@
 
 #include <span>
 
-#include "core/math.h"
+#include <spacewarp/core/math.h>
 
 namespace spacewarp {
 

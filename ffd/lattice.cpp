@@ -1,11 +1,11 @@
-#include "ffd/lattice.h"
+#include <spacewarp/ffd/lattice.h>
 
 #include <cmath>
 #include <string>
 
-#include "core/detail/memory_budget.h"
-#include "core/errors.h"
-#include "ffd/detail/lattice_basis.h"
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/ffd/detail/lattice_basis.h>
 
 namespace spacewarp {
 

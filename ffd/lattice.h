@@ -23,8 +23,8 @@
 #include <span>
 #include <vector>
 
-#include "core/coordinates.h"
-#include "core/math.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/math.h>
 
 namespace spacewarp {
 

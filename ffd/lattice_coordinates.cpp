@@ -1,10 +1,10 @@
-#include "ffd/lattice_coordinates.h"
+#include <spacewarp/ffd/lattice_coordinates.h>
 
 #include <algorithm>
 #include <string>
 #include <vector>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

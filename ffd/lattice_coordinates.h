@@ -4,8 +4,8 @@
 
 #include <span>
 
-#include "core/coordinates.h"
-#include "ffd/lattice.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/ffd/lattice.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "ffd/lattice_fit.h"
+#include <spacewarp/ffd/lattice_fit.h>
 
 #include <algorithm>
 #include <cmath>
@@ -7,10 +7,10 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
-#include "core/detail/memory_budget.h"
-#include "core/errors.h"
-#include "core/geometry.h"
-#include "ffd/lattice_warp.h"
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/ffd/lattice_warp.h>
 
 namespace spacewarp {
 

@@ -7,8 +7,8 @@
 #include <span>
 #include <vector>
 
-#include "core/math.h"
-#include "ffd/lattice.h"
+#include <spacewarp/core/math.h>
+#include <spacewarp/ffd/lattice.h>
 
 namespace spacewarp {
 

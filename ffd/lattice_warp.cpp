@@ -1,4 +1,4 @@
-#include "ffd/lattice_warp.h"
+#include <spacewarp/ffd/lattice_warp.h>
 
 #include <cstring>
 #include <string>
@@ -6,8 +6,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
-#include "ffd/detail/lattice_basis.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/ffd/detail/lattice_basis.h>
 
 namespace spacewarp {
 

@@ -5,8 +5,8 @@
 #include <span>
 #include <vector>
 
-#include "core/warp.h"
-#include "ffd/lattice.h"
+#include <spacewarp/core/warp.h>
+#include <spacewarp/ffd/lattice.h>
 
 namespace spacewarp {
 

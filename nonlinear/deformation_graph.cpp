@@ -1,4 +1,4 @@
-#include "nonlinear/deformation_graph.h"
+#include <spacewarp/nonlinear/deformation_graph.h>
 
 #include <algorithm>
 #include <array>
@@ -19,8 +19,8 @@
 #include <Eigen/Sparse>
 #include <nanoflann.hpp>
 
-#include "core/detail/serial_blas.h"
-#include "core/errors.h"
+#include <spacewarp/core/detail/serial_blas.h>
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -11,8 +11,8 @@
 #include <utility>
 #include <vector>
 
-#include "core/math.h"
-#include "core/warp.h"
+#include <spacewarp/core/math.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

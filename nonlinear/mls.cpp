@@ -1,4 +1,4 @@
-#include "nonlinear/mls.h"
+#include <spacewarp/nonlinear/mls.h>
 
 #include <algorithm>
 #include <array>
@@ -12,7 +12,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

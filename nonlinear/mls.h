@@ -10,8 +10,8 @@
 #include <string_view>
 #include <vector>
 
-#include "core/coordinates.h"
-#include "core/warp.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

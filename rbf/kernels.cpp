@@ -1,8 +1,8 @@
-#include "rbf/kernels.h"
+#include <spacewarp/rbf/kernels.h>
 
 #include <cmath>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

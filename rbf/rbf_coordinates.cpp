@@ -1,9 +1,9 @@
-#include "rbf/rbf_coordinates.h"
+#include <spacewarp/rbf/rbf_coordinates.h>
 
 #include <string>
 
-#include "core/errors.h"
-#include "rbf/detail/rbf_system.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/rbf/detail/rbf_system.h>
 
 namespace spacewarp {
 

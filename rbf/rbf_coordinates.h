@@ -6,8 +6,8 @@
 #include <span>
 #include <vector>
 
-#include "core/coordinates.h"
-#include "rbf/kernels.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/rbf/kernels.h>
 
 namespace spacewarp {
 

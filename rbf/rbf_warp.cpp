@@ -1,4 +1,4 @@
-#include "rbf/rbf_warp.h"
+#include <spacewarp/rbf/rbf_warp.h>
 
 #include <cmath>
 #include <cstdint>
@@ -8,8 +8,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
-#include "rbf/detail/rbf_system.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/rbf/detail/rbf_system.h>
 
 // The batch kernel works on generic vectors of four doubles inside one target_clones function;
 // -Wpsabi only notes the ABI of such vectors, which never cross a function boundary by value.

@@ -6,8 +6,8 @@
 #include <span>
 #include <vector>
 
-#include "core/warp.h"
-#include "rbf/kernels.h"
+#include <spacewarp/core/warp.h>
+#include <spacewarp/rbf/kernels.h>
 
 namespace spacewarp {
 

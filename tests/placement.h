@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "core/coordinates.h"
-#include "core/math.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/math.h>
 
 namespace spacewarp::test {
 

@@ -19,9 +19,9 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
-#include "core/errors.h"
-#include "core/math.h"
-#include "core/warp.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/math.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp::test {
 

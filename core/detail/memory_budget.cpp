@@ -1,4 +1,4 @@
-#include "core/detail/memory_budget.h"
+#include <spacewarp/core/detail/memory_budget.h>
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -11,7 +11,7 @@
 #include <limits>
 #include <sstream>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp::detail {
 

@@ -1,4 +1,4 @@
-#include "core/detail/serial_blas.h"
+#include <spacewarp/core/detail/serial_blas.h>
 
 #include <dlfcn.h>
 

@@ -1,4 +1,4 @@
-#include "core/io/atomic_file.h"
+#include <spacewarp/core/io/atomic_file.h>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/io/mesh_io.h"
+#include <spacewarp/core/io/mesh_io.h>
 
 #include <algorithm>
 #include <cctype>
@@ -10,10 +10,10 @@
 #include <system_error>
 #include <vector>
 
-#include "core/errors.h"
-#include "core/io/atomic_file.h"
-#include "core/io/obj.h"
-#include "core/io/off.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/atomic_file.h>
+#include <spacewarp/core/io/obj.h>
+#include <spacewarp/core/io/off.h>
 
 namespace spacewarp {
 namespace {

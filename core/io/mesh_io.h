@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "core/geometry.h"
-#include "core/io/ply.h"
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/core/io/ply.h>
 
 namespace spacewarp {
 

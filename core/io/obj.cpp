@@ -1,4 +1,4 @@
-#include "core/io/obj.h"
+#include <spacewarp/core/io/obj.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,8 +11,8 @@
 
 #include <tiny_obj_loader.h>
 
-#include "core/errors.h"
-#include "core/io/text_format.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/text_format.h>
 
 namespace spacewarp {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/io/off.h"
+#include <spacewarp/core/io/off.h>
 
 #include <algorithm>
 #include <cmath>
@@ -8,8 +8,8 @@
 #include <string_view>
 #include <vector>
 
-#include "core/errors.h"
-#include "core/io/text_format.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/text_format.h>
 
 namespace spacewarp {
 namespace {

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "core/geometry.h"
+#include <spacewarp/core/geometry.h>
 
 namespace spacewarp {
 

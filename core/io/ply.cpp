@@ -1,4 +1,4 @@
-#include "core/io/ply.h"
+#include <spacewarp/core/io/ply.h>
 
 #include <algorithm>
 #include <bit>
@@ -14,8 +14,8 @@
 #include <system_error>
 #include <vector>
 
-#include "core/errors.h"
-#include "core/io/text_format.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/text_format.h>
 
 namespace spacewarp {
 namespace {

@@ -5,7 +5,7 @@
 #include <ostream>
 #include <string>
 
-#include "core/geometry.h"
+#include <spacewarp/core/geometry.h>
 
 namespace spacewarp {
 

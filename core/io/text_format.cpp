@@ -1,4 +1,4 @@
-#include "core/io/text_format.h"
+#include <spacewarp/core/io/text_format.h>
 
 #include <charconv>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <system_error>
 #include <type_traits>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp::detail {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/volume/read_vdb.h"
+#include <spacewarp/core/volume/read_vdb.h>
 
 #include <exception>
 #include <new>
@@ -7,7 +7,7 @@
 
 #include <openvdb/io/File.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

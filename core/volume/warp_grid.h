@@ -6,8 +6,8 @@
 
 #include <openvdb/openvdb.h>
 
-#include "core/volume/warp_volume.h"
-#include "core/warp.h"
+#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "core/volume/warp_points.h"
+#include <spacewarp/core/volume/warp_points.h>
 
 #include <sstream>
 #include <string>
@@ -6,7 +6,7 @@
 #include <openvdb/points/PointCount.h>
 #include <openvdb/points/PointMove.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -5,8 +5,8 @@
 
 #include <openvdb/points/PointDataGrid.h>
 
-#include "core/volume/warp_volume.h"
-#include "core/warp.h"
+#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

@@ -1,4 +1,4 @@
-#include "core/volume/warp_volume.h"
+#include <spacewarp/core/volume/warp_volume.h>
 
 #include <algorithm>
 #include <cmath>
@@ -21,7 +21,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 

@@ -36,8 +36,8 @@
 
 #include <openvdb/openvdb.h>
 
-#include "core/progress.h"
-#include "core/warp.h"
+#include <spacewarp/core/progress.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 

@@ -9,8 +9,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/math.h"
-#include "ffd/lattice.h"
+#include <spacewarp/core/math.h>
+#include <spacewarp/ffd/lattice.h>
 
 namespace spacewarp::detail {
 

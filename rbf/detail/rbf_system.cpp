@@ -1,4 +1,4 @@
-#include "rbf/detail/rbf_system.h"
+#include <spacewarp/rbf/detail/rbf_system.h>
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Eigenvalues>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 
 namespace spacewarp::detail {
 

@@ -11,8 +11,8 @@
 #include <Eigen/Householder>
 #include <Eigen/QR>
 
-#include "core/math.h"
-#include "rbf/kernels.h"
+#include <spacewarp/core/math.h>
+#include <spacewarp/rbf/kernels.h>
 
 namespace spacewarp::detail {
 

@@ -12,9 +12,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
 #include "apps/cli_test_util.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
 
 namespace spacewarp {
 namespace {

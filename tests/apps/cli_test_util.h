@@ -17,8 +17,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
 
 namespace spacewarp::test {
 

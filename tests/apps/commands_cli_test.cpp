@@ -10,9 +10,9 @@
 
 #include <gtest/gtest.h>
 
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
 #include "apps/cli_test_util.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
 
 namespace spacewarp {
 namespace {

@@ -11,13 +11,13 @@
 #include <stb_image.h>
 #include <nlohmann/json.hpp>
 
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/green.h>
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/core/io/mesh_io.h>
 #include "apps/cli_test_util.h"
-#include "coords/cage.h"
 #include "coords/coords_test_shapes.h"
-#include "coords/green.h"
-#include "coords/mean_value.h"
-#include "coords/properties.h"
-#include "core/io/mesh_io.h"
 
 namespace spacewarp {
 namespace {

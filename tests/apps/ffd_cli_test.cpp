@@ -12,11 +12,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/ffd/lattice_coordinates.h>
+#include <spacewarp/ffd/lattice_warp.h>
 #include "apps/cli_test_util.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
-#include "ffd/lattice_coordinates.h"
-#include "ffd/lattice_warp.h"
 
 namespace fs = std::filesystem;
 using namespace spacewarp;

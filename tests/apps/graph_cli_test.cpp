@@ -12,10 +12,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/nonlinear/deformation_graph.h>
 #include "apps/cli_test_util.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
-#include "nonlinear/deformation_graph.h"
 
 using namespace spacewarp;
 using ::testing::HasSubstr;

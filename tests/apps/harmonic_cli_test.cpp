@@ -12,11 +12,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <spacewarp/coords/harmonic.h>
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
 #include "apps/cli_test_util.h"
-#include "coords/harmonic.h"
-#include "core/coordinate_warp.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
 
 namespace fs = std::filesystem;
 using namespace spacewarp;

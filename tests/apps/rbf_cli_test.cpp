@@ -12,11 +12,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/rbf/rbf_coordinates.h>
+#include <spacewarp/rbf/rbf_warp.h>
 #include "apps/cli_test_util.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
-#include "rbf/rbf_coordinates.h"
-#include "rbf/rbf_warp.h"
 
 namespace fs = std::filesystem;
 using namespace spacewarp;

@@ -15,11 +15,11 @@
 #include <openvdb/points/PointCount.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/core/twist.h>
+#include <spacewarp/core/volume/warp_volume.h>
 #include "apps/cli_test_util.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
-#include "core/twist.h"
-#include "core/volume/warp_volume.h"
 
 namespace fs = std::filesystem;
 using namespace spacewarp;

@@ -1,13 +1,13 @@
-#include "coords/cage.h"
+#include <spacewarp/coords/cage.h>
 
 #include <string>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/primitives.h>
 #include "coords_test_shapes.h"
-#include "core/errors.h"
-#include "core/primitives.h"
 
 namespace spacewarp {
 namespace {

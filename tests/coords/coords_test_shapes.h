@@ -8,7 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/geometry.h"
+#include <spacewarp/core/geometry.h>
 
 namespace spacewarp::test {
 

@@ -1,4 +1,4 @@
-#include "coords/harmonic.h"
+#include <spacewarp/coords/harmonic.h>
 
 #include <unistd.h>
 #include <algorithm>
@@ -19,16 +19,16 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
-#include "coords/mean_value.h"
-#include "coords/properties.h"
-#include "coords/tet_locator.h"
-#include "coords/tet_mesh.h"
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/coords/tet_locator.h>
+#include <spacewarp/coords/tet_mesh.h>
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
 #include "coords_test_shapes.h"
-#include "core/binding.h"
-#include "core/coordinate_warp.h"
-#include "core/errors.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
 #include "test_util.h"
 
 namespace spacewarp {

@@ -1,4 +1,4 @@
-#include "coords/harmonic_warp.h"
+#include <spacewarp/coords/harmonic_warp.h>
 
 #include <cstring>
 #include <memory>
@@ -9,9 +9,9 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/errors.h>
 #include "coords_test_shapes.h"
-#include "core/coordinate_warp.h"
-#include "core/errors.h"
 #include "test_util.h"
 
 namespace spacewarp {

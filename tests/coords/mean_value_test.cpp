@@ -1,4 +1,4 @@
-#include "coords/mean_value.h"
+#include <spacewarp/coords/mean_value.h>
 
 #include <algorithm>
 #include <cmath>
@@ -14,13 +14,13 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
-#include "coords/properties.h"
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/core/primitives.h>
 #include "coords_test_shapes.h"
-#include "core/binding.h"
-#include "core/coordinate_warp.h"
-#include "core/errors.h"
-#include "core/io/mesh_io.h"
-#include "core/primitives.h"
 
 namespace spacewarp {
 namespace {

@@ -19,14 +19,14 @@
 
 #include <gtest/gtest.h>
 
-#include "coords/cage.h"
-#include "coords/green.h"
-#include "coords/mean_value.h"
-#include "coords/properties.h"
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/green.h>
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/properties.h>
 #include "coords_test_shapes.h"
 #include "placement.h"
 #ifdef SPACEWARP_HAVE_HARMONIC
-#include "coords/harmonic.h"
+#include <spacewarp/coords/harmonic.h>
 #endif
 
 namespace spacewarp {

@@ -1,4 +1,4 @@
-#include "coords/properties.h"
+#include <spacewarp/coords/properties.h>
 
 #include <cmath>
 #include <random>
@@ -6,10 +6,10 @@
 
 #include <gtest/gtest.h>
 
-#include "coords/mean_value.h"
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/errors.h>
 #include "coords_test_shapes.h"
-#include "core/binding.h"
-#include "core/errors.h"
 
 namespace spacewarp {
 namespace {

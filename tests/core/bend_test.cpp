@@ -1,4 +1,4 @@
-#include "core/bend.h"
+#include <spacewarp/core/bend.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "test_util.h"
 
 namespace spacewarp {

@@ -1,4 +1,4 @@
-#include "core/combinators.h"
+#include <spacewarp/core/combinators.h>
 
 #include <cmath>
 #include <limits>
@@ -8,10 +8,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/bend.h"
-#include "core/errors.h"
-#include "core/taper.h"
-#include "core/twist.h"
+#include <spacewarp/core/bend.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/taper.h>
+#include <spacewarp/core/twist.h>
 #include "test_util.h"
 
 namespace spacewarp {

@@ -1,4 +1,4 @@
-#include "core/deform.h"
+#include <spacewarp/core/deform.h>
 
 #include <cmath>
 #include <limits>
@@ -7,10 +7,10 @@
 
 #include <gtest/gtest.h>
 
-#include "core/bend.h"
-#include "core/combinators.h"
-#include "core/errors.h"
-#include "core/twist.h"
+#include <spacewarp/core/bend.h>
+#include <spacewarp/core/combinators.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/twist.h>
 #include "test_util.h"
 
 namespace spacewarp {

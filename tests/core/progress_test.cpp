@@ -1,7 +1,7 @@
 // The progress/cancel callback: fractions reported in order from many threads, throttled, and
 // a cancel that stops the work without touching its output.
 
-#include "core/progress.h"
+#include <spacewarp/core/progress.h>
 
 #include <atomic>
 #include <vector>
@@ -9,9 +9,9 @@
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>
 
-#include "core/deform.h"
-#include "core/primitives.h"
-#include "core/twist.h"
+#include <spacewarp/core/deform.h>
+#include <spacewarp/core/primitives.h>
+#include <spacewarp/core/twist.h>
 
 namespace spacewarp {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/taper.h"
+#include <spacewarp/core/taper.h>
 
 #include <cmath>
 #include <limits>
@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "test_util.h"
 
 namespace spacewarp {

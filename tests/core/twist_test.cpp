@@ -1,4 +1,4 @@
-#include "core/twist.h"
+#include <spacewarp/core/twist.h>
 
 #include <cmath>
 #include <limits>
@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "test_util.h"
 
 namespace spacewarp {

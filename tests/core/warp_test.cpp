@@ -1,4 +1,4 @@
-#include "core/warp.h"
+#include <spacewarp/core/warp.h>
 
 #include <cmath>
 #include <limits>
@@ -9,11 +9,11 @@
 #include <gtest/gtest.h>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "core/bend.h"
-#include "core/combinators.h"
-#include "core/errors.h"
-#include "core/taper.h"
-#include "core/twist.h"
+#include <spacewarp/core/bend.h>
+#include <spacewarp/core/combinators.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/taper.h>
+#include <spacewarp/core/twist.h>
 #include "test_util.h"
 
 namespace spacewarp {

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "ffd/lattice.h"
+#include <spacewarp/ffd/lattice.h>
 #include "test_util.h"
 
 namespace spacewarp::test {

@@ -1,7 +1,7 @@
 // Tests of ffd/lattice_coordinates.h: dense and sparse rows agree, partition of unity, analytic
 // gradients, and binding equals the warp.
 
-#include "ffd/lattice_coordinates.h"
+#include <spacewarp/ffd/lattice_coordinates.h>
 
 #include <memory>
 #include <random>
@@ -10,11 +10,11 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "coords/properties.h"
-#include "core/binding.h"
-#include "core/coordinate_warp.h"
-#include "core/errors.h"
-#include "ffd/lattice_warp.h"
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/ffd/lattice_warp.h>
 #include "ffd_test_shapes.h"
 #include "placement.h"
 #include "test_util.h"

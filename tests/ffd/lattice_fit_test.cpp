@@ -1,7 +1,7 @@
 // Tests of ffd/lattice_fit.h: direct manipulation in least squares, and lattices fitted around
 // geometry.
 
-#include "ffd/lattice_fit.h"
+#include <spacewarp/ffd/lattice_fit.h>
 
 #include <cmath>
 #include <random>
@@ -10,9 +10,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
-#include "core/geometry.h"
-#include "ffd/lattice_warp.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/ffd/lattice_warp.h>
 #include "ffd_test_shapes.h"
 #include "test_util.h"
 

@@ -1,7 +1,7 @@
 // Tests of ffd/lattice.h: validation, the rest grid, and the weights on, inside and outside the
 // box for every basis and outside policy.
 
-#include "ffd/lattice.h"
+#include <spacewarp/ffd/lattice.h>
 
 #include <random>
 #include <vector>
@@ -9,7 +9,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "ffd_test_shapes.h"
 #include "test_util.h"
 

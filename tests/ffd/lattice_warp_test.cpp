@@ -1,7 +1,7 @@
 // Tests of ffd/lattice_warp.h: identity at rest, affine precision, continuity (C² for the
 // cubic B-spline), the outside policies, the analytic Jacobian and the batch kernel.
 
-#include "ffd/lattice_warp.h"
+#include <spacewarp/ffd/lattice_warp.h>
 
 #include <cmath>
 #include <random>
@@ -10,7 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "ffd_test_shapes.h"
 #include "test_util.h"
 

@@ -12,8 +12,8 @@
 #include <string_view>
 #include <vector>
 
-#include "core/errors.h"
-#include "core/geometry.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
 
 namespace spacewarp::fuzz {
 

@@ -12,9 +12,9 @@
 #include <string>
 #include <string_view>
 
-#include "apps/rig.h"
-#include "core/detail/memory_budget.h"
-#include "core/errors.h"
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/rig/rig.h>
 
 namespace {
 
@@ -34,7 +34,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   (void)capped;
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   try {
-    cli::rigFromJson(cli::parseRigJson(text, "fuzz.json"), dir, "fuzz.json");
+    rigFromJson(parseRigJson(text, "fuzz.json"), dir, "fuzz.json");
   } catch (const InvalidInput&) {
   } catch (const IoError&) {
   } catch (const SolverError&) {

@@ -13,10 +13,10 @@
 #include <fstream>
 #include <string>
 
-#include "core/errors.h"
-#include "core/twist.h"
-#include "core/volume/read_vdb.h"
-#include "core/volume/warp_grid.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/twist.h>
+#include <spacewarp/core/volume/read_vdb.h>
+#include <spacewarp/core/volume/warp_grid.h>
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "core/io/atomic_file.h"
+#include <spacewarp/core/io/atomic_file.h>
 
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -17,7 +17,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "io_test_util.h"
 
 namespace spacewarp {

@@ -20,7 +20,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/geometry.h"
+#include <spacewarp/core/geometry.h>
 #include "test_util.h"
 
 namespace spacewarp::test {

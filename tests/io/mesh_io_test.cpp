@@ -1,4 +1,4 @@
-#include "core/io/mesh_io.h"
+#include <spacewarp/core/io/mesh_io.h>
 
 #include <cstdint>
 #include <filesystem>
@@ -12,7 +12,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "io_test_util.h"
 
 namespace spacewarp {

@@ -1,4 +1,4 @@
-#include "core/io/obj.h"
+#include <spacewarp/core/io/obj.h>
 
 #include <cmath>
 #include <cstdint>
@@ -11,7 +11,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "io_test_util.h"
 
 namespace spacewarp {

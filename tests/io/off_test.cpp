@@ -1,4 +1,4 @@
-#include "core/io/off.h"
+#include <spacewarp/core/io/off.h>
 
 #include <cstdint>
 #include <sstream>
@@ -7,7 +7,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "io_test_util.h"
 
 namespace spacewarp {

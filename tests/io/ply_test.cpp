@@ -1,4 +1,4 @@
-#include "core/io/ply.h"
+#include <spacewarp/core/io/ply.h>
 
 #include <algorithm>
 #include <bit>
@@ -13,7 +13,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "io_test_util.h"
 
 namespace spacewarp {

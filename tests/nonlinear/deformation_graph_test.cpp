@@ -3,7 +3,7 @@
 // results for any TBB or BLAS thread count, the kept factorisation), the Warp view, invalid
 // input.
 
-#include "nonlinear/deformation_graph.h"
+#include <spacewarp/nonlinear/deformation_graph.h>
 
 #include <algorithm>
 #include <cmath>
@@ -25,9 +25,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/deform.h"
-#include "core/errors.h"
-#include "core/geometry.h"
+#include <spacewarp/core/deform.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
 #include "test_util.h"
 
 using namespace spacewarp;

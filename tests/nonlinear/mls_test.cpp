@@ -1,4 +1,4 @@
-#include "nonlinear/mls.h"
+#include <spacewarp/nonlinear/mls.h>
 
 #include <algorithm>
 #include <cmath>
@@ -9,9 +9,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "coords/properties.h"
-#include "core/binding.h"
-#include "core/errors.h"
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/errors.h>
 #include "placement.h"
 #include "test_util.h"
 

@@ -1,13 +1,13 @@
 // Tests of rbf/kernels.h: values, slopes against finite differences, names, option checks.
 
-#include "rbf/kernels.h"
+#include <spacewarp/rbf/kernels.h>
 
 #include <cmath>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "rbf_test_data.h"
 #include "test_util.h"
 

@@ -1,7 +1,7 @@
 // Tests of rbf/rbf_coordinates.h: partition of unity and linear precision, bindings that equal
 // the RBF warp, weight gradients, duplicates and fixed centres.
 
-#include "rbf/rbf_coordinates.h"
+#include <spacewarp/rbf/rbf_coordinates.h>
 
 #include <memory>
 #include <random>
@@ -10,12 +10,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "coords/properties.h"
-#include "core/binding.h"
-#include "core/coordinate_warp.h"
-#include "core/errors.h"
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/rbf/rbf_warp.h>
 #include "placement.h"
-#include "rbf/rbf_warp.h"
 #include "rbf_test_data.h"
 #include "test_util.h"
 

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "core/math.h"
-#include "rbf/kernels.h"
+#include <spacewarp/core/math.h>
+#include <spacewarp/rbf/kernels.h>
 #include "test_util.h"
 
 namespace spacewarp::test {

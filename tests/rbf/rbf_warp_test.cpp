@@ -1,7 +1,7 @@
 // Tests of rbf/rbf_warp.h: interpolation, affine reproduction, the analytic Jacobian, the fit
 // against a dense reference solve, smoothing, deterministic batches and degenerate input.
 
-#include "rbf/rbf_warp.h"
+#include <spacewarp/rbf/rbf_warp.h>
 
 #include <cmath>
 #include <limits>
@@ -12,7 +12,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/LU>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "rbf_test_data.h"
 #include "test_util.h"
 

@@ -10,8 +10,8 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/LevelSetSphere.h>
 
-#include "core/math.h"
-#include "core/warp.h"
+#include <spacewarp/core/math.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp::test {
 

@@ -1,14 +1,14 @@
 // Tests of core/volume/warp_grid.h: grids of any type are dispatched to the right warper or
 // rejected by name.
 
-#include "core/volume/warp_grid.h"
+#include <spacewarp/core/volume/warp_grid.h>
 
 #include <string>
 
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
-#include "core/twist.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/twist.h>
 #include "volume/volume_test_util.h"
 
 namespace spacewarp {

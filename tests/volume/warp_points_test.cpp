@@ -1,6 +1,6 @@
 // Tests of core/volume/warp_points.h: points move to warp(p) with their attributes.
 
-#include "core/volume/warp_points.h"
+#include <spacewarp/core/volume/warp_points.h>
 
 #include <random>
 #include <string>
@@ -10,7 +10,7 @@
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/points/PointCount.h>
 
-#include "core/twist.h"
+#include <spacewarp/core/twist.h>
 #include "volume/volume_test_util.h"
 
 namespace spacewarp {

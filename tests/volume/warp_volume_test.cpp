@@ -2,7 +2,7 @@
 // resampling, level sets (scaled sphere, twisted against the mesh route), mass conservation,
 // non-convergent inverses, determinism, cancellation and rejected inputs.
 
-#include "core/volume/warp_volume.h"
+#include <spacewarp/core/volume/warp_volume.h>
 
 #include <cmath>
 #include <cstring>
@@ -20,9 +20,9 @@
 #include <tbb/global_control.h>
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "core/combinators.h"
-#include "core/errors.h"
-#include "core/twist.h"
+#include <spacewarp/core/combinators.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/twist.h>
 #include "volume/volume_test_util.h"
 
 namespace spacewarp {

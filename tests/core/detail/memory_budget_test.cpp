@@ -1,7 +1,7 @@
 // Tests of the memory estimate checks (core/detail/memory_budget.h): the limits they read, the
 // cap, and the message that names the parameter and the estimate.
 
-#include "core/detail/memory_budget.h"
+#include <spacewarp/core/detail/memory_budget.h>
 
 #include <sys/resource.h>
 
@@ -12,7 +12,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "core/errors.h"
+#include <spacewarp/core/errors.h>
 #include "test_util.h"
 
 using namespace spacewarp;

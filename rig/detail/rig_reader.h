@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <set>
 #include <string>
@@ -12,11 +13,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "apps/cli_context.h"
-#include "core/errors.h"
-#include "core/math.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/math.h>
+#include <spacewarp/rig/rig.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 // Reads the keys of one rig object with clear, located errors, and remembers which keys were
 // read so that unknown (usually misspelt) keys can be reported.
@@ -153,4 +154,8 @@ class RigReader {
   std::set<std::string> seen_{"method"};
 };
 
-}  // namespace spacewarp::cli
+/// Builds one rig method from its reader. A method's keys are read through the reader, which
+/// reports unknown keys once the factory returns.
+using RigFactory = std::function<Rig(RigReader&)>;
+
+}  // namespace spacewarp::detail

@@ -2,10 +2,10 @@
 // The "graph" rig method: an embedded deformation graph (nonlinear/deformation_graph.h) solved
 // so that handles reach their targets. Keys are documented in README.md.
 
-#include "apps/rig.h"
-#include "apps/rig_reader.h"
+#include <spacewarp/rig/detail/rig_reader.h>
+#include <spacewarp/rig/rig.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 /// Reads "handles" and "targets" (arrays of [x, y, z], the same length), "spacing" (> 0, world
 /// units), optional "k" (nearest nodes per point, integer >= 1, default 4), optional "nodes"
@@ -19,4 +19,4 @@ namespace spacewarp::cli {
 /// of the graph are reached by no handle.
 Rig graphRig(RigReader& reader);
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

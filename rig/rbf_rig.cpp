@@ -1,4 +1,4 @@
-#include "apps/rbf_rig.h"
+#include <spacewarp/rig/detail/rbf_rig.h>
 
 #include <memory>
 #include <mutex>
@@ -7,11 +7,11 @@
 #include <utility>
 #include <vector>
 
-#include "core/errors.h"
-#include "rbf/rbf_coordinates.h"
-#include "rbf/rbf_warp.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/rbf/rbf_coordinates.h>
+#include <spacewarp/rbf/rbf_warp.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 namespace {
 
@@ -93,4 +93,4 @@ Rig rbfRig(RigReader& r) {
   return rig;
 }
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

@@ -2,14 +2,14 @@
 // The "mls" rig method: a moving-least-squares warp of point handles to targets
 // (nonlinear/mls.h). Keys are documented in README.md.
 
-#include "apps/rig.h"
-#include "apps/rig_reader.h"
+#include <spacewarp/rig/detail/rig_reader.h>
+#include <spacewarp/rig/rig.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 /// Reads "handles" and "targets" (arrays of [x, y, z], the same length), optional "mode"
 /// ("affine", "similarity" or "rigid"; default "rigid") and "alpha" (> 0, default 1). Returns
 /// the MlsWarp and no coordinates.
 Rig mlsRig(RigReader& reader);
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

@@ -2,10 +2,10 @@
 // The "rbf" rig method: an RBF warp fitted to handle centres and targets (rbf/rbf_warp.h),
 // with its RbfCoordinates for `spacewarp weights`. Keys are documented in README.md.
 
-#include "apps/rig.h"
-#include "apps/rig_reader.h"
+#include <spacewarp/rig/detail/rig_reader.h>
+#include <spacewarp/rig/rig.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 /// Reads "kernel" (optional, default "triharmonic"), "centers" and "targets" (arrays of
 /// [x, y, z], the same length), optional "fixed" (centres that stay put), "smoothing" (λ ≥ 0,
@@ -13,4 +13,4 @@ namespace spacewarp::cli {
 /// default 1). Returns the RbfWarp and the RbfCoordinates of the centres (built on first use).
 Rig rbfRig(RigReader& reader);
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

@@ -1,13 +1,13 @@
-#include "apps/mls_rig.h"
+#include <spacewarp/rig/detail/mls_rig.h>
 
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "core/errors.h"
-#include "nonlinear/mls.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/nonlinear/mls.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 Rig mlsRig(RigReader& r) {
   MlsOptions options;
@@ -29,4 +29,4 @@ Rig mlsRig(RigReader& r) {
   return {std::make_shared<MlsWarp>(std::move(handles), std::move(targets), options), nullptr};
 }
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

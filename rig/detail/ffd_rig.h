@@ -3,10 +3,10 @@
 // control points or fitted to point constraints, with its LatticeCoordinates for
 // `spacewarp weights`. Keys are documented in README.md.
 
-#include "apps/rig.h"
-#include "apps/rig_reader.h"
+#include <spacewarp/rig/detail/rig_reader.h>
+#include <spacewarp/rig/rig.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 /// Reads "basis" ("trilinear", "bernstein" or "bspline"), "origin" (the box corner), "size"
 /// (edge lengths), "resolution" ([l, m, n] integers), optional "axes" (three orthogonal
@@ -17,4 +17,4 @@ namespace spacewarp::cli {
 /// (default 1e-4). Returns the LatticeWarp and the LatticeCoordinates.
 Rig ffdRig(RigReader& reader);
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

@@ -1,4 +1,4 @@
-#include "apps/graph_rig.h"
+#include <spacewarp/rig/detail/graph_rig.h>
 
 #include <algorithm>
 #include <cmath>
@@ -7,12 +7,12 @@
 #include <string>
 #include <vector>
 
-#include "core/detail/memory_budget.h"
-#include "core/errors.h"
-#include "core/geometry.h"
-#include "nonlinear/deformation_graph.h"
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/nonlinear/deformation_graph.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 namespace {
 
@@ -109,4 +109,4 @@ Rig graphRig(RigReader& r) {
   return {std::make_shared<DeformationGraphWarp>(graph.warp()), nullptr};
 }
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

@@ -1,10 +1,10 @@
 #pragma once
 // Rigs: JSON files that describe a warp (method, parameters, control data or paths to it),
-// so the same rig deforms a soup, a point cloud or a volume. The keys of every method are
-// documented in README.md.
+// so the same rig deforms a soup, a point cloud or a volume, from the command line or from C++
+// (spacewarp::rig: `loadRig("rig.json").warp`). The keys of every method are documented in
+// README.md.
 
 #include <filesystem>
-#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -12,11 +12,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "apps/rig_reader.h"
-#include "core/coordinates.h"
-#include "core/warp.h"
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/warp.h>
 
-namespace spacewarp::cli {
+namespace spacewarp {
 
 /// What a rig builds: always a warp, and for the methods that are linear in their controls
 /// (cages, lattices, RBF handles) also their coordinates, for `spacewarp weights`.
@@ -24,10 +23,6 @@ struct Rig {
   std::shared_ptr<const Warp> warp;
   std::shared_ptr<const Coordinates> coordinates;  ///< null for warps without coordinates
 };
-
-/// Builds one rig method from its reader. A method's keys are read through the reader, which
-/// reports unknown keys once the factory returns.
-using RigFactory = std::function<Rig(RigReader&)>;
 
 /// The deepest nesting of compose rigs (a compose inside a compose ... ), and of JSON arrays and
 /// objects in a rig file: deeper input is refused rather than recursed into.
@@ -58,4 +53,4 @@ Rig loadRig(const std::filesystem::path& path);
 /// The method names a rig may use, sorted.
 std::vector<std::string> rigMethods();
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp

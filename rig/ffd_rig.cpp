@@ -1,15 +1,15 @@
-#include "apps/ffd_rig.h"
+#include <spacewarp/rig/detail/ffd_rig.h>
 
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "core/errors.h"
-#include "ffd/lattice_coordinates.h"
-#include "ffd/lattice_fit.h"
-#include "ffd/lattice_warp.h"
+#include <spacewarp/core/errors.h>
+#include <spacewarp/ffd/lattice_coordinates.h>
+#include <spacewarp/ffd/lattice_fit.h>
+#include <spacewarp/ffd/lattice_warp.h>
 
-namespace spacewarp::cli {
+namespace spacewarp::detail {
 
 namespace {
 
@@ -101,4 +101,4 @@ Rig ffdRig(RigReader& r) {
   return {std::move(warp), std::move(coordinates)};
 }
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp::detail

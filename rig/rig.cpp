@@ -1,25 +1,29 @@
-#include "apps/rig.h"
+#include <spacewarp/rig/rig.h>
 
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
 
-#include "apps/cage_methods.h"
-#include "apps/ffd_rig.h"
-#include "apps/graph_rig.h"
-#include "apps/mls_rig.h"
-#include "apps/rbf_rig.h"
-#include "core/bend.h"
-#include "core/combinators.h"
-#include "core/errors.h"
-#include "core/taper.h"
-#include "core/twist.h"
+#include <spacewarp/core/bend.h>
+#include <spacewarp/core/combinators.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/taper.h>
+#include <spacewarp/core/twist.h>
+#include <spacewarp/rig/cage_rig.h>
+#include <spacewarp/rig/detail/ffd_rig.h>
+#include <spacewarp/rig/detail/graph_rig.h>
+#include <spacewarp/rig/detail/harmonic_rig.h>
+#include <spacewarp/rig/detail/mls_rig.h>
+#include <spacewarp/rig/detail/rbf_rig.h>
+#include <spacewarp/rig/detail/rig_reader.h>
 
-namespace spacewarp::cli {
+namespace spacewarp {
 
 namespace {
 
+using detail::RigFactory;
+using detail::RigReader;
 using nlohmann::json;
 
 Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const std::string& where,
@@ -62,11 +66,11 @@ const std::map<std::string, RigFactory>& factories() {
        [](RigReader& r) { return warpOnly(std::make_shared<AffineWarp>(r.matrix4("matrix"))); }},
       {"mvc", [](RigReader& r) { return cageRig("mvc", r.path("cage"), r.path("pose")); }},
       {"green", [](RigReader& r) { return cageRig("green", r.path("cage"), r.path("pose")); }},
-      {"harmonic", harmonicRig},
-      {"ffd", ffdRig},
-      {"graph", graphRig},
-      {"mls", mlsRig},
-      {"rbf", rbfRig},
+      {"harmonic", detail::harmonicRig},
+      {"ffd", detail::ffdRig},
+      {"graph", detail::graphRig},
+      {"mls", detail::mlsRig},
+      {"rbf", detail::rbfRig},
       {"compose",
        [](RigReader& r) {
          std::shared_ptr<const Warp> result;
@@ -217,4 +221,4 @@ std::vector<std::string> rigMethods() {
   return names;
 }
 
-}  // namespace spacewarp::cli
+}  // namespace spacewarp

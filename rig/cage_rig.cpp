@@ -1,19 +1,20 @@
-#include "apps/cage_methods.h"
+#include <spacewarp/rig/cage_rig.h>
 
 #include <cmath>
 #include <functional>
 #include <map>
 
-#include "coords/green.h"
+#include <spacewarp/coords/green.h>
 #ifdef SPACEWARP_HAVE_HARMONIC
-#include "coords/harmonic.h"
-#include "coords/harmonic_warp.h"
+#include <spacewarp/coords/harmonic.h>
+#include <spacewarp/coords/harmonic_warp.h>
 #endif
-#include "coords/mean_value.h"
-#include "core/coordinate_warp.h"
-#include "core/errors.h"
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/rig/detail/harmonic_rig.h>
 
-namespace spacewarp::cli {
+namespace spacewarp {
 
 namespace {
 
@@ -64,44 +65,6 @@ const std::map<std::string, Factory>& factories() {
 
 }  // namespace
 
-// The help group of the harmonic method's options, also how checkCageMethodOptions finds them.
-const char* const kHarmonicGroup = "Options of --method harmonic";
-
-void addCageMethodOptions(CLI::App* command, CageMethodOptions& options) {
-#ifdef SPACEWARP_HAVE_HARMONIC
-  command
-      ->add_option("--tets", options.harmonicTets,
-                   "harmonic: target tet count of the cage's tetrahedralisation (default 200000)")
-      ->check(CLI::PositiveNumber)
-      ->group(kHarmonicGroup);
-  command
-      ->add_option("--harmonic-cache", options.harmonicCache,
-                   "harmonic: solved-coordinate file, loaded if it matches the cage and --tets, "
-                   "otherwise solved and written")
-      ->group(kHarmonicGroup);
-  command
-      ->add_option("--outside", options.harmonicOutside,
-                   "harmonic: points outside the cage raise an error or take the coordinates of "
-                   "the nearest cage point")
-      ->check(CLI::IsMember({"raise", "nearest"}))
-      ->group(kHarmonicGroup);
-#else
-  (void)command;
-  (void)options;
-#endif
-}
-
-void checkCageMethodOptions(const CLI::App& command, const std::string& method) {
-  if (method == "harmonic") return;
-  for (const CLI::Option* option : command.get_options()) {
-    if (option->get_group() != kHarmonicGroup || option->count() == 0) continue;
-    throw CLI::ValidationError(
-        option->get_name() + " applies to --method harmonic only" +
-        (method.empty() ? " (with --rig, a harmonic rig's keys tets, cache and outside set it)"
-                        : ", not to --method " + method));
-  }
-}
-
 std::vector<std::string> cageMethods() {
   std::vector<std::string> names;
   for (const auto& [name, factory] : factories()) names.push_back(name);
@@ -138,6 +101,8 @@ Rig cageRig(const std::string& method, const std::filesystem::path& cage,
   return {std::make_shared<CoordinateWarp>(coordinates, posed), coordinates};
 }
 
+namespace detail {
+
 Rig harmonicRig(RigReader& reader) {
 #ifdef SPACEWARP_HAVE_HARMONIC
   const std::filesystem::path cage = reader.path("cage"), pose = reader.path("pose");
@@ -162,4 +127,6 @@ Rig harmonicRig(RigReader& reader) {
 #endif
 }
 
-}  // namespace spacewarp::cli
+}  // namespace detail
+
+}  // namespace spacewarp

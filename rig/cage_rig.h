@@ -1,26 +1,25 @@
 #pragma once
-// The cage-coordinate methods the command line offers, by name. Adding a method is one line
-// in cage_methods.cpp.
+// The cage-coordinate methods by name ("mvc", "green", "harmonic"), as rigs and the command
+// line use them. Adding a method is one line in cage_rig.cpp.
 
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/progress.h>
+#include <spacewarp/core/warp.h>
+#include <spacewarp/rig/rig.h>
 
-#include "apps/rig.h"
-#include "coords/cage.h"
-#include "core/coordinates.h"
-#include "core/progress.h"
-#include "core/warp.h"
-
-namespace spacewarp::cli {
+namespace spacewarp {
 
 /// The names of the cage-coordinate methods ("green", "mvc", ...), sorted.
 std::vector<std::string> cageMethods();
 
-/// Options of the cage methods that have any, set from the command line.
+/// Options of the cage methods that have any (the command line's --tets, --harmonic-cache and
+/// --outside; a harmonic rig's keys tets, cache and outside).
 struct CageMethodOptions {
   /// harmonic (--tets): the target tet count of the tetrahedralisation; 0 keeps the library's
   /// default (HarmonicOptions::targetTetCount, about 200k tets).
@@ -35,13 +34,6 @@ struct CageMethodOptions {
   std::string harmonicOutside = "raise";
 };
 
-/// Adds the cage methods' options to a subcommand that takes --method.
-void addCageMethodOptions(CLI::App* command, CageMethodOptions& options);
-
-/// Throws a usage error (exit 2) naming the first option of addCageMethodOptions given on
-/// `command` that `method` does not use; `method` "" stands for a rig, whose keys set them.
-void checkCageMethodOptions(const CLI::App& command, const std::string& method);
-
 /// Coordinates of `method` for `cage`. Throws InvalidInput for an unknown method. Long
 /// precomputation reports to `progress`.
 std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
@@ -55,9 +47,4 @@ Rig cageRig(const std::string& method, const std::filesystem::path& cage,
             const std::filesystem::path& pose, const CageMethodOptions& options = {},
             const ProgressCallback& progress = {});
 
-/// The "harmonic" rig: keys "cage", "pose" (paths), optional "tets" (target tet count) and
-/// "cache" (a coordinate cache file, as --harmonic-cache) and "outside" ("raise" or "nearest").
-/// Throws InvalidInput if spacewarp was built without TetGen.
-Rig harmonicRig(RigReader& reader);
-
-}  // namespace spacewarp::cli
+}  // namespace spacewarp

@@ -1,0 +1,19 @@
+#pragma once
+// The command-line options of the cage methods (rig/cage_rig.h's CageMethodOptions).
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include <spacewarp/rig/cage_rig.h>
+
+namespace spacewarp::cli {
+
+/// Adds the cage methods' options to a subcommand that takes --method.
+void addCageMethodOptions(CLI::App* command, CageMethodOptions& options);
+
+/// Throws a usage error (exit 2) naming the first option of addCageMethodOptions given on
+/// `command` that `method` does not use; `method` "" stands for a rig, whose keys set them.
+void checkCageMethodOptions(const CLI::App& command, const std::string& method);
+
+}  // namespace spacewarp::cli
