@@ -236,7 +236,7 @@ const char* className(openvdb::GridClass c) {
 
 void printVolumeInfo(const std::filesystem::path& path) {
   openvdb::initialize();
-  const VdbContent content = readVdb(path);
+  const VdbFile content = readVdbFile(path);
   std::printf("file:       %s\n", path.string().c_str());
   std::printf("grids:      %zu\n", content.grids.size());
   printMetadata("metadata:   ", *content.metadata);
