@@ -599,6 +599,26 @@ void configureCholmod(cholmod_common& c) {
   c.print = 0;  // the library never writes to stderr: failures come back through info()
 }
 
+// Throws SolverError unless CHOLMOD's last call (`step`) succeeded. Eigen's CHOLMOD wrapper
+// does not look at the status: a failed analysis leaves no factor, which its factorize()
+// dereferences, and a factorisation that ran out of memory still reports success.
+void requireCholmod(const cholmod_common& c, const char* step) {
+  if (c.status >= CHOLMOD_OK) return;  // positive values are warnings (e.g. not positive definite)
+  std::string why;
+  switch (c.status) {
+    case CHOLMOD_OUT_OF_MEMORY:
+      why = "out of memory";
+      break;
+    case CHOLMOD_TOO_LARGE:
+      why = "the factor is too large for CHOLMOD's 32-bit indices";
+      break;
+    default:
+      why = "CHOLMOD status " + std::to_string(c.status);
+  }
+  throw SolverError("DeformationGraph::solve: the sparse Cholesky " + std::string(step) +
+                    " failed (" + why + "); use fewer graph nodes");
+}
+
 // On this machine a single BLAS thread is as fast as two for the graph's supernodes
 // (measured: 189 vs 197 ms), so determinism (detail::SerialBlas) costs nothing here.
 
@@ -781,6 +801,7 @@ struct SolverCache {
     }
     std::copy(constant.begin(), constant.end(), lower.valuePtr());
     llt.analyzePattern(lower);
+    requireCholmod(llt.cholmod(), "analysis");
 
     var = p.var;
     hNodes = p.hNodes;
@@ -844,7 +865,9 @@ struct SolverCache {
 
   // Factorises `lower`; false if it is not (numerically) positive definite.
   bool factorize() {
+    factorValid = false;
     llt.factorize(lower);
+    requireCholmod(llt.cholmod(), "factorisation");
     factorValid = llt.info() == Eigen::Success;
     if (factorValid) {
       const double* value = lower.valuePtr();
@@ -1147,6 +1170,10 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   detail::SolverCache& cache = *cache_;
   if (!cache.matches(p)) cache.build(p);
   auto& llt = cache.llt;
+  const auto solveWith = [&](const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    x = llt.solve(b);
+    requireCholmod(llt.cholmod(), "solve");
+  };
   // The factor of an earlier iteration's matrix preconditions conjugate gradients on the
   // current one: only the rotation blocks and the damping change between iterations, so a few
   // iterations usually reach the direct solve's accuracy at a fraction of a factorisation.
@@ -1164,7 +1191,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     const double bNorm = b.norm();
     if (!(bNorm > 0.0)) return std::isfinite(bNorm);
     cgR = b;
-    cgZ = llt.solve(cgR);
+    solveWith(cgR, cgZ);
     cgD = cgZ;
     double rz = cgR.dot(cgZ);
     for (int i = 0; i < kMaxCgIterations; ++i) {
@@ -1175,7 +1202,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
       x += alpha * cgD;
       cgR -= alpha * cgAd;
       if (cgR.norm() <= kCgTolerance * bNorm) return true;
-      cgZ = llt.solve(cgR);
+      solveWith(cgR, cgZ);
       const double rzNext = cgR.dot(cgZ);
       cgD = cgZ + (rzNext / rz) * cgD;
       rz = rzNext;
@@ -1200,7 +1227,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
       cache.damp(diag, lambda * meanDiag);
       if (cache.factorIsCurrent()) {
         factored = true;
-        delta = llt.solve(rhs);
+        solveWith(rhs, delta);
       } else if (!(factored && refine(rhs, delta))) {
         if (!cache.factorize()) {
           factored = false;
@@ -1208,7 +1235,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
           continue;
         }
         factored = true;
-        delta = llt.solve(rhs);
+        solveWith(rhs, delta);
       }
       anyFactor = true;
       for (std::uint32_t j : p.freeNodes) {

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include <SuiteSparse_config.h>
 #include <dlfcn.h>
 
 #include <tbb/global_control.h>
@@ -709,4 +710,52 @@ TEST(DeformationGraph, StoppingRuleDoesNotDependOnTheSceneScale) {
       worst = std::max(worst, glm::length(warp.apply(x) - converged.apply(x)) / (4.0 * scale));
     EXPECT_LE(worst, 1e-5) << "scale " << scale << ", " << report.iterations << " iterations";
   }
+}
+
+// CHOLMOD's allocations fail after a given number of successes: every failure (analysis,
+// factorisation, solve) must come back as SolverError, never as a crash or a silent result.
+// Before the status checks a failed analysis left Eigen's wrapper a null factor to dereference
+// (SIGSEGV on ~91,000-node solves, where the factor outgrows CHOLMOD's 32-bit indices).
+namespace {
+long cholmodAllocationsLeft = -1;  // < 0: no limit
+void* failingMalloc(std::size_t n) {
+  if (cholmodAllocationsLeft == 0) return nullptr;
+  if (cholmodAllocationsLeft > 0) --cholmodAllocationsLeft;
+  return std::malloc(n);
+}
+void* failingCalloc(std::size_t n, std::size_t size) {
+  if (cholmodAllocationsLeft == 0) return nullptr;
+  if (cholmodAllocationsLeft > 0) --cholmodAllocationsLeft;
+  return std::calloc(n, size);
+}
+void* failingRealloc(void* p, std::size_t n) {
+  if (cholmodAllocationsLeft == 0) return nullptr;
+  if (cholmodAllocationsLeft > 0) --cholmodAllocationsLeft;
+  return std::realloc(p, n);
+}
+}  // namespace
+
+TEST(DeformationGraph, CholmodFailuresAreSolverErrors) {
+  const BendingEdit edit = bendingEdit(3.0, 600);
+  const auto saved = SuiteSparse_config;
+  SuiteSparse_config.malloc_func = failingMalloc;
+  SuiteSparse_config.calloc_func = failingCalloc;
+  SuiteSparse_config.realloc_func = failingRealloc;
+  int failures = 0;
+  bool solved = false;
+  for (long budget = 0; budget < 4000 && !solved; ++budget) {
+    DeformationGraph graph(edit.points, spacingOf(1.0));
+    cholmodAllocationsLeft = budget;
+    try {
+      graph.solve(edit.handles, edit.targets);
+      solved = true;
+    } catch (const SolverError& e) {
+      ++failures;
+      EXPECT_THAT(e.what(), HasSubstr("sparse Cholesky")) << budget;
+    }
+    cholmodAllocationsLeft = -1;
+  }
+  SuiteSparse_config = saved;
+  EXPECT_TRUE(solved);
+  EXPECT_GT(failures, 1);  // the analysis and later steps failed in turn
 }
