@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <mutex>
 #include <numeric>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <unordered_map>
@@ -39,6 +41,22 @@ struct NodeCloud {
 
 using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, NodeCloud>,
                                                    NodeCloud, 3, std::uint32_t>;
+
+// Thrown by GraphIndex::nearest() for a point so far from the nodes that its squared distances
+// overflow; the callers turn it into an InvalidInput naming the point.
+struct PointOutOfReach {};
+
+std::string describePoint(const Vec3& x) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "(" << x.x << ", " << x.y << ", " << x.z << ")";
+  return s.str();
+}
+
+[[noreturn]] void throwOutOfReach(const std::string& what) {
+  throw InvalidInput("DeformationGraph: " + what +
+                     " is so far from the graph's nodes that squared distances overflow");
+}
 
 // Everything that does not change when the graph is solved: shared by the graph and its warps.
 // Not movable: the KD-tree refers to `cloud`, which refers to `nodes`.
@@ -78,7 +96,9 @@ struct GraphIndex {
       return;
     }
     const double q[3] = {x.x, x.y, x.z};
-    tree->knnSearch(q, n, idx, d2);
+    // Squared distances that overflow are never "nearer" than anything: nanoflann then finds
+    // fewer than n nodes and leaves the rest of idx/d2 unwritten.
+    if (tree->knnSearch(q, n, idx, d2) < n) throw PointOutOfReach{};
     for (std::size_t i = 1; i < n; ++i) {  // insertion sort: n is tiny, mostly sorted
       const std::uint32_t ii = idx[i];
       const double di = d2[i];
@@ -209,7 +229,18 @@ struct GraphIndex {
 
 namespace {
 
+using detail::describePoint;
 using detail::GraphIndex;
+using detail::throwOutOfReach;
+
+// Largest coordinate magnitude accepted: squared distances between such points stay finite
+// ((2e150)² · 3 ≈ 1e301). Beyond it nanoflann would find no neighbour at all.
+constexpr double kMaxCoordinate = 1e150;
+
+inline bool withinReach(const Vec3& x) {
+  return std::abs(x.x) <= kMaxCoordinate && std::abs(x.y) <= kMaxCoordinate &&
+         std::abs(x.z) <= kMaxCoordinate;
+}
 
 constexpr int kSmallK = 32;  // stack buffers up to this k; larger k uses a heap buffer per call
 
@@ -265,11 +296,16 @@ inline Vec3 warpPoint(const GraphIndex& g, const Mat3* b, const Vec3* t, const V
   return x + d;
 }
 
-void requireFinite(const char* what, std::span<const Vec3> points) {
+// Finite, and (if `bounded`: points whose distances to the nodes are measured) within reach.
+void requireFinite(const char* what, std::span<const Vec3> points, bool bounded = true) {
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!isFinite(points[i]))
       throw InvalidInput(std::string("DeformationGraph: ") + what + "[" + std::to_string(i) +
                          "] is not finite");
+    if (bounded && !withinReach(points[i])) {
+      throw InvalidInput(std::string("DeformationGraph: ") + what + "[" + std::to_string(i) +
+                         "] has a coordinate beyond ±1e150, where squared distances overflow");
+    }
   }
 }
 
@@ -890,7 +926,11 @@ DeformationGraphWarp::DeformationGraphWarp(std::shared_ptr<const detail::GraphIn
 
 Vec3 DeformationGraphWarp::apply(const Vec3& x) const {
   Scratch s(index_->k);
-  return warpPoint(*index_, a_.data(), t_.data(), x, s);
+  try {
+    return warpPoint(*index_, a_.data(), t_.data(), x, s);
+  } catch (const detail::PointOutOfReach&) {
+    throwOutOfReach("the point " + describePoint(x));
+  }
 }
 
 Mat3 DeformationGraphWarp::jacobian(const Vec3& x) const {
@@ -899,7 +939,11 @@ Mat3 DeformationGraphWarp::jacobian(const Vec3& x) const {
   Scratch s(k);
   std::uint32_t* idx = s.idx();
   double* d2 = s.d2();
-  g.nearest(x, idx, d2);
+  try {
+    g.nearest(x, idx, d2);
+  } catch (const detail::PointOutOfReach&) {
+    throwOutOfReach("the point " + describePoint(x));
+  }
   // Unnormalised weights u_i = (1 − d_i / d_max)² and their gradients.
   const double dMax = std::sqrt(d2[k]);
   if (!(dMax > 0.0)) return Warp::jacobian(x);  // k + 1 coincident nodes: no analytic form
@@ -940,12 +984,24 @@ void DeformationGraphWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> 
   const Vec3* t = t_.data();
   const Vec3* src = in.data();
   Vec3* dst = out.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 2048),
-                    [g, b, t, src, dst](const tbb::blocked_range<std::size_t>& r) {
-                      Scratch s(g->k);
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        dst[i] = warpPoint(*g, b, t, src[i], s);
-                    });
+  // The lowest point out of reach, whatever the thread count (each range stops at its first).
+  std::atomic<std::size_t> firstOutOfReach{in.size()};
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, in.size(), 2048),
+      [g, b, t, src, dst, &firstOutOfReach](const tbb::blocked_range<std::size_t>& r) {
+        Scratch s(g->k);
+        std::size_t i = r.begin();
+        try {
+          for (; i != r.end(); ++i) dst[i] = warpPoint(*g, b, t, src[i], s);
+        } catch (const detail::PointOutOfReach&) {
+          std::size_t seen = firstOutOfReach.load();
+          while (i < seen && !firstOutOfReach.compare_exchange_weak(seen, i)) {
+          }
+        }
+      });
+  const std::size_t bad = firstOutOfReach.load();
+  if (bad < in.size())
+    throwOutOfReach("point " + std::to_string(bad) + " " + describePoint(in[bad]));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -953,9 +1009,9 @@ void DeformationGraphWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> 
 DeformationGraph::DeformationGraph(std::span<const Vec3> positions,
                                    const DeformationGraphOptions& options) {
   if (positions.empty()) throw InvalidInput("DeformationGraph: no positions to sample nodes from");
-  if (!(options.spacing > 0.0) || !std::isfinite(options.spacing)) {
+  if (!(options.spacing > 0.0) || !(options.spacing <= kMaxCoordinate)) {
     throw InvalidInput("DeformationGraph: spacing = " + std::to_string(options.spacing) +
-                       " must be finite and > 0");
+                       " must be > 0 and at most 1e150");
   }
   if (options.k < 1)
     throw InvalidInput("DeformationGraph: k = " + std::to_string(options.k) + " must be >= 1");
@@ -998,7 +1054,11 @@ NodeWeights DeformationGraph::weights(const Vec3& x) const {
   if (!isFinite(x)) throw InvalidInput("DeformationGraph::weights: the point is not finite");
   const int k = index_->k;
   Scratch s(k);
-  index_->nearest(x, s.idx(), s.d2());
+  try {
+    index_->nearest(x, s.idx(), s.d2());
+  } catch (const detail::PointOutOfReach&) {
+    throwOutOfReach("the point " + describePoint(x));
+  }
   weightsOf(k, s.d2(), s.w());
   NodeWeights out;
   out.nodes.assign(s.idx(), s.idx() + k);
@@ -1022,7 +1082,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
                        " handles but " + std::to_string(targets.size()) + " targets");
   }
   requireFinite("handles", handles);
-  requireFinite("targets", targets);
+  requireFinite("targets", targets, false);  // overflow: see the energy check
   const auto requireWeight = [](const char* name, double w) {
     if (!(w >= 0.0) || !std::isfinite(w)) {
       throw InvalidInput(std::string("DeformationGraph::solve: ") + name + " = " +

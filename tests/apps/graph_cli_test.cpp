@@ -166,6 +166,21 @@ TEST_F(GraphCliTest, MaxIterationsAndToleranceReachTheSolve) {
       EXPECT_NE(outputs[a].positions, outputs[b].positions) << a << " " << b;
 }
 
+// An input point whose squared distances to the nodes overflow is bad input (exit 3) naming
+// the point, not a crash or a point moved by another point's neighbours.
+TEST_F(GraphCliTest, InputPointsBeyondTheReachOfSquaredDistancesAreBadInput) {
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(0.0), Vec3(1.0), 50, 1);
+  cloud.positions[7] = Vec3(1e200, 3e199, -2e199);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("graph.json", R"({"method": "graph", "spacing": 0.25, "handles": )" + jsonPoints(kHandles) +
+                          R"(, "targets": )" + jsonPoints(kTargets) + "}");
+  const test::CliResult r = deform("graph.json");
+  EXPECT_EQ(r.exitCode, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("point 7 "));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.ply"));
+}
+
 INSTANTIATE_TEST_SUITE_P(
     GraphRigs, BadRigTest,
     ::testing::Values(

@@ -759,3 +759,46 @@ TEST(DeformationGraph, CholmodFailuresAreSolverErrors) {
   EXPECT_TRUE(solved);
   EXPECT_GT(failures, 1);  // the analysis and later steps failed in turn
 }
+
+// Coordinates whose squared distances overflow (beyond ~1e154) found no neighbours in the
+// KD-tree, whose unwritten buffers were then read (a crash, or another point's neighbours).
+// Inputs are refused by name; evaluating the warp at such a point is an InvalidInput naming it.
+TEST(DeformationGraph, RejectsCoordinatesWhoseSquaredDistancesOverflow) {
+  const std::vector<Vec3> points = boxPoints(Vec3(0.0), Vec3(1.0), 200, 3);
+  std::vector<Vec3> far = points;
+  far[1] = Vec3(1e200, 3e199, -2e199);
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)DeformationGraph(far, spacingOf(0.25)); }),
+              HasSubstr("positions[1]"));
+  EXPECT_THAT(
+      test::messageOf<InvalidInput>([&] { (void)DeformationGraph(points, spacingOf(1e300)); }),
+      HasSubstr("spacing"));
+  const std::vector<Vec3> spread{Vec3(0.0), Vec3(1e155, 0.0, 0.0), Vec3(0.0, 1e155, 0.0),
+                                 Vec3(0.0, 0.0, 1e155), Vec3(1e155)};
+  EXPECT_THAT(test::messageOf<InvalidInput>(
+                  [&] { (void)DeformationGraph(spread, {}, DeformationGraphOptions{}); }),
+              HasSubstr("nodes[1]"));
+
+  DeformationGraph graph(points, spacingOf(0.25));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] {
+                (void)graph.solve(std::vector<Vec3>{Vec3(1e200)}, std::vector<Vec3>{Vec3(0.0)});
+              }),
+              HasSubstr("handles[0]"));
+  graph.solve(std::vector<Vec3>{Vec3(0.0), Vec3(1.0)},
+              std::vector<Vec3>{Vec3(0.1), Vec3(1.0, 1.2, 1.0)});
+  const DeformationGraphWarp warp = graph.warp();
+  const Vec3 out(1e200, 3e199, -2e199);
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)warp.apply(out); }),
+              HasSubstr("squared distances overflow"));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)warp.jacobian(out); }),
+              HasSubstr("squared distances overflow"));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)graph.weights(out); }),
+              HasSubstr("squared distances overflow"));
+  std::vector<Vec3> batch(5000, Vec3(0.5));
+  batch[4321] = out;
+  batch[4500] = out;
+  std::vector<Vec3> result(batch.size());
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)warp.applyBatch(batch, result); }),
+              HasSubstr("point 4321 "));
+  // Just inside the limit, the warp is still evaluated (finite, far points move rigidly).
+  EXPECT_TRUE(isFinite(warp.apply(Vec3(1e150))));
+}
