@@ -1187,6 +1187,15 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
       p.targets.assign(targets.begin(), targets.end());
     }
   }
+  if (!std::isfinite(energy)) {
+    // eRot, eReg, eCon are those of the start evaluated last (the rigid fit, if any).
+    const char* term = !std::isfinite(options.constraintWeight * eCon)       ? "constraint"
+                       : !std::isfinite(options.regularizationWeight * eReg) ? "regulariser"
+                                                                             : "rotation";
+    throw SolverError(std::string("DeformationGraph::solve: the energy overflows (its ") + term +
+                      " term is not finite): the targets are too far from the handles, or the "
+                      "weights too large, for double precision");
+  }
   report.energies.push_back(energy);
   const auto finish = [&] {
     if (report.rigidStart) {  // back to the world frame
@@ -1213,7 +1222,22 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   for (const Vec3& h : handles) centre += h / double(handles.size());
   for (const Vec3& h : handles)
     scale += options.constraintWeight * glm::dot(h - centre, h - centre);
-  const double negligible = 1e-20 * scale;
+  // Residuals are computed from coordinates of magnitude up to `reach`, so each carries a
+  // rounding error of a few ulps of it: far from the origin that, not the scene's size, is
+  // the floor (a rigid motion 1e7 away would otherwise iterate on rounding noise).
+  double reach = 0.0;
+  for (const auto* points : {&handles, &targets})
+    for (const Vec3& x : *points)
+      reach = std::max({reach, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+  for (std::uint32_t j : p.freeNodes) {
+    const Vec3& x = g.nodes[j];
+    reach = std::max({reach, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+  }
+  const double ulps = 16.0 * std::numeric_limits<double>::epsilon() * reach;
+  const double negligible =
+      1e-20 * scale + 3.0 * ulps * ulps *
+                          (options.constraintWeight * double(handles.size()) +
+                           options.regularizationWeight * double(p.regEdges.size()));
   if (n == 0 || energy <= negligible) {
     report.converged = true;
     return finish();
@@ -1305,7 +1329,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
         for (int r = 0; r < 3; ++r) t2[j][r] = t_[j][r] + delta[v + 9 + r];
       }
       next = energyOf(a2, t2, nullptr);
-      if (std::isfinite(next) && next <= energy) {
+      if (next < energy) {  // strictly: an unchanged energy is no progress (and not NaN)
         accepted = true;
         break;
       }
@@ -1327,7 +1351,10 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     report.energies.push_back(energy);
     report.iterations = iter + 1;
     lambda = std::max(lambda / 10.0, 1e-12);
-    if (previous - energy < options.tolerance * previous || energy <= negligible) {
+    // A relative decrease of a few ulps is rounding in the energy's sum, not progress.
+    constexpr double kRoundingDecrease = 64.0 * std::numeric_limits<double>::epsilon();
+    if (previous - energy <= std::max(options.tolerance, kRoundingDecrease) * previous ||
+        energy <= negligible) {
       report.converged = true;
       break;
     }

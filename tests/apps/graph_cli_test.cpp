@@ -181,6 +181,19 @@ TEST_F(GraphCliTest, InputPointsBeyondTheReachOfSquaredDistancesAreBadInput) {
   EXPECT_FALSE(std::filesystem::exists(dir_ / "out.ply"));
 }
 
+// An energy that overflows is a numerical failure (exit 4), not a converged identity.
+TEST_F(GraphCliTest, EnergyOverflowIsANumericalFailure) {
+  writeCloud();
+  std::vector<Vec3> targets = kTargets;
+  targets[2] = Vec3(1e300, 0.0, 0.0);
+  write("graph.json", R"({"method": "graph", "spacing": 0.4, "handles": )" + jsonPoints(kHandles) +
+                          R"(, "targets": )" + jsonPoints(targets) + "}");
+  const test::CliResult r = deform("graph.json");
+  EXPECT_EQ(r.exitCode, 4) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("overflows"));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.ply"));
+}
+
 INSTANTIATE_TEST_SUITE_P(
     GraphRigs, BadRigTest,
     ::testing::Values(

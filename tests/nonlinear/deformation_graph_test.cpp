@@ -802,3 +802,53 @@ TEST(DeformationGraph, RejectsCoordinatesWhoseSquaredDistancesOverflow) {
   // Just inside the limit, the warp is still evaluated (finite, far points move rigidly).
   EXPECT_TRUE(isFinite(warp.apply(Vec3(1e150))));
 }
+
+// Tolerance 0 asks for the numerical minimum: only strictly decreasing steps count, and the
+// solve stops (converged) when none is left, or at rounding level, which grows with the size of
+// the coordinates. Steps that left the energy unchanged used to count as progress, so the
+// solve never stopped; and a rigid motion 1e7 from the origin iterated on rounding noise.
+TEST(DeformationGraph, ZeroToleranceStopsAtTheNumericalMinimum) {
+  DeformationGraphSolveOptions exact;
+  exact.tolerance = 0.0;
+  exact.maxIterations = 300;
+  const BendingEdit edit = bendingEdit(3.0, 1500);
+  DeformationGraph graph(edit.points, spacingOf(1.0));
+  const DeformationGraphReport report = graph.solve(edit.handles, edit.targets, exact);
+  EXPECT_TRUE(report.converged) << report.iterations;
+  EXPECT_LT(report.iterations, exact.maxIterations);
+  for (std::size_t i = 1; i < report.energies.size(); ++i)
+    EXPECT_LT(report.energies[i], report.energies[i - 1]) << i;
+
+  for (const double offset : {1e6, 1e7}) {
+    std::vector<Vec3> points = boxPoints(Vec3(offset), Vec3(offset + 1.0), 2000, 4);
+    const std::vector<Vec3> handles(points.begin(), points.begin() + 30);
+    const Mat3 r = rotation(Vec3(1.0, 2.0, 3.0), 0.7);
+    const Vec3 shift = Vec3(0.5, 0.2, -0.3) + 0.3 * offset;
+    std::vector<Vec3> targets;
+    for (const Vec3& h : handles) targets.push_back(r * h + shift);
+    DeformationGraph far(points, spacingOf(0.25));
+    const DeformationGraphReport farReport = far.solve(handles, targets, exact);
+    EXPECT_TRUE(farReport.converged) << offset << ": " << farReport.iterations << " iterations";
+    const DeformationGraphWarp warp = far.warp();
+    double worst = 0.0;
+    for (const Vec3& x : points)
+      worst = std::max(worst, glm::length(warp.apply(x) - (r * x + shift)));
+    EXPECT_LE(worst, 1e-14 * offset * 100.0) << offset;
+  }
+}
+
+// Targets so far from the handles that the energy overflows: a SolverError naming the cause,
+// not a "converged" solve that leaves every point in place.
+TEST(DeformationGraph, EnergyOverflowIsASolverError) {
+  const std::vector<Vec3> points = boxPoints(Vec3(0.0), Vec3(1.0), 300, 5);
+  const std::vector<Vec3> handles{Vec3(0.0), Vec3(1.0, 0.0, 0.0), Vec3(0.0, 1.0, 0.0),
+                                  Vec3(0.0, 0.0, 1.0)};
+  for (const double far : {1e160, 1e300}) {
+    std::vector<Vec3> targets = handles;
+    targets[1] = Vec3(far, 0.0, 0.0);
+    DeformationGraph graph(points, spacingOf(0.3));
+    EXPECT_THAT(test::messageOf<SolverError>([&] { graph.solve(handles, targets); }),
+                HasSubstr("overflows"))
+        << far;
+  }
+}
