@@ -223,6 +223,9 @@ struct GraphIndex {
   std::vector<std::uint32_t> adjacency;
   std::vector<std::uint32_t> component;  // per node
   int componentCount = 0;
+  // The solve's unit of length: the largest extent of the nodes' bounding box (1 if they all
+  // coincide), so that the paper's weights keep their meaning in a unit-sized scene.
+  double unit = 1.0;
 };
 
 }  // namespace detail
@@ -459,6 +462,13 @@ void buildTopology(GraphIndex& g, std::span<const Vec3> positions) {
                           if (f.first != j) near[j].push_back(f.first);
                       }
                     });
+  Vec3 lo = g.nodes[0], hi = g.nodes[0];
+  for (const Vec3& x : g.nodes) {
+    lo = glm::min(lo, x);
+    hi = glm::max(hi, x);
+  }
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  g.unit = extent > 0.0 ? extent : 1.0;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
   pairs.reserve(n * std::size_t(k) * std::size_t(k - 1) / 2 + m * std::size_t(k));
   for (std::size_t i = 0; i < n; ++i) {
@@ -542,6 +552,9 @@ RigidFit rigidFit(std::span<const Vec3> handles, std::span<const Vec3> targets) 
 // The nonlinear least-squares problem of one solve(): energies and the gradient.
 struct Problem {
   const GraphIndex& g;
+  // Node positions, handles and targets (and the translations solved for) are in units of
+  // g.unit, so that the problem, and every step of its solution, is the same at any scale.
+  std::vector<Vec3> nodes;
   std::vector<int> var;  // per node: first unknown (12 per free node), −1 if pinned
   int unknowns = 0;
   double sRot, sReg, sCon;  // square roots of the weights
@@ -585,7 +598,7 @@ struct Problem {
     }
     for (const auto& [j, k] : regEdges) {
       // A_j (g_k − g_j) + g_j + t_j − (g_k + t_k), written to vanish exactly at rest.
-      const Vec3 d = g.nodes[k] - g.nodes[j];
+      const Vec3 d = nodes[k] - nodes[j];
       const Vec3 e = (a[j] - Mat3(1.0)) * d + t[j] - t[k];
       eReg += glm::dot(e, e);
       if (rhs) {
@@ -605,7 +618,7 @@ struct Problem {
       Vec3 d(0.0);
       for (int i = 0; i < k; ++i) {
         const std::uint32_t j = hNodes[l * k + i];
-        d += hWeights[l * k + i] * ((a[j] - Mat3(1.0)) * (v - g.nodes[j]) + t[j]);
+        d += hWeights[l * k + i] * ((a[j] - Mat3(1.0)) * (v - nodes[j]) + t[j]);
       }
       const Vec3 e = v + d - targets[l];
       eCon += glm::dot(e, e);
@@ -615,7 +628,7 @@ struct Problem {
         if (var[j] < 0) continue;
         double* x = rhs + var[j];
         const double w = wCon * hWeights[l * k + i];
-        const Vec3 dv = v - g.nodes[j];
+        const Vec3 dv = v - nodes[j];
         for (int r = 0; r < 3; ++r) {
           for (int c = 0; c < 3; ++c) x[3 * c + r] -= w * e[r] * dv[c];
           x[9 + r] -= w * e[r];
@@ -806,7 +819,7 @@ struct SolverCache {
         for (int b = 0; b <= a; ++b) constant[std::size_t(slotOf(idx[a], idx[b]))] += u[a] * u[b];
     };
     for (const auto& [j, kk] : p.regEdges) {
-      const Vec3 d = g.nodes[kk] - g.nodes[j];
+      const Vec3 d = p.nodes[kk] - p.nodes[j];
       const int vj = p.var[j], vk = p.var[kk];
       for (int r = 0; r < 3; ++r) {
         const int idx[5] = {vj + r, vj + 3 + r, vj + 6 + r, vj + 9 + r, vk + 9 + r};
@@ -824,7 +837,7 @@ struct SolverCache {
           const std::uint32_t j = p.hNodes[l * k + i];
           if (p.var[j] < 0) continue;
           const double w = p.sCon * p.hWeights[l * k + i];
-          const Vec3 dv = p.handles[l] - g.nodes[j];
+          const Vec3 dv = p.handles[l] - p.nodes[j];
           for (int c = 0; c < 3; ++c) {
             idx.push_back(p.var[j] + 3 * c + r);
             u.push_back(w * dv[c]);
@@ -1104,6 +1117,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   const std::size_t m = g.nodes.size();
   Problem p{g,
             {},
+            {},
             0,
             std::sqrt(options.rotationWeight),
             std::sqrt(options.regularizationWeight),
@@ -1114,8 +1128,15 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
             {},
             {},
             {}};
-  p.handles.assign(handles.begin(), handles.end());
-  p.targets.assign(targets.begin(), targets.end());
+  const double unit = g.unit;
+  p.nodes.resize(m);
+  for (std::size_t j = 0; j < m; ++j) p.nodes[j] = g.nodes[j] / unit;
+  p.handles.resize(handles.size());
+  p.targets.resize(targets.size());
+  for (std::size_t l = 0; l < handles.size(); ++l) {
+    p.handles[l] = handles[l] / unit;
+    p.targets[l] = targets[l] / unit;
+  }
   p.hNodes.resize(handles.size() * k);
   p.hWeights.resize(handles.size() * k);
   std::vector<char> reached(std::size_t(g.componentCount), 0);
@@ -1151,6 +1172,20 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     for (std::uint32_t e = g.adjacencyOffsets[j]; e < g.adjacencyOffsets[j + 1]; ++e)
       p.regEdges.emplace_back(j, g.adjacency[e]);
   }
+  // The maps are solved with translations in units of g.unit; an exception leaves the graph
+  // as it was.
+  struct Restore {
+    DeformationGraph& graph;
+    std::vector<Mat3> a;
+    std::vector<Vec3> t;
+    bool done = false;
+    ~Restore() {
+      if (done) return;
+      graph.a_.swap(a);
+      graph.t_.swap(t);
+    }
+  } restore{*this, a_, t_};
+  for (std::uint32_t j : p.freeNodes) t_[j] /= unit;
 
   const int n = p.unknowns;
   Eigen::VectorXd rhs(n);
@@ -1170,7 +1205,8 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   const RigidFit fit = rigidFit(handles, targets);
   const Mat3 rt = glm::transpose(fit.r);
   if (n > 0) {
-    for (std::size_t l = 0; l < handles.size(); ++l) p.targets[l] = rt * (targets[l] - fit.shift);
+    for (std::size_t l = 0; l < handles.size(); ++l)
+      p.targets[l] = rt * (targets[l] - fit.shift) / unit;
     std::vector<Mat3> a0(a_);
     std::vector<Vec3> t0(t_);
     for (std::uint32_t j : p.freeNodes) {
@@ -1184,7 +1220,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
       energy = rigid;
       report.rigidStart = true;
     } else {
-      p.targets.assign(targets.begin(), targets.end());
+      for (std::size_t l = 0; l < targets.size(); ++l) p.targets[l] = targets[l] / unit;
     }
   }
   if (!std::isfinite(energy)) {
@@ -1198,39 +1234,41 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   }
   report.energies.push_back(energy);
   const auto finish = [&] {
-    if (report.rigidStart) {  // back to the world frame
-      for (std::uint32_t j : p.freeNodes) {
-        t_[j] = fit.r * (g.nodes[j] + t_[j]) + fit.shift - g.nodes[j];
-        a_[j] = fit.r * a_[j];
-      }
-      p.targets.assign(targets.begin(), targets.end());
-    }
+    // The terms are invariant under the fit's rigid change of frame: evaluated in it.
     energyOf(a_, t_, nullptr);
     report.rotationEnergy = eRot;
     report.regularizationEnergy = eReg;
     report.constraintEnergy = eCon;
+    for (std::uint32_t j : p.freeNodes) {  // back to world units (and frame)
+      t_[j] *= unit;
+      if (report.rigidStart) {
+        t_[j] = fit.r * (g.nodes[j] + t_[j]) + fit.shift - g.nodes[j];
+        a_[j] = fit.r * a_[j];
+      }
+    }
+    restore.done = true;
     return report;
   };
   // Rounding level: the energy with every residual 1e-10 of its term's scale (the handles'
   // spread, the edges' lengths, a unit rotation residual). Nothing is left to solve below it.
   double scale = options.rotationWeight * 6.0 * double(p.freeNodes.size());
   for (const auto& [j, kk] : p.regEdges) {
-    const Vec3 d = g.nodes[kk] - g.nodes[j];
+    const Vec3 d = p.nodes[kk] - p.nodes[j];
     scale += options.regularizationWeight * glm::dot(d, d);
   }
   Vec3 centre(0.0);
-  for (const Vec3& h : handles) centre += h / double(handles.size());
-  for (const Vec3& h : handles)
+  for (const Vec3& h : p.handles) centre += h / double(handles.size());
+  for (const Vec3& h : p.handles)
     scale += options.constraintWeight * glm::dot(h - centre, h - centre);
   // Residuals are computed from coordinates of magnitude up to `reach`, so each carries a
   // rounding error of a few ulps of it: far from the origin that, not the scene's size, is
   // the floor (a rigid motion 1e7 away would otherwise iterate on rounding noise).
   double reach = 0.0;
-  for (const auto* points : {&handles, &targets})
+  for (const auto* points : {&p.handles, &p.targets})
     for (const Vec3& x : *points)
       reach = std::max({reach, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
   for (std::uint32_t j : p.freeNodes) {
-    const Vec3& x = g.nodes[j];
+    const Vec3& x = p.nodes[j];
     reach = std::max({reach, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
   }
   const double ulps = 16.0 * std::numeric_limits<double>::epsilon() * reach;

@@ -852,3 +852,34 @@ TEST(DeformationGraph, EnergyOverflowIsASolverError) {
         << far;
   }
 }
+
+// Lengths in E_reg and E_con are measured in units of the graph's node spacing, so scaling the
+// whole problem scales the solution exactly: the same non-rigid edit at sizes 1e-6, 1 and 1e6
+// gives the same warp up to the scale (it used to fail to converge at 1e-6 and 1e6, where
+// the unitless E_rot dominated or vanished).
+TEST(DeformationGraph, NonRigidEditScalesWithTheScene) {
+  const BendingEdit edit = bendingEdit(4.0, 3000);
+  std::vector<std::vector<Vec3>> results;
+  std::vector<double> iterations;
+  for (const double scale : {1e-6, 1.0, 1e6}) {
+    BendingEdit scaled = edit;
+    for (auto* v : {&scaled.points, &scaled.handles, &scaled.targets})
+      for (Vec3& x : *v) x *= scale;
+    DeformationGraph graph(scaled.points, spacingOf(scale));
+    const DeformationGraphReport report = graph.solve(scaled.handles, scaled.targets);
+    EXPECT_TRUE(report.converged) << scale;
+    iterations.push_back(report.iterations);
+    const DeformationGraphWarp warp = graph.warp();
+    std::vector<Vec3> out;
+    for (const Vec3& x : scaled.points) out.push_back(warp.apply(x) / scale);
+    results.push_back(std::move(out));
+  }
+  EXPECT_EQ(iterations[0], iterations[1]);
+  EXPECT_EQ(iterations[2], iterations[1]);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < results[1].size(); ++i) {
+    worst = std::max(worst, glm::length(results[0][i] - results[1][i]));
+    worst = std::max(worst, glm::length(results[2][i] - results[1][i]));
+  }
+  EXPECT_LE(worst / 4.0, 1e-9);
+}
