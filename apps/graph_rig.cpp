@@ -66,6 +66,8 @@ Rig graphRig(RigReader& r) {
   options.k = int(k);
   std::vector<Vec3> nodes;
   if (r.has("nodes")) {
+    if (r.has("spacing"))
+      r.fail("spacing", "is not read when 'nodes' is given: remove one of them");
     nodes = r.points("nodes");
     checkGraphMemory(double(nodes.size()), options.k, "nodes");
   } else {
@@ -91,6 +93,7 @@ Rig graphRig(RigReader& r) {
   solve.maxIterations = int(maxIterations);
   solve.tolerance = r.number("tolerance", solve.tolerance);
   if (!(solve.tolerance >= 0.0)) r.fail("tolerance", "must be >= 0");
+  r.finish();  // a misspelt key is reported before a long solve, not after it
   DeformationGraph graph(nodes, {}, options);
   const DeformationGraphReport report = graph.solve(handles, targets, solve);
   // Warnings, not errors: the warp is still the best the solve found, and usable.

@@ -231,7 +231,16 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{"UnknownKey",
                      R"({"method": "graph", "spacing": 0.5, "handle": [[0, 0, 0]],
                         "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
-                     "'handle' is not a key of this method"}),
+                     "'handle' is not a key of this method"},
+        // Keys are checked before the solve: this one's energy overflows (exit 4).
+        test::BadRig{"UnknownKeyBeforeTheSolve",
+                     R"({"method": "graph", "spacing": 0.5, "tolerence": 0,
+                        "handles": [[0, 0, 0], [1, 0, 0]], "targets": [[0, 0, 0], [1e300, 0, 0]]})",
+                     "'tolerence' is not a key of this method"},
+        test::BadRig{"SpacingWithNodes",
+                     R"({"method": "graph", "spacing": 0.5, "nodes": [[0, 0, 0], [1, 0, 0]],
+                        "k": 1, "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
+                     "'spacing' is not read when 'nodes' is given"}),
     ::spacewarp::test::badRigName);
 
 }  // namespace
