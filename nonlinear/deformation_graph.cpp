@@ -76,10 +76,10 @@ struct GraphIndex {
   void nearest(const Vec3& x, std::uint32_t* idx, double* d2) const {
     const std::size_t n = static_cast<std::size_t>(k) + 1;
     const std::int64_t cell = cellOf(x);
-    if (cell >= 0 && cellOffsets[std::size_t(cell)] != kNoList) {
+    if (cell >= 0 && cellOffsets[std::size_t(cell)] != cellOffsets[std::size_t(cell) + 1]) {
       std::size_t count = 0;
       const std::uint32_t* c = candidates.data() + cellOffsets[std::size_t(cell)];
-      const std::uint32_t* cEnd = candidates.data() + cellEnds[std::size_t(cell)];
+      const std::uint32_t* cEnd = candidates.data() + cellOffsets[std::size_t(cell) + 1];
       for (; c != cEnd; ++c) {
         const Vec3 d = x - nodes[*c];
         const double di = d.x * d.x + d.y * d.y + d.z * d.z;
@@ -168,51 +168,58 @@ struct GraphIndex {
     const std::size_t cells = std::size_t(dims[0] * dims[1] * dims[2]);
     const double r = 0.5 * std::sqrt(3.0) * h;
     constexpr std::size_t kMaxList = 96;
-    std::vector<std::vector<std::uint32_t>> lists(cells);
+    // Compressed rows (one offset per cell, one flat candidate array): a std::vector per cell
+    // cost more than its few dozen indices. Cells are listed in chunks, in parallel, each into
+    // a flat buffer of its own, and the buffers joined in cell order: the same array for any
+    // thread count. An empty list leaves the cell to the KD-tree (too many candidates).
+    constexpr std::size_t kChunk = 4096;
+    const std::size_t chunks = (cells + kChunk - 1) / kChunk;
+    std::vector<std::vector<std::uint32_t>> chunkLists(chunks);
+    std::vector<std::uint32_t> listSizes(cells, 0);
     tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, cells, 256),
+        tbb::blocked_range<std::size_t>(0, chunks, 1),
         [&](const tbb::blocked_range<std::size_t>& br) {
           std::vector<std::uint32_t> ki(n);
           std::vector<double> kd(n);
           std::vector<std::pair<std::uint32_t, double>> found;
-          for (std::size_t cIndex = br.begin(); cIndex != br.end(); ++cIndex) {
-            const std::int64_t ci = std::int64_t(cIndex);
-            const Vec3 centre = gridOrigin + h * Vec3(double(ci % dims[0]) + 0.5,
-                                                      double((ci / dims[0]) % dims[1]) + 0.5,
-                                                      double(ci / (dims[0] * dims[1])) + 0.5);
-            const double q[3] = {centre.x, centre.y, centre.z};
-            tree->knnSearch(q, n, ki.data(), kd.data());
-            const double radius = std::sqrt(*std::max_element(kd.begin(), kd.end())) + 2.0 * r;
-            // Squared radius, widened by a relative margin against rounding.
-            const double r2 = radius * radius * (1.0 + 1e-9);
-            found.clear();
-            tree->radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
-            if (found.size() > kMaxList) continue;  // leave the cell to the KD-tree
-            auto& list = lists[cIndex];
-            list.reserve(found.size());
-            for (const auto& f : found) list.push_back(f.first);
-            std::sort(list.begin(), list.end());
+          for (std::size_t chunk = br.begin(); chunk != br.end(); ++chunk) {
+            auto& flat = chunkLists[chunk];
+            for (std::size_t cIndex = chunk * kChunk;
+                 cIndex < std::min(cells, (chunk + 1) * kChunk); ++cIndex) {
+              const std::int64_t ci = std::int64_t(cIndex);
+              const Vec3 centre = gridOrigin + h * Vec3(double(ci % dims[0]) + 0.5,
+                                                        double((ci / dims[0]) % dims[1]) + 0.5,
+                                                        double(ci / (dims[0] * dims[1])) + 0.5);
+              const double q[3] = {centre.x, centre.y, centre.z};
+              tree->knnSearch(q, n, ki.data(), kd.data());
+              const double radius = std::sqrt(*std::max_element(kd.begin(), kd.end())) + 2.0 * r;
+              // Squared radius, widened by a relative margin against rounding.
+              const double r2 = radius * radius * (1.0 + 1e-9);
+              found.clear();
+              tree->radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
+              if (found.size() > kMaxList || found.size() < n) continue;
+              const std::size_t first = flat.size();
+              for (const auto& f : found) flat.push_back(f.first);
+              std::sort(flat.begin() + std::ptrdiff_t(first), flat.end());
+              listSizes[cIndex] = static_cast<std::uint32_t>(found.size());
+            }
+            flat.shrink_to_fit();
           }
         });
-    cellOffsets.resize(cells);
-    cellEnds.resize(cells);
-    for (std::size_t c = 0; c < cells; ++c) {
-      if (lists[c].size() < n) {  // too many candidates (or too few nodes): KD-tree
-        cellOffsets[c] = kNoList;
-        cellEnds[c] = kNoList;
-        continue;
-      }
-      cellOffsets[c] = static_cast<std::uint32_t>(candidates.size());
-      candidates.insert(candidates.end(), lists[c].begin(), lists[c].end());
-      cellEnds[c] = static_cast<std::uint32_t>(candidates.size());
+    cellOffsets.assign(cells + 1, 0);
+    for (std::size_t c = 0; c < cells; ++c) cellOffsets[c + 1] = cellOffsets[c] + listSizes[c];
+    candidates.reserve(cellOffsets[cells]);
+    for (auto& flat : chunkLists) {
+      candidates.insert(candidates.end(), flat.begin(), flat.end());
+      std::vector<std::uint32_t>().swap(flat);
     }
   }
 
-  static constexpr std::uint32_t kNoList = std::uint32_t(-1);
   std::array<std::int64_t, 3> dims{0, 0, 0};
   Vec3 gridOrigin{0.0};
   double inverseCell = 0.0;
-  std::vector<std::uint32_t> cellOffsets, cellEnds, candidates;
+  std::vector<std::uint32_t> cellOffsets;  // per cell + 1: its candidates' range (CSR)
+  std::vector<std::uint32_t> candidates;
 
   std::vector<Vec3> nodes;
   int k;
