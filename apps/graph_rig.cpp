@@ -72,7 +72,9 @@ Rig graphRig(RigReader& r) {
     checkGraphMemory(double(nodes.size()), options.k, "nodes");
   } else {
     options.spacing = r.number("spacing");
-    if (!(options.spacing > 0.0)) r.fail("spacing", "must be > 0");
+    // Beyond 1e150 the grid's squared distances overflow (DeformationGraph refuses its nodes).
+    if (!(options.spacing > 0.0 && options.spacing <= 1e150))
+      r.fail("spacing", "must be > 0 and at most 1e150");
     nodes = gridNodes(r, handles, options.spacing, options.k);
   }
   if (options.k >= int(std::min<std::size_t>(nodes.size(), 65))) {
