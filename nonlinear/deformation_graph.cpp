@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <mutex>
 #include <numeric>
+#include <sstream>
 #include <string>
 #include <tuple>
 #include <unordered_map>
@@ -40,6 +42,22 @@ struct NodeCloud {
 using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, NodeCloud>,
                                                    NodeCloud, 3, std::uint32_t>;
 
+// Thrown by GraphIndex::nearest() for a point so far from the nodes that its squared distances
+// overflow; the callers turn it into an InvalidInput naming the point.
+struct PointOutOfReach {};
+
+std::string describePoint(const Vec3& x) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "(" << x.x << ", " << x.y << ", " << x.z << ")";
+  return s.str();
+}
+
+[[noreturn]] void throwOutOfReach(const std::string& what) {
+  throw InvalidInput("DeformationGraph: " + what +
+                     " is so far from the graph's nodes that squared distances overflow");
+}
+
 // Everything that does not change when the graph is solved: shared by the graph and its warps.
 // Not movable: the KD-tree refers to `cloud`, which refers to `nodes`.
 struct GraphIndex {
@@ -58,10 +76,10 @@ struct GraphIndex {
   void nearest(const Vec3& x, std::uint32_t* idx, double* d2) const {
     const std::size_t n = static_cast<std::size_t>(k) + 1;
     const std::int64_t cell = cellOf(x);
-    if (cell >= 0 && cellOffsets[std::size_t(cell)] != kNoList) {
+    if (cell >= 0 && cellOffsets[std::size_t(cell)] != cellOffsets[std::size_t(cell) + 1]) {
       std::size_t count = 0;
       const std::uint32_t* c = candidates.data() + cellOffsets[std::size_t(cell)];
-      const std::uint32_t* cEnd = candidates.data() + cellEnds[std::size_t(cell)];
+      const std::uint32_t* cEnd = candidates.data() + cellOffsets[std::size_t(cell) + 1];
       for (; c != cEnd; ++c) {
         const Vec3 d = x - nodes[*c];
         const double di = d.x * d.x + d.y * d.y + d.z * d.z;
@@ -78,7 +96,9 @@ struct GraphIndex {
       return;
     }
     const double q[3] = {x.x, x.y, x.z};
-    tree->knnSearch(q, n, idx, d2);
+    // Squared distances that overflow are never "nearer" than anything: nanoflann then finds
+    // fewer than n nodes and leaves the rest of idx/d2 unwritten.
+    if (tree->knnSearch(q, n, idx, d2) < n) throw PointOutOfReach{};
     for (std::size_t i = 1; i < n; ++i) {  // insertion sort: n is tiny, mostly sorted
       const std::uint32_t ii = idx[i];
       const double di = d2[i];
@@ -148,51 +168,58 @@ struct GraphIndex {
     const std::size_t cells = std::size_t(dims[0] * dims[1] * dims[2]);
     const double r = 0.5 * std::sqrt(3.0) * h;
     constexpr std::size_t kMaxList = 96;
-    std::vector<std::vector<std::uint32_t>> lists(cells);
+    // Compressed rows (one offset per cell, one flat candidate array): a std::vector per cell
+    // cost more than its few dozen indices. Cells are listed in chunks, in parallel, each into
+    // a flat buffer of its own, and the buffers joined in cell order: the same array for any
+    // thread count. An empty list leaves the cell to the KD-tree (too many candidates).
+    constexpr std::size_t kChunk = 4096;
+    const std::size_t chunks = (cells + kChunk - 1) / kChunk;
+    std::vector<std::vector<std::uint32_t>> chunkLists(chunks);
+    std::vector<std::uint32_t> listSizes(cells, 0);
     tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, cells, 256),
+        tbb::blocked_range<std::size_t>(0, chunks, 1),
         [&](const tbb::blocked_range<std::size_t>& br) {
           std::vector<std::uint32_t> ki(n);
           std::vector<double> kd(n);
           std::vector<std::pair<std::uint32_t, double>> found;
-          for (std::size_t cIndex = br.begin(); cIndex != br.end(); ++cIndex) {
-            const std::int64_t ci = std::int64_t(cIndex);
-            const Vec3 centre = gridOrigin + h * Vec3(double(ci % dims[0]) + 0.5,
-                                                      double((ci / dims[0]) % dims[1]) + 0.5,
-                                                      double(ci / (dims[0] * dims[1])) + 0.5);
-            const double q[3] = {centre.x, centre.y, centre.z};
-            tree->knnSearch(q, n, ki.data(), kd.data());
-            const double radius = std::sqrt(*std::max_element(kd.begin(), kd.end())) + 2.0 * r;
-            // Squared radius, widened by a relative margin against rounding.
-            const double r2 = radius * radius * (1.0 + 1e-9);
-            found.clear();
-            tree->radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
-            if (found.size() > kMaxList) continue;  // leave the cell to the KD-tree
-            auto& list = lists[cIndex];
-            list.reserve(found.size());
-            for (const auto& f : found) list.push_back(f.first);
-            std::sort(list.begin(), list.end());
+          for (std::size_t chunk = br.begin(); chunk != br.end(); ++chunk) {
+            auto& flat = chunkLists[chunk];
+            for (std::size_t cIndex = chunk * kChunk;
+                 cIndex < std::min(cells, (chunk + 1) * kChunk); ++cIndex) {
+              const std::int64_t ci = std::int64_t(cIndex);
+              const Vec3 centre = gridOrigin + h * Vec3(double(ci % dims[0]) + 0.5,
+                                                        double((ci / dims[0]) % dims[1]) + 0.5,
+                                                        double(ci / (dims[0] * dims[1])) + 0.5);
+              const double q[3] = {centre.x, centre.y, centre.z};
+              tree->knnSearch(q, n, ki.data(), kd.data());
+              const double radius = std::sqrt(*std::max_element(kd.begin(), kd.end())) + 2.0 * r;
+              // Squared radius, widened by a relative margin against rounding.
+              const double r2 = radius * radius * (1.0 + 1e-9);
+              found.clear();
+              tree->radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
+              if (found.size() > kMaxList || found.size() < n) continue;
+              const std::size_t first = flat.size();
+              for (const auto& f : found) flat.push_back(f.first);
+              std::sort(flat.begin() + std::ptrdiff_t(first), flat.end());
+              listSizes[cIndex] = static_cast<std::uint32_t>(found.size());
+            }
+            flat.shrink_to_fit();
           }
         });
-    cellOffsets.resize(cells);
-    cellEnds.resize(cells);
-    for (std::size_t c = 0; c < cells; ++c) {
-      if (lists[c].size() < n) {  // too many candidates (or too few nodes): KD-tree
-        cellOffsets[c] = kNoList;
-        cellEnds[c] = kNoList;
-        continue;
-      }
-      cellOffsets[c] = static_cast<std::uint32_t>(candidates.size());
-      candidates.insert(candidates.end(), lists[c].begin(), lists[c].end());
-      cellEnds[c] = static_cast<std::uint32_t>(candidates.size());
+    cellOffsets.assign(cells + 1, 0);
+    for (std::size_t c = 0; c < cells; ++c) cellOffsets[c + 1] = cellOffsets[c] + listSizes[c];
+    candidates.reserve(cellOffsets[cells]);
+    for (auto& flat : chunkLists) {
+      candidates.insert(candidates.end(), flat.begin(), flat.end());
+      std::vector<std::uint32_t>().swap(flat);
     }
   }
 
-  static constexpr std::uint32_t kNoList = std::uint32_t(-1);
   std::array<std::int64_t, 3> dims{0, 0, 0};
   Vec3 gridOrigin{0.0};
   double inverseCell = 0.0;
-  std::vector<std::uint32_t> cellOffsets, cellEnds, candidates;
+  std::vector<std::uint32_t> cellOffsets;  // per cell + 1: its candidates' range (CSR)
+  std::vector<std::uint32_t> candidates;
 
   std::vector<Vec3> nodes;
   int k;
@@ -203,13 +230,27 @@ struct GraphIndex {
   std::vector<std::uint32_t> adjacency;
   std::vector<std::uint32_t> component;  // per node
   int componentCount = 0;
+  // The solve's unit of length: the largest extent of the nodes' bounding box (1 if they all
+  // coincide), so that the paper's weights keep their meaning in a unit-sized scene.
+  double unit = 1.0;
 };
 
 }  // namespace detail
 
 namespace {
 
+using detail::describePoint;
 using detail::GraphIndex;
+using detail::throwOutOfReach;
+
+// Largest coordinate magnitude accepted: squared distances between such points stay finite
+// ((2e150)² · 3 ≈ 1e301). Beyond it nanoflann would find no neighbour at all.
+constexpr double kMaxCoordinate = 1e150;
+
+inline bool withinReach(const Vec3& x) {
+  return std::abs(x.x) <= kMaxCoordinate && std::abs(x.y) <= kMaxCoordinate &&
+         std::abs(x.z) <= kMaxCoordinate;
+}
 
 constexpr int kSmallK = 32;  // stack buffers up to this k; larger k uses a heap buffer per call
 
@@ -265,11 +306,16 @@ inline Vec3 warpPoint(const GraphIndex& g, const Mat3* b, const Vec3* t, const V
   return x + d;
 }
 
-void requireFinite(const char* what, std::span<const Vec3> points) {
+// Finite, and (if `bounded`: points whose distances to the nodes are measured) within reach.
+void requireFinite(const char* what, std::span<const Vec3> points, bool bounded = true) {
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!isFinite(points[i]))
       throw InvalidInput(std::string("DeformationGraph: ") + what + "[" + std::to_string(i) +
                          "] is not finite");
+    if (bounded && !withinReach(points[i])) {
+      throw InvalidInput(std::string("DeformationGraph: ") + what + "[" + std::to_string(i) +
+                         "] has a coordinate beyond ±1e150, where squared distances overflow");
+    }
   }
 }
 
@@ -423,6 +469,13 @@ void buildTopology(GraphIndex& g, std::span<const Vec3> positions) {
                           if (f.first != j) near[j].push_back(f.first);
                       }
                     });
+  Vec3 lo = g.nodes[0], hi = g.nodes[0];
+  for (const Vec3& x : g.nodes) {
+    lo = glm::min(lo, x);
+    hi = glm::max(hi, x);
+  }
+  const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  g.unit = extent > 0.0 ? extent : 1.0;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
   pairs.reserve(n * std::size_t(k) * std::size_t(k - 1) / 2 + m * std::size_t(k));
   for (std::size_t i = 0; i < n; ++i) {
@@ -506,6 +559,9 @@ RigidFit rigidFit(std::span<const Vec3> handles, std::span<const Vec3> targets) 
 // The nonlinear least-squares problem of one solve(): energies and the gradient.
 struct Problem {
   const GraphIndex& g;
+  // Node positions, handles and targets (and the translations solved for) are in units of
+  // g.unit, so that the problem, and every step of its solution, is the same at any scale.
+  std::vector<Vec3> nodes;
   std::vector<int> var;  // per node: first unknown (12 per free node), −1 if pinned
   int unknowns = 0;
   double sRot, sReg, sCon;  // square roots of the weights
@@ -549,7 +605,7 @@ struct Problem {
     }
     for (const auto& [j, k] : regEdges) {
       // A_j (g_k − g_j) + g_j + t_j − (g_k + t_k), written to vanish exactly at rest.
-      const Vec3 d = g.nodes[k] - g.nodes[j];
+      const Vec3 d = nodes[k] - nodes[j];
       const Vec3 e = (a[j] - Mat3(1.0)) * d + t[j] - t[k];
       eReg += glm::dot(e, e);
       if (rhs) {
@@ -569,7 +625,7 @@ struct Problem {
       Vec3 d(0.0);
       for (int i = 0; i < k; ++i) {
         const std::uint32_t j = hNodes[l * k + i];
-        d += hWeights[l * k + i] * ((a[j] - Mat3(1.0)) * (v - g.nodes[j]) + t[j]);
+        d += hWeights[l * k + i] * ((a[j] - Mat3(1.0)) * (v - nodes[j]) + t[j]);
       }
       const Vec3 e = v + d - targets[l];
       eCon += glm::dot(e, e);
@@ -579,7 +635,7 @@ struct Problem {
         if (var[j] < 0) continue;
         double* x = rhs + var[j];
         const double w = wCon * hWeights[l * k + i];
-        const Vec3 dv = v - g.nodes[j];
+        const Vec3 dv = v - nodes[j];
         for (int r = 0; r < 3; ++r) {
           for (int c = 0; c < 3; ++c) x[3 * c + r] -= w * e[r] * dv[c];
           x[9 + r] -= w * e[r];
@@ -597,6 +653,26 @@ void configureCholmod(cholmod_common& c) {
   c.method[0].ordering = CHOLMOD_AMD;
   c.postorder = 1;
   c.print = 0;  // the library never writes to stderr: failures come back through info()
+}
+
+// Throws SolverError unless CHOLMOD's last call (`step`) succeeded. Eigen's CHOLMOD wrapper
+// does not look at the status: a failed analysis leaves no factor, which its factorize()
+// dereferences, and a factorisation that ran out of memory still reports success.
+void requireCholmod(const cholmod_common& c, const char* step) {
+  if (c.status >= CHOLMOD_OK) return;  // positive values are warnings (e.g. not positive definite)
+  std::string why;
+  switch (c.status) {
+    case CHOLMOD_OUT_OF_MEMORY:
+      why = "out of memory";
+      break;
+    case CHOLMOD_TOO_LARGE:
+      why = "the factor is too large for CHOLMOD's 32-bit indices";
+      break;
+    default:
+      why = "CHOLMOD status " + std::to_string(c.status);
+  }
+  throw SolverError("DeformationGraph::solve: the sparse Cholesky " + std::string(step) +
+                    " failed (" + why + "); use fewer graph nodes");
 }
 
 // On this machine a single BLAS thread is as fast as two for the graph's supernodes
@@ -750,7 +826,7 @@ struct SolverCache {
         for (int b = 0; b <= a; ++b) constant[std::size_t(slotOf(idx[a], idx[b]))] += u[a] * u[b];
     };
     for (const auto& [j, kk] : p.regEdges) {
-      const Vec3 d = g.nodes[kk] - g.nodes[j];
+      const Vec3 d = p.nodes[kk] - p.nodes[j];
       const int vj = p.var[j], vk = p.var[kk];
       for (int r = 0; r < 3; ++r) {
         const int idx[5] = {vj + r, vj + 3 + r, vj + 6 + r, vj + 9 + r, vk + 9 + r};
@@ -768,7 +844,7 @@ struct SolverCache {
           const std::uint32_t j = p.hNodes[l * k + i];
           if (p.var[j] < 0) continue;
           const double w = p.sCon * p.hWeights[l * k + i];
-          const Vec3 dv = p.handles[l] - g.nodes[j];
+          const Vec3 dv = p.handles[l] - p.nodes[j];
           for (int c = 0; c < 3; ++c) {
             idx.push_back(p.var[j] + 3 * c + r);
             u.push_back(w * dv[c]);
@@ -781,6 +857,7 @@ struct SolverCache {
     }
     std::copy(constant.begin(), constant.end(), lower.valuePtr());
     llt.analyzePattern(lower);
+    requireCholmod(llt.cholmod(), "analysis");
 
     var = p.var;
     hNodes = p.hNodes;
@@ -844,7 +921,9 @@ struct SolverCache {
 
   // Factorises `lower`; false if it is not (numerically) positive definite.
   bool factorize() {
+    factorValid = false;
     llt.factorize(lower);
+    requireCholmod(llt.cholmod(), "factorisation");
     factorValid = llt.info() == Eigen::Success;
     if (factorValid) {
       const double* value = lower.valuePtr();
@@ -867,7 +946,11 @@ DeformationGraphWarp::DeformationGraphWarp(std::shared_ptr<const detail::GraphIn
 
 Vec3 DeformationGraphWarp::apply(const Vec3& x) const {
   Scratch s(index_->k);
-  return warpPoint(*index_, a_.data(), t_.data(), x, s);
+  try {
+    return warpPoint(*index_, a_.data(), t_.data(), x, s);
+  } catch (const detail::PointOutOfReach&) {
+    throwOutOfReach("the point " + describePoint(x));
+  }
 }
 
 Mat3 DeformationGraphWarp::jacobian(const Vec3& x) const {
@@ -876,7 +959,11 @@ Mat3 DeformationGraphWarp::jacobian(const Vec3& x) const {
   Scratch s(k);
   std::uint32_t* idx = s.idx();
   double* d2 = s.d2();
-  g.nearest(x, idx, d2);
+  try {
+    g.nearest(x, idx, d2);
+  } catch (const detail::PointOutOfReach&) {
+    throwOutOfReach("the point " + describePoint(x));
+  }
   // Unnormalised weights u_i = (1 − d_i / d_max)² and their gradients.
   const double dMax = std::sqrt(d2[k]);
   if (!(dMax > 0.0)) return Warp::jacobian(x);  // k + 1 coincident nodes: no analytic form
@@ -917,12 +1004,24 @@ void DeformationGraphWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> 
   const Vec3* t = t_.data();
   const Vec3* src = in.data();
   Vec3* dst = out.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 2048),
-                    [g, b, t, src, dst](const tbb::blocked_range<std::size_t>& r) {
-                      Scratch s(g->k);
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        dst[i] = warpPoint(*g, b, t, src[i], s);
-                    });
+  // The lowest point out of reach, whatever the thread count (each range stops at its first).
+  std::atomic<std::size_t> firstOutOfReach{in.size()};
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, in.size(), 2048),
+      [g, b, t, src, dst, &firstOutOfReach](const tbb::blocked_range<std::size_t>& r) {
+        Scratch s(g->k);
+        std::size_t i = r.begin();
+        try {
+          for (; i != r.end(); ++i) dst[i] = warpPoint(*g, b, t, src[i], s);
+        } catch (const detail::PointOutOfReach&) {
+          std::size_t seen = firstOutOfReach.load();
+          while (i < seen && !firstOutOfReach.compare_exchange_weak(seen, i)) {
+          }
+        }
+      });
+  const std::size_t bad = firstOutOfReach.load();
+  if (bad < in.size())
+    throwOutOfReach("point " + std::to_string(bad) + " " + describePoint(in[bad]));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -930,9 +1029,9 @@ void DeformationGraphWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> 
 DeformationGraph::DeformationGraph(std::span<const Vec3> positions,
                                    const DeformationGraphOptions& options) {
   if (positions.empty()) throw InvalidInput("DeformationGraph: no positions to sample nodes from");
-  if (!(options.spacing > 0.0) || !std::isfinite(options.spacing)) {
+  if (!(options.spacing > 0.0) || !(options.spacing <= kMaxCoordinate)) {
     throw InvalidInput("DeformationGraph: spacing = " + std::to_string(options.spacing) +
-                       " must be finite and > 0");
+                       " must be > 0 and at most 1e150");
   }
   if (options.k < 1)
     throw InvalidInput("DeformationGraph: k = " + std::to_string(options.k) + " must be >= 1");
@@ -975,7 +1074,11 @@ NodeWeights DeformationGraph::weights(const Vec3& x) const {
   if (!isFinite(x)) throw InvalidInput("DeformationGraph::weights: the point is not finite");
   const int k = index_->k;
   Scratch s(k);
-  index_->nearest(x, s.idx(), s.d2());
+  try {
+    index_->nearest(x, s.idx(), s.d2());
+  } catch (const detail::PointOutOfReach&) {
+    throwOutOfReach("the point " + describePoint(x));
+  }
   weightsOf(k, s.d2(), s.w());
   NodeWeights out;
   out.nodes.assign(s.idx(), s.idx() + k);
@@ -999,7 +1102,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
                        " handles but " + std::to_string(targets.size()) + " targets");
   }
   requireFinite("handles", handles);
-  requireFinite("targets", targets);
+  requireFinite("targets", targets, false);  // overflow: see the energy check
   const auto requireWeight = [](const char* name, double w) {
     if (!(w >= 0.0) || !std::isfinite(w)) {
       throw InvalidInput(std::string("DeformationGraph::solve: ") + name + " = " +
@@ -1021,6 +1124,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   const std::size_t m = g.nodes.size();
   Problem p{g,
             {},
+            {},
             0,
             std::sqrt(options.rotationWeight),
             std::sqrt(options.regularizationWeight),
@@ -1031,8 +1135,15 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
             {},
             {},
             {}};
-  p.handles.assign(handles.begin(), handles.end());
-  p.targets.assign(targets.begin(), targets.end());
+  const double unit = g.unit;
+  p.nodes.resize(m);
+  for (std::size_t j = 0; j < m; ++j) p.nodes[j] = g.nodes[j] / unit;
+  p.handles.resize(handles.size());
+  p.targets.resize(targets.size());
+  for (std::size_t l = 0; l < handles.size(); ++l) {
+    p.handles[l] = handles[l] / unit;
+    p.targets[l] = targets[l] / unit;
+  }
   p.hNodes.resize(handles.size() * k);
   p.hWeights.resize(handles.size() * k);
   std::vector<char> reached(std::size_t(g.componentCount), 0);
@@ -1068,6 +1179,20 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     for (std::uint32_t e = g.adjacencyOffsets[j]; e < g.adjacencyOffsets[j + 1]; ++e)
       p.regEdges.emplace_back(j, g.adjacency[e]);
   }
+  // The maps are solved with translations in units of g.unit; an exception leaves the graph
+  // as it was.
+  struct Restore {
+    DeformationGraph& graph;
+    std::vector<Mat3> a;
+    std::vector<Vec3> t;
+    bool done = false;
+    ~Restore() {
+      if (done) return;
+      graph.a_.swap(a);
+      graph.t_.swap(t);
+    }
+  } restore{*this, a_, t_};
+  for (std::uint32_t j : p.freeNodes) t_[j] /= unit;
 
   const int n = p.unknowns;
   Eigen::VectorXd rhs(n);
@@ -1087,7 +1212,8 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   const RigidFit fit = rigidFit(handles, targets);
   const Mat3 rt = glm::transpose(fit.r);
   if (n > 0) {
-    for (std::size_t l = 0; l < handles.size(); ++l) p.targets[l] = rt * (targets[l] - fit.shift);
+    for (std::size_t l = 0; l < handles.size(); ++l)
+      p.targets[l] = rt * (targets[l] - fit.shift) / unit;
     std::vector<Mat3> a0(a_);
     std::vector<Vec3> t0(t_);
     for (std::uint32_t j : p.freeNodes) {
@@ -1101,36 +1227,62 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
       energy = rigid;
       report.rigidStart = true;
     } else {
-      p.targets.assign(targets.begin(), targets.end());
+      for (std::size_t l = 0; l < targets.size(); ++l) p.targets[l] = targets[l] / unit;
     }
+  }
+  if (!std::isfinite(energy)) {
+    // eRot, eReg, eCon are those of the start evaluated last (the rigid fit, if any).
+    const char* term = !std::isfinite(options.constraintWeight * eCon)       ? "constraint"
+                       : !std::isfinite(options.regularizationWeight * eReg) ? "regulariser"
+                                                                             : "rotation";
+    throw SolverError(std::string("DeformationGraph::solve: the energy overflows (its ") + term +
+                      " term is not finite): the targets are too far from the handles, or the "
+                      "weights too large, for double precision");
   }
   report.energies.push_back(energy);
   const auto finish = [&] {
-    if (report.rigidStart) {  // back to the world frame
-      for (std::uint32_t j : p.freeNodes) {
-        t_[j] = fit.r * (g.nodes[j] + t_[j]) + fit.shift - g.nodes[j];
-        a_[j] = fit.r * a_[j];
-      }
-      p.targets.assign(targets.begin(), targets.end());
-    }
+    // The terms are invariant under the fit's rigid change of frame: evaluated in it.
     energyOf(a_, t_, nullptr);
     report.rotationEnergy = eRot;
     report.regularizationEnergy = eReg;
     report.constraintEnergy = eCon;
+    for (std::uint32_t j : p.freeNodes) {  // back to world units (and frame)
+      t_[j] *= unit;
+      if (report.rigidStart) {
+        t_[j] = fit.r * (g.nodes[j] + t_[j]) + fit.shift - g.nodes[j];
+        a_[j] = fit.r * a_[j];
+      }
+    }
+    restore.done = true;
     return report;
   };
   // Rounding level: the energy with every residual 1e-10 of its term's scale (the handles'
   // spread, the edges' lengths, a unit rotation residual). Nothing is left to solve below it.
   double scale = options.rotationWeight * 6.0 * double(p.freeNodes.size());
   for (const auto& [j, kk] : p.regEdges) {
-    const Vec3 d = g.nodes[kk] - g.nodes[j];
+    const Vec3 d = p.nodes[kk] - p.nodes[j];
     scale += options.regularizationWeight * glm::dot(d, d);
   }
   Vec3 centre(0.0);
-  for (const Vec3& h : handles) centre += h / double(handles.size());
-  for (const Vec3& h : handles)
+  for (const Vec3& h : p.handles) centre += h / double(handles.size());
+  for (const Vec3& h : p.handles)
     scale += options.constraintWeight * glm::dot(h - centre, h - centre);
-  const double negligible = 1e-20 * scale;
+  // Residuals are computed from coordinates of magnitude up to `reach`, so each carries a
+  // rounding error of a few ulps of it: far from the origin that, not the scene's size, is
+  // the floor (a rigid motion 1e7 away would otherwise iterate on rounding noise).
+  double reach = 0.0;
+  for (const auto* points : {&p.handles, &p.targets})
+    for (const Vec3& x : *points)
+      reach = std::max({reach, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+  for (std::uint32_t j : p.freeNodes) {
+    const Vec3& x = p.nodes[j];
+    reach = std::max({reach, std::abs(x.x), std::abs(x.y), std::abs(x.z)});
+  }
+  const double ulps = 16.0 * std::numeric_limits<double>::epsilon() * reach;
+  const double negligible =
+      1e-20 * scale + 3.0 * ulps * ulps *
+                          (options.constraintWeight * double(handles.size()) +
+                           options.regularizationWeight * double(p.regEdges.size()));
   if (n == 0 || energy <= negligible) {
     report.converged = true;
     return finish();
@@ -1147,6 +1299,10 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   detail::SolverCache& cache = *cache_;
   if (!cache.matches(p)) cache.build(p);
   auto& llt = cache.llt;
+  const auto solveWith = [&](const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+    x = llt.solve(b);
+    requireCholmod(llt.cholmod(), "solve");
+  };
   // The factor of an earlier iteration's matrix preconditions conjugate gradients on the
   // current one: only the rotation blocks and the damping change between iterations, so a few
   // iterations usually reach the direct solve's accuracy at a fraction of a factorisation.
@@ -1164,7 +1320,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     const double bNorm = b.norm();
     if (!(bNorm > 0.0)) return std::isfinite(bNorm);
     cgR = b;
-    cgZ = llt.solve(cgR);
+    solveWith(cgR, cgZ);
     cgD = cgZ;
     double rz = cgR.dot(cgZ);
     for (int i = 0; i < kMaxCgIterations; ++i) {
@@ -1175,7 +1331,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
       x += alpha * cgD;
       cgR -= alpha * cgAd;
       if (cgR.norm() <= kCgTolerance * bNorm) return true;
-      cgZ = llt.solve(cgR);
+      solveWith(cgR, cgZ);
       const double rzNext = cgR.dot(cgZ);
       cgD = cgZ + (rzNext / rz) * cgD;
       rz = rzNext;
@@ -1200,7 +1356,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
       cache.damp(diag, lambda * meanDiag);
       if (cache.factorIsCurrent()) {
         factored = true;
-        delta = llt.solve(rhs);
+        solveWith(rhs, delta);
       } else if (!(factored && refine(rhs, delta))) {
         if (!cache.factorize()) {
           factored = false;
@@ -1208,7 +1364,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
           continue;
         }
         factored = true;
-        delta = llt.solve(rhs);
+        solveWith(rhs, delta);
       }
       anyFactor = true;
       for (std::uint32_t j : p.freeNodes) {
@@ -1218,7 +1374,7 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
         for (int r = 0; r < 3; ++r) t2[j][r] = t_[j][r] + delta[v + 9 + r];
       }
       next = energyOf(a2, t2, nullptr);
-      if (std::isfinite(next) && next <= energy) {
+      if (next < energy) {  // strictly: an unchanged energy is no progress (and not NaN)
         accepted = true;
         break;
       }
@@ -1240,7 +1396,10 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
     report.energies.push_back(energy);
     report.iterations = iter + 1;
     lambda = std::max(lambda / 10.0, 1e-12);
-    if (previous - energy < options.tolerance * previous || energy <= negligible) {
+    // A relative decrease of a few ulps is rounding in the energy's sum, not progress.
+    constexpr double kRoundingDecrease = 64.0 * std::numeric_limits<double>::epsilon();
+    if (previous - energy <= std::max(options.tolerance, kRoundingDecrease) * previous ||
+        energy <= negligible) {
       report.converged = true;
       break;
     }

@@ -54,24 +54,33 @@ struct DeformationGraphOptions {
 };
 
 /// Parameters of DeformationGraph::solve(). Defaults are the paper's.
+///
+/// Units: E_rot is unitless while E_reg and E_con are squared lengths, so the solve measures
+/// lengths in units of ℓ = the largest extent of the nodes' bounding box (the translations
+/// and residuals are divided by ℓ): the weights are unitless, keep the paper's meaning in a
+/// unit-sized scene, and scaling the whole problem (nodes, handles, targets) by s scales the
+/// solution exactly by s (same iterations, same warp up to rounding). Before, the same edit
+/// failed to converge at scene sizes 1e-6 and 1e6.
 struct DeformationGraphSolveOptions {
   double rotationWeight = 1.0;         ///< w_rot: how close each A_j stays to a rotation.
   double regularizationWeight = 10.0;  ///< w_reg: how well neighbouring maps agree.
   double constraintWeight = 100.0;     ///< w_con: how closely handles reach their targets.
   /// Gauss-Newton iterations at most (each may retry with a larger damping, see below).
   int maxIterations = 50;
-  /// Stop when an iteration lowers the energy by less than tolerance · E_{k−1} (relative, so
+  /// Stop when an iteration lowers the energy by at most tolerance · E_{k−1} (relative, so
   /// the same for any scale of the scene; the paper's |E_k − E_{k−1}| < tolerance · (1 + E_k)
   /// stops at once in a small scene), or when the energy reaches rounding level (residuals
-  /// about 1e-10 of the handles' spread and the edges' lengths).
+  /// about 1e-10 of the handles' spread and the edges' lengths, or a few ulps of the largest
+  /// coordinate, whichever is larger). 0 runs to the numerical minimum: decreases below
+  /// 64 ε · E_{k−1} are rounding and stop the solve too.
   double tolerance = 1e-6;
 };
 
 /// What solve() did.
 struct DeformationGraphReport {
   /// energies[0] is the energy of the starting state; energies[i] the energy after
-  /// iteration i. Never increasing: a step that would raise the energy is retried with a
-  /// ten times larger Levenberg-Marquardt damping instead.
+  /// iteration i. Strictly decreasing: a step that would not lower the energy is retried with
+  /// a ten times larger Levenberg-Marquardt damping instead.
   std::vector<double> energies;
   int iterations = 0;  ///< Accepted Gauss-Newton steps.
   /// The stopping rule was met (see DeformationGraphSolveOptions::tolerance; a start at
@@ -79,7 +88,8 @@ struct DeformationGraphReport {
   /// no damped step lowered the energy any more (a numerical minimum); false when the
   /// iterations ran out.
   bool converged = false;
-  /// The unweighted terms at the final state (E = w_rot·rotation + w_reg·... ).
+  /// The unweighted terms at the final state (E = w_rot·rotation + w_reg·... ), lengths in
+  /// units of ℓ (see DeformationGraphSolveOptions), like `energies`.
   double rotationEnergy = 0.0;
   double regularizationEnergy = 0.0;
   double constraintEnergy = 0.0;
@@ -155,8 +165,9 @@ class DeformationGraph {
   /// from the best rigid fit of the handles to the targets (every map the same rotation), so
   /// a rigid motion of all handles is reproduced exactly everywhere. Components of the graph
   /// that no handle's nodes reach keep A = I, t = 0 and are listed in the report. Throws
-  /// InvalidInput for mismatched sizes, non-finite points or invalid options, SolverError if
-  /// the normal equations cannot be factorised.
+  /// InvalidInput for mismatched sizes, non-finite points, handles beyond ±1e150 or invalid
+  /// options; SolverError if the energy overflows (targets too far for double precision) or
+  /// the normal equations cannot be factorised (also when CHOLMOD runs out of memory).
   ///
   /// The result is bit-identical for any TBB or BLAS thread count: the assembly is serial and
   /// the sparse Cholesky runs its BLAS single-threaded (OpenBLAS's process-wide thread count

@@ -66,11 +66,15 @@ Rig graphRig(RigReader& r) {
   options.k = int(k);
   std::vector<Vec3> nodes;
   if (r.has("nodes")) {
+    if (r.has("spacing"))
+      r.fail("spacing", "is not read when 'nodes' is given: remove one of them");
     nodes = r.points("nodes");
     checkGraphMemory(double(nodes.size()), options.k, "nodes");
   } else {
     options.spacing = r.number("spacing");
-    if (!(options.spacing > 0.0)) r.fail("spacing", "must be > 0");
+    // Beyond 1e150 the grid's squared distances overflow (DeformationGraph refuses its nodes).
+    if (!(options.spacing > 0.0 && options.spacing <= 1e150))
+      r.fail("spacing", "must be > 0 and at most 1e150");
     nodes = gridNodes(r, handles, options.spacing, options.k);
   }
   if (options.k >= int(std::min<std::size_t>(nodes.size(), 65))) {
@@ -91,6 +95,7 @@ Rig graphRig(RigReader& r) {
   solve.maxIterations = int(maxIterations);
   solve.tolerance = r.number("tolerance", solve.tolerance);
   if (!(solve.tolerance >= 0.0)) r.fail("tolerance", "must be >= 0");
+  r.finish();  // a misspelt key is reported before a long solve, not after it
   DeformationGraph graph(nodes, {}, options);
   const DeformationGraphReport report = graph.solve(handles, targets, solve);
   // Warnings, not errors: the warp is still the best the solve found, and usable.

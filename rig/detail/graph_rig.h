@@ -13,10 +13,11 @@ namespace spacewarp::detail {
 /// "constraintWeight" (>= 0; defaults 1, 10, 100), optional "maxIterations" (integer >= 0,
 /// default 50) and "tolerance" (>= 0, default 1e-6) of the solve. The rig does not see the input it
 /// will deform, so without "nodes" the nodes are a regular grid of spacing "spacing" over the
-/// bounding box of the handles padded by 2 · spacing on every side (at most 2,000,000 nodes);
-/// with "nodes", "spacing" is not read. Returns the solved DeformationGraphWarp and no
-/// coordinates; warns on stderr (one line each) when the solve did not converge and when parts
-/// of the graph are reached by no handle.
+/// bounding box of the handles padded by 2 · spacing on every side (at most 2,000,000 nodes,
+/// and no more than the memory estimate of the solve allows, see checkGraphMemory); giving
+/// "spacing" with "nodes" is an error. Unknown keys are reported before the solve. Returns the
+/// solved DeformationGraphWarp and no coordinates; warns on stderr (one line each) when the solve
+/// did not converge and when parts of the graph are reached by no handle.
 Rig graphRig(RigReader& reader);
 
 }  // namespace spacewarp::detail

@@ -403,7 +403,7 @@ TEST_F(CliTest, TexturedObjKeepsItsTextureCoordinatesAndCornerNormals) {
   const CliResult ply = run("deform --rig " + (dir_ / "move.json").string() + " " +
                             (dir_ / "quads.obj").string() + " -o " + (dir_ / "out.ply").string());
   ASSERT_EQ(ply.exitCode, 0) << ply.err;
-  EXPECT_EQ(ply.err, "warning: " + (dir_ / "out.ply").string() +
+  EXPECT_EQ(ply.err, "spacewarp: warning: " + (dir_ / "out.ply").string() +
                          ": the format cannot store the input's texture coordinates; per-corner "
                          "normals; they are not written\n");
 }

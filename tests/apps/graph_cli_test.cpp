@@ -166,6 +166,34 @@ TEST_F(GraphCliTest, MaxIterationsAndToleranceReachTheSolve) {
       EXPECT_NE(outputs[a].positions, outputs[b].positions) << a << " " << b;
 }
 
+// An input point whose squared distances to the nodes overflow is bad input (exit 3) naming
+// the point, not a crash or a point moved by another point's neighbours.
+TEST_F(GraphCliTest, InputPointsBeyondTheReachOfSquaredDistancesAreBadInput) {
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(0.0), Vec3(1.0), 50, 1);
+  cloud.positions[7] = Vec3(1e200, 3e199, -2e199);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("graph.json", R"({"method": "graph", "spacing": 0.25, "handles": )" + jsonPoints(kHandles) +
+                          R"(, "targets": )" + jsonPoints(kTargets) + "}");
+  const test::CliResult r = deform("graph.json");
+  EXPECT_EQ(r.exitCode, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("point 7 "));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.ply"));
+}
+
+// An energy that overflows is a numerical failure (exit 4), not a converged identity.
+TEST_F(GraphCliTest, EnergyOverflowIsANumericalFailure) {
+  writeCloud();
+  std::vector<Vec3> targets = kTargets;
+  targets[2] = Vec3(1e300, 0.0, 0.0);
+  write("graph.json", R"({"method": "graph", "spacing": 0.4, "handles": )" + jsonPoints(kHandles) +
+                          R"(, "targets": )" + jsonPoints(targets) + "}");
+  const test::CliResult r = deform("graph.json");
+  EXPECT_EQ(r.exitCode, 4) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("overflows"));
+  EXPECT_FALSE(std::filesystem::exists(dir_ / "out.ply"));
+}
+
 INSTANTIATE_TEST_SUITE_P(
     GraphRigs, BadRigTest,
     ::testing::Values(
@@ -180,6 +208,10 @@ INSTANTIATE_TEST_SUITE_P(
                      R"({"method": "graph", "spacing": 0, "handles": [[0, 0, 0]],
                         "targets": [[1, 0, 0]]})",
                      "'spacing' must be > 0"},
+        test::BadRig{"HugeSpacing",
+                     R"({"method": "graph", "spacing": 1e155, "handles": [[0, 0, 0]],
+                        "targets": [[1, 0, 0]]})",
+                     "'spacing' must be > 0 and at most 1e150"},
         test::BadRig{"FractionalK",
                      R"({"method": "graph", "spacing": 0.5, "k": 2.5, "handles": [[0, 0, 0]],
                         "targets": [[1, 0, 0]]})",
@@ -203,7 +235,16 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{"UnknownKey",
                      R"({"method": "graph", "spacing": 0.5, "handle": [[0, 0, 0]],
                         "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
-                     "'handle' is not a key of this method"}),
+                     "'handle' is not a key of this method"},
+        // Keys are checked before the solve: this one's energy overflows (exit 4).
+        test::BadRig{"UnknownKeyBeforeTheSolve",
+                     R"({"method": "graph", "spacing": 0.5, "tolerence": 0,
+                        "handles": [[0, 0, 0], [1, 0, 0]], "targets": [[0, 0, 0], [1e300, 0, 0]]})",
+                     "'tolerence' is not a key of this method"},
+        test::BadRig{"SpacingWithNodes",
+                     R"({"method": "graph", "spacing": 0.5, "nodes": [[0, 0, 0], [1, 0, 0]],
+                        "k": 1, "handles": [[0, 0, 0]], "targets": [[1, 0, 0]]})",
+                     "'spacing' is not read when 'nodes' is given"}),
     ::spacewarp::test::badRigName);
 
 }  // namespace

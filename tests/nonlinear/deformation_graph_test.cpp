@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include <SuiteSparse_config.h>
 #include <dlfcn.h>
 
 #include <tbb/global_control.h>
@@ -709,4 +710,176 @@ TEST(DeformationGraph, StoppingRuleDoesNotDependOnTheSceneScale) {
       worst = std::max(worst, glm::length(warp.apply(x) - converged.apply(x)) / (4.0 * scale));
     EXPECT_LE(worst, 1e-5) << "scale " << scale << ", " << report.iterations << " iterations";
   }
+}
+
+// CHOLMOD's allocations fail after a given number of successes: every failure (analysis,
+// factorisation, solve) must come back as SolverError, never as a crash or a silent result.
+// Before the status checks a failed analysis left Eigen's wrapper a null factor to dereference
+// (SIGSEGV on ~91,000-node solves, where the factor outgrows CHOLMOD's 32-bit indices).
+namespace {
+long cholmodAllocationsLeft = -1;  // < 0: no limit
+void* failingMalloc(std::size_t n) {
+  if (cholmodAllocationsLeft == 0) return nullptr;
+  if (cholmodAllocationsLeft > 0) --cholmodAllocationsLeft;
+  return std::malloc(n);
+}
+void* failingCalloc(std::size_t n, std::size_t size) {
+  if (cholmodAllocationsLeft == 0) return nullptr;
+  if (cholmodAllocationsLeft > 0) --cholmodAllocationsLeft;
+  return std::calloc(n, size);
+}
+void* failingRealloc(void* p, std::size_t n) {
+  if (cholmodAllocationsLeft == 0) return nullptr;
+  if (cholmodAllocationsLeft > 0) --cholmodAllocationsLeft;
+  return std::realloc(p, n);
+}
+}  // namespace
+
+TEST(DeformationGraph, CholmodFailuresAreSolverErrors) {
+  const BendingEdit edit = bendingEdit(3.0, 600);
+  const auto saved = SuiteSparse_config;
+  SuiteSparse_config.malloc_func = failingMalloc;
+  SuiteSparse_config.calloc_func = failingCalloc;
+  SuiteSparse_config.realloc_func = failingRealloc;
+  int failures = 0;
+  bool solved = false;
+  for (long budget = 0; budget < 4000 && !solved; ++budget) {
+    DeformationGraph graph(edit.points, spacingOf(1.0));
+    cholmodAllocationsLeft = budget;
+    try {
+      graph.solve(edit.handles, edit.targets);
+      solved = true;
+    } catch (const SolverError& e) {
+      ++failures;
+      EXPECT_THAT(e.what(), HasSubstr("sparse Cholesky")) << budget;
+    }
+    cholmodAllocationsLeft = -1;
+  }
+  SuiteSparse_config = saved;
+  EXPECT_TRUE(solved);
+  EXPECT_GT(failures, 1);  // the analysis and later steps failed in turn
+}
+
+// Coordinates whose squared distances overflow (beyond ~1e154) found no neighbours in the
+// KD-tree, whose unwritten buffers were then read (a crash, or another point's neighbours).
+// Inputs are refused by name; evaluating the warp at such a point is an InvalidInput naming it.
+TEST(DeformationGraph, RejectsCoordinatesWhoseSquaredDistancesOverflow) {
+  const std::vector<Vec3> points = boxPoints(Vec3(0.0), Vec3(1.0), 200, 3);
+  std::vector<Vec3> far = points;
+  far[1] = Vec3(1e200, 3e199, -2e199);
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)DeformationGraph(far, spacingOf(0.25)); }),
+              HasSubstr("positions[1]"));
+  EXPECT_THAT(
+      test::messageOf<InvalidInput>([&] { (void)DeformationGraph(points, spacingOf(1e300)); }),
+      HasSubstr("spacing"));
+  const std::vector<Vec3> spread{Vec3(0.0), Vec3(1e155, 0.0, 0.0), Vec3(0.0, 1e155, 0.0),
+                                 Vec3(0.0, 0.0, 1e155), Vec3(1e155)};
+  EXPECT_THAT(test::messageOf<InvalidInput>(
+                  [&] { (void)DeformationGraph(spread, {}, DeformationGraphOptions{}); }),
+              HasSubstr("nodes[1]"));
+
+  DeformationGraph graph(points, spacingOf(0.25));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] {
+                (void)graph.solve(std::vector<Vec3>{Vec3(1e200)}, std::vector<Vec3>{Vec3(0.0)});
+              }),
+              HasSubstr("handles[0]"));
+  graph.solve(std::vector<Vec3>{Vec3(0.0), Vec3(1.0)},
+              std::vector<Vec3>{Vec3(0.1), Vec3(1.0, 1.2, 1.0)});
+  const DeformationGraphWarp warp = graph.warp();
+  const Vec3 out(1e200, 3e199, -2e199);
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)warp.apply(out); }),
+              HasSubstr("squared distances overflow"));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)warp.jacobian(out); }),
+              HasSubstr("squared distances overflow"));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)graph.weights(out); }),
+              HasSubstr("squared distances overflow"));
+  std::vector<Vec3> batch(5000, Vec3(0.5));
+  batch[4321] = out;
+  batch[4500] = out;
+  std::vector<Vec3> result(batch.size());
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { (void)warp.applyBatch(batch, result); }),
+              HasSubstr("point 4321 "));
+  // Just inside the limit, the warp is still evaluated (finite, far points move rigidly).
+  EXPECT_TRUE(isFinite(warp.apply(Vec3(1e150))));
+}
+
+// Tolerance 0 asks for the numerical minimum: only strictly decreasing steps count, and the
+// solve stops (converged) when none is left, or at rounding level, which grows with the size of
+// the coordinates. Steps that left the energy unchanged used to count as progress, so the
+// solve never stopped; and a rigid motion 1e7 from the origin iterated on rounding noise.
+TEST(DeformationGraph, ZeroToleranceStopsAtTheNumericalMinimum) {
+  DeformationGraphSolveOptions exact;
+  exact.tolerance = 0.0;
+  exact.maxIterations = 300;
+  const BendingEdit edit = bendingEdit(3.0, 1500);
+  DeformationGraph graph(edit.points, spacingOf(1.0));
+  const DeformationGraphReport report = graph.solve(edit.handles, edit.targets, exact);
+  EXPECT_TRUE(report.converged) << report.iterations;
+  EXPECT_LT(report.iterations, exact.maxIterations);
+  for (std::size_t i = 1; i < report.energies.size(); ++i)
+    EXPECT_LT(report.energies[i], report.energies[i - 1]) << i;
+
+  for (const double offset : {1e6, 1e7}) {
+    std::vector<Vec3> points = boxPoints(Vec3(offset), Vec3(offset + 1.0), 2000, 4);
+    const std::vector<Vec3> handles(points.begin(), points.begin() + 30);
+    const Mat3 r = rotation(Vec3(1.0, 2.0, 3.0), 0.7);
+    const Vec3 shift = Vec3(0.5, 0.2, -0.3) + 0.3 * offset;
+    std::vector<Vec3> targets;
+    for (const Vec3& h : handles) targets.push_back(r * h + shift);
+    DeformationGraph far(points, spacingOf(0.25));
+    const DeformationGraphReport farReport = far.solve(handles, targets, exact);
+    EXPECT_TRUE(farReport.converged) << offset << ": " << farReport.iterations << " iterations";
+    const DeformationGraphWarp warp = far.warp();
+    double worst = 0.0;
+    for (const Vec3& x : points)
+      worst = std::max(worst, glm::length(warp.apply(x) - (r * x + shift)));
+    EXPECT_LE(worst, 1e-14 * offset * 100.0) << offset;
+  }
+}
+
+// Targets so far from the handles that the energy overflows: a SolverError naming the cause,
+// not a "converged" solve that leaves every point in place.
+TEST(DeformationGraph, EnergyOverflowIsASolverError) {
+  const std::vector<Vec3> points = boxPoints(Vec3(0.0), Vec3(1.0), 300, 5);
+  const std::vector<Vec3> handles{Vec3(0.0), Vec3(1.0, 0.0, 0.0), Vec3(0.0, 1.0, 0.0),
+                                  Vec3(0.0, 0.0, 1.0)};
+  for (const double far : {1e160, 1e300}) {
+    std::vector<Vec3> targets = handles;
+    targets[1] = Vec3(far, 0.0, 0.0);
+    DeformationGraph graph(points, spacingOf(0.3));
+    EXPECT_THAT(test::messageOf<SolverError>([&] { graph.solve(handles, targets); }),
+                HasSubstr("overflows"))
+        << far;
+  }
+}
+
+// Lengths in E_reg and E_con are measured in units of the graph's node spacing, so scaling the
+// whole problem scales the solution exactly: the same non-rigid edit at sizes 1e-6, 1 and 1e6
+// gives the same warp up to the scale (it used to fail to converge at 1e-6 and 1e6, where
+// the unitless E_rot dominated or vanished).
+TEST(DeformationGraph, NonRigidEditScalesWithTheScene) {
+  const BendingEdit edit = bendingEdit(4.0, 3000);
+  std::vector<std::vector<Vec3>> results;
+  std::vector<double> iterations;
+  for (const double scale : {1e-6, 1.0, 1e6}) {
+    BendingEdit scaled = edit;
+    for (auto* v : {&scaled.points, &scaled.handles, &scaled.targets})
+      for (Vec3& x : *v) x *= scale;
+    DeformationGraph graph(scaled.points, spacingOf(scale));
+    const DeformationGraphReport report = graph.solve(scaled.handles, scaled.targets);
+    EXPECT_TRUE(report.converged) << scale;
+    iterations.push_back(report.iterations);
+    const DeformationGraphWarp warp = graph.warp();
+    std::vector<Vec3> out;
+    for (const Vec3& x : scaled.points) out.push_back(warp.apply(x) / scale);
+    results.push_back(std::move(out));
+  }
+  EXPECT_EQ(iterations[0], iterations[1]);
+  EXPECT_EQ(iterations[2], iterations[1]);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < results[1].size(); ++i) {
+    worst = std::max(worst, glm::length(results[0][i] - results[1][i]));
+    worst = std::max(worst, glm::length(results[2][i] - results[1][i]));
+  }
+  EXPECT_LE(worst / 4.0, 1e-9);
 }
