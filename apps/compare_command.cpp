@@ -41,7 +41,7 @@ std::vector<std::string> split(const std::string& list) {
   std::size_t start = 0;
   while (start <= list.size()) {
     const std::size_t comma = std::min(list.find(',', start), list.size());
-    if (comma > start) parts.push_back(list.substr(start, comma - start));
+    parts.push_back(list.substr(start, comma - start));  // "" for ",," : reported as unknown
     start = comma + 1;
   }
   return parts;
@@ -63,7 +63,7 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
                   "comma-separated methods (default: all of " + known + ")")
       ->check([known](const std::string& list) -> std::string {
         const auto names = split(list);
-        if (names.empty()) return "expected a comma-separated list of methods";
+        if (list.empty()) return "expected a comma-separated list of methods";
         for (std::size_t k = 0; k < names.size(); ++k) {
           if (("," + known + ",").find("," + names[k] + ",") == std::string::npos)
             return "unknown method '" + names[k] + "' (one of: " + known + ")";
@@ -90,6 +90,7 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
   pointOption->needs(normalOption);
   normalOption->needs(pointOption);
   cmd->add_option("--control", args->request.control, "cage vertex whose function is drawn")
+      ->check(CLI::NonNegativeNumber)  // before the conversion to an unsigned index wraps -1
       ->capture_default_str();
   cmd->add_option("--resolution", args->request.resolution,
                   "pixels along the longer side of each image")

@@ -248,10 +248,29 @@ void syncDirectory(const fs::path& directory) {
 
 }  // namespace
 
-void writeFileAtomically(const std::filesystem::path& path,
+namespace {
+
+// The file a chain of symbolic links ends at (itself when `path` is no link), so that writing
+// "through" a link replaces the file it names, as a plain open() would, and leaves the link.
+std::filesystem::path linkTarget(const std::filesystem::path& path) {
+  std::filesystem::path target = path;
+  for (int hop = 0; hop < 40; ++hop) {  // 40: the kernel's own limit on link chains
+    std::error_code error;
+    if (!std::filesystem::is_symlink(std::filesystem::symlink_status(target, error))) return target;
+    const std::filesystem::path next = std::filesystem::read_symlink(target, error);
+    if (error) fail(path, "cannot read the symbolic link: " + error.message());
+    target = next.is_absolute() ? next : target.parent_path() / next;
+  }
+  fail(path, "too many levels of symbolic links");
+}
+
+}  // namespace
+
+void writeFileAtomically(const std::filesystem::path& requested,
                          const std::function<void(std::ostream&)>& write) {
-  if (path.filename().empty() || path.filename() == "." || path.filename() == "..")
-    fail(path, "not a file name");
+  if (requested.filename().empty() || requested.filename() == "." || requested.filename() == "..")
+    fail(requested, "not a file name");
+  const std::filesystem::path path = linkTarget(requested);
 
   struct stat old {};
   const bool replacing = ::stat(path.c_str(), &old) == 0 && S_ISREG(old.st_mode);

@@ -12,7 +12,8 @@ namespace spacewarp {
 /// Writes a file atomically: `write` fills a temporary file with a unique name
 /// (`.<name>.<16 hex digits>.tmp`) in the same directory as `path`, through a binary,
 /// seekable stream; the temporary is then flushed, synced to disk (fsync), closed and renamed
-/// over `path`, replacing any existing file there, and the directory is synced.
+/// over `path`, replacing any existing file there, and the directory is synced. A `path` that is
+/// a symbolic link is written through: the file it points to is replaced, the link stays.
 ///
 /// Every write is checked, as are the final flush, sync and close. A failure never leaves a
 /// partial file or the temporary behind, and an existing file at `path` is then untouched:

@@ -174,6 +174,8 @@ TEST_F(CompareTest, BadInputExitsWithAMessageAndWritesNothing) {
       {"--slice z=abc", 2, ""},
       {"--methods mvc,nope --slice z=0.5", 2, ""},
       {"--methods mvc,green,mvc --slice z=0.5", 2, "'mvc' is listed twice"},
+      {"--methods mvc,,green --slice z=0.5", 2, "unknown method ''"},
+      {"--control -1 --slice z=0.5", 2, "--control"},
       {"--control 1", 2, ""},  // no plane
   };
   for (const Case& c : cases) {

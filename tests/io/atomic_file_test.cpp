@@ -86,6 +86,27 @@ TEST(AtomicFileTest, ReplacesAnExistingFile) {
   EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out.txt"});
 }
 
+TEST(AtomicFileTest, WritesThroughSymbolicLinks) {
+  TempDir dir;
+  const fs::path target = dir.path() / "target.txt", link = dir.path() / "link.txt";
+  const fs::path relative = dir.path() / "relative.txt", dangling = dir.path() / "dangling.txt";
+  writeFileAtomically(target, [](std::ostream& out) { out << "old"; });
+  fs::create_symlink(target, link);
+  fs::create_symlink("link.txt", relative);  // a chain, relative to the link's folder
+  writeFileAtomically(relative, [](std::ostream& out) { out << "new"; });
+  EXPECT_TRUE(fs::is_symlink(link));
+  EXPECT_TRUE(fs::is_symlink(relative));
+  EXPECT_EQ(readFile(target), "new");
+  fs::create_symlink("made.txt", dangling);  // a dangling link creates the file it names
+  writeFileAtomically(dangling, [](std::ostream& out) { out << "made"; });
+  EXPECT_TRUE(fs::is_symlink(dangling));
+  EXPECT_EQ(readFile(dir.path() / "made.txt"), "made");
+  const fs::path loop = dir.path() / "loop.txt";
+  fs::create_symlink("loop.txt", loop);
+  EXPECT_THROW(writeFileAtomically(loop, [](std::ostream& out) { out << "x"; }), IoError);
+  EXPECT_TRUE(temporariesIn(dir.path()).empty());
+}
+
 TEST(AtomicFileTest, ThrowingCallbackLeavesNothingBehind) {
   TempDir dir;
   const fs::path path = dir.path() / "out.txt";
