@@ -321,8 +321,12 @@ struct Cell {
   double slack = 0.0;              // accepted distance outside the cell, input voxels
   CoordBBox outBox;                // output voxels that may have their preimage in the cell
   bool valid = false;              // false where the warp or its Jacobian is not usable
+  bool beyondRange = false;        // its image lies beyond the index range a grid can hold
   bool poor = false;               // the affine model is off by more than half a voxel
 };
+
+// Output index coordinates stay within this, so that int32 voxel coordinates never overflow.
+constexpr double kIndexLimit = 1e9;
 
 struct CoordHash {
   std::size_t operator()(const Coord& k) const {
@@ -382,8 +386,10 @@ bool evaluateCell(const Warp& warp, const IndexFrame& frame,
     cell.slack = std::min(cell.slack, 2.0);
     grow = std::min(grow, 2.0);
   }
-  const double limit = 1e9;  // keeps coordinates inside int32 for wild warps
-  if (!(maxAbs(lo) < limit) || !(maxAbs(hi) < limit)) return rigid;
+  if (!(maxAbs(lo) < kIndexLimit) || !(maxAbs(hi) < kIndexLimit)) {
+    cell.beyondRange = true;
+    return rigid;
+  }
   cell.outBox = CoordBBox(Coord(static_cast<std::int32_t>(std::ceil(lo.x - grow)),
                                 static_cast<std::int32_t>(std::ceil(lo.y - grow)),
                                 static_cast<std::int32_t>(std::ceil(lo.z - grow))),
@@ -733,6 +739,16 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   {
     openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
     for (const Cell& cell : cells) {
+      if (cell.beyondRange) {
+        // Not a failure of the warp: the result cannot be stored at this voxel size.
+        const Vec3 at = frame.toWorld(cell.centre);
+        std::ostringstream m;
+        m << std::setprecision(6) << "warpVolume: grid '" << in.getName()
+          << "': the warp sends the voxels near world (" << at.x << ", " << at.y << ", " << at.z
+          << ") beyond index " << kIndexLimit << " of the output grid, more than its 32-bit voxel "
+          << "coordinates hold at this voxel size; use larger voxels or move the grid";
+        throw InvalidInput(m.str());
+      }
       if (cell.valid) continue;
       const CoordBBox box(cell.lo, cell.lo + Coord(cell.size - 1));
       for (auto ijk = box.begin(); ijk; ++ijk)

@@ -506,6 +506,22 @@ TEST(WarpVolume, VectorsFollowANonlinearShearThroughItsFiniteDifferenceJacobian)
       300u);
 }
 
+TEST(WarpVolume, ImagesBeyondTheIndexRangeAreRefusedNamingTheGrid) {
+  // A plain translation by 5e7 at voxel size 0.1 lands at index 5e8..: fine. By 5e8 it lands
+  // beyond what 32-bit coordinates hold, which used to give an empty grid and exit 0.
+  const auto grid = makeSphere(1.0, Vec3(0.0), 0.1);
+  const auto near = warpVolume(AffineWarp(glm::translate(Mat4(1.0), Vec3(5e7, 0, 0))), *grid);
+  EXPECT_NEAR(double(near.report.outputActiveVoxels), double(near.report.inputActiveVoxels),
+              0.01 * double(near.report.inputActiveVoxels));
+  try {
+    warpVolume(AffineWarp(glm::translate(Mat4(1.0), Vec3(5e8, 0, 0))), *grid);
+    FAIL() << "expected InvalidInput";
+  } catch (const InvalidInput& e) {
+    EXPECT_NE(std::string(e.what()).find("'sphere'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("32-bit"), std::string::npos) << e.what();
+  }
+}
+
 TEST(WarpVolume, SparseGridFarFromATwistAxisFailsFastNamingTheGrid) {
   // Two small spheres 1e6 apart, twisted about the z axis through the first: at the second,
   // one voxel's corners land 1e5 voxels apart, so its image box alone has 1e10 voxels. That
