@@ -38,6 +38,7 @@ bool parseSlice(const std::string& text, int& axis, double& value) {
 
 std::vector<std::string> split(const std::string& list) {
   std::vector<std::string> parts;
+  if (list.empty()) return parts;  // no --methods: every method
   std::size_t start = 0;
   while (start <= list.size()) {
     const std::size_t comma = std::min(list.find(',', start), list.size());
