@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     const spacewarp::CoordinateWarp warp(mvc, posed);
 
     spacewarp::PolygonSoup soup = spacewarp::readSoup(argv[3]);
-    spacewarp::deform(warp, soup);  // positions through the warp, normals through J^-T
+    spacewarp::deform(warp, soup);        // positions through the warp, normals through J^-T
     spacewarp::writeSoup(soup, argv[4]);  // atomic: a failure leaves no partial file
     std::printf("deformed %zu vertices -> %s\n", soup.positions.size(), argv[4]);
     return 0;
