@@ -44,7 +44,7 @@ bench: build
 	$(BUILD)/bench/spacewarp_bench --benchmark_repetitions=3 \
 	  --benchmark_report_aggregates_only=true --benchmark_counters_tabular=true
 
-# Runs each file-reader fuzzer for FUZZ_SECONDS (default 60).
+# Runs each fuzzer (the OBJ, OFF and PLY readers, the rig reader, the VDB input) for FUZZ_SECONDS (default 60).
 fuzz: deps
 	./tests/fuzz/run.sh
 
