@@ -76,7 +76,7 @@ const std::map<std::string, RigFactory>& factories() {
          std::shared_ptr<const Warp> result;
          const json& warps = r.array("warps");
          // Each level recurses here: bounded so that hostile nesting cannot overflow the stack.
-         if (r.depth() + 1 >= kMaxComposeDepth)
+         if (r.depth() >= kMaxComposeDepth)  // depth counts the compose rigs around this one
            r.fail("warps",
                   "nests compose rigs deeper than " + std::to_string(kMaxComposeDepth) + " levels");
          for (std::size_t i = 0; i < warps.size(); ++i) {

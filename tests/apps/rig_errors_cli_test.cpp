@@ -13,6 +13,7 @@
 
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
+#include <spacewarp/rig/rig.h>
 #include "apps/cli_test_util.h"
 
 namespace fs = std::filesystem;
@@ -144,6 +145,20 @@ TEST_F(RigErrorsCliTest, TheSameJobsRunUnderTheLimitWhenSmall) {
                  (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
   EXPECT_EQ(r.exitCode, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir_ / "out.ply"));
+}
+
+TEST_F(RigErrorsCliTest, ComposeRigsNestAsDeepAsTheLimitSays) {
+  write("deep.json", nestedCompose(kMaxComposeDepth));
+  const test::CliResult ok =
+      run("deform --rig " + (dir_ / "deep.json").string() + " " + (dir_ / "cloud.ply").string() +
+          " -o " + (dir_ / "out.ply").string());
+  EXPECT_EQ(ok.exitCode, 0) << ok.err;
+  write("deeper.json", nestedCompose(kMaxComposeDepth + 1));
+  const test::CliResult refused =
+      run("deform --rig " + (dir_ / "deeper.json").string() + " " + (dir_ / "cloud.ply").string() +
+          " -o " + (dir_ / "out2.ply").string());
+  EXPECT_EQ(refused.exitCode, 3) << refused.err;
+  EXPECT_FALSE(fs::exists(dir_ / "out2.ply"));
 }
 
 TEST_F(RigErrorsCliTest, RunningOutOfMemoryWithoutAnEstimateIsStillOneLineAndExit3) {
