@@ -864,13 +864,14 @@ void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) 
   output.text(std::to_string(soup.positions.size()));
   output.text("\nproperty double x\nproperty double y\nproperty double z\n");
   if (withNormals) output.text("property double nx\nproperty double ny\nproperty double nz\n");
-  for (const VertexAttribute& attribute : soup.attributes) {
+  const auto declare = [&](const ScalarAttribute& attribute) {
     output.text("property ");
     output.text(typeName(attribute.type));
     output.text(" ");
     output.text(attribute.name);
     output.text("\n");
-  }
+  };
+  for (const VertexAttribute& attribute : soup.attributes) declare(attribute);
   if (soup.polygonCount() > 0) {
     output.text("element face ");
     output.text(std::to_string(soup.polygonCount()));
@@ -879,13 +880,7 @@ void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) 
     output.text(" ");
     output.text(typeName(indexType));
     output.text(" vertex_indices\n");
-    for (const ScalarAttribute& attribute : soup.faceAttributes) {
-      output.text("property ");
-      output.text(typeName(attribute.type));
-      output.text(" ");
-      output.text(attribute.name);
-      output.text("\n");
-    }
+    for (const ScalarAttribute& attribute : soup.faceAttributes) declare(attribute);
   }
   output.text("end_header\n");
 
