@@ -3,6 +3,12 @@
 // warpGrid) with a mild twist. Malformed files must be rejected with IoError, grids that cannot
 // be warped with InvalidInput; any other exception, a crash, a sanitizer report or a hang is
 // a finding. OpenVDB itself is not instrumented: the aim is our code path, not OpenVDB's.
+//
+// A corrupt size field makes OpenVDB ask for petabytes (io::unzipFromStream's buffer). The
+// system allocator refuses such a request with std::bad_alloc, which readVdbFile() turns into
+// IoError; ASan's allocator aborts instead, so this target replaces the global operator new
+// with one that refuses, as the system does, any request above kAllocationCap. ASan still
+// checks every access to what it hands out (malloc is intercepted).
 #include <unistd.h>
 
 #include <cstddef>
@@ -11,6 +17,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #include <string>
 
 #include <spacewarp/core/errors.h>
@@ -29,7 +36,21 @@ namespace {
 // active root tile holds 4096³), so a few bytes could otherwise ask for hours of honest work.
 constexpr openvdb::Index64 kMaxWarpedVoxels = 1 << 14;
 
+// Above every honest allocation for a file of at most -max_len bytes, below -rss_limit_mb.
+constexpr std::size_t kAllocationCap = std::size_t{1} << 30;
+
 }  // namespace
+
+void* operator new(std::size_t size) {
+  if (size > kAllocationCap) throw std::bad_alloc();
+  if (void* memory = std::malloc(size == 0 ? 1 : size)) return memory;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return ::operator new(size); }
+void operator delete(void* memory) noexcept { std::free(memory); }
+void operator delete[](void* memory) noexcept { std::free(memory); }
+void operator delete(void* memory, std::size_t) noexcept { std::free(memory); }
+void operator delete[](void* memory, std::size_t) noexcept { std::free(memory); }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace spacewarp;
