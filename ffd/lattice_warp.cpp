@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/detail/lattice_basis.h>
 
@@ -15,7 +16,7 @@ namespace {
 
 // Four doubles (x, y, z, 0) of one control's displacement: one AVX register in the x86-64-v3
 // clones. Loaded with memcpy and never returned by value (that would change the psABI).
-using V4 = double __attribute__((vector_size(32)));
+using V4 = detail::simd::VD;
 
 // Everything the per-point map needs, by value, so the batch loop keeps it at hand.
 struct Kernel {
@@ -86,23 +87,20 @@ inline Vec3 displaceBernstein(const Kernel& k, const Vec3& x) {
 // One function per basis over a range of points, each with an x86-64-v3 (AVX2 + FMA) clone
 // chosen once at load time. apply() calls the same functions on one point, so that apply() and
 // applyBatch() give the same bits on any machine.
-#define SPACEWARP_FFD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 
-SPACEWARP_FFD_CLONES void trilinearRange(const Kernel& k, const Vec3* in, Vec3* out,
-                                         std::size_t n) {
+SPACEWARP_SIMD_CLONES void trilinearRange(const Kernel& k, const Vec3* in, Vec3* out,
+                                          std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceFixed<2, detail::trilinearAxis>(k, in[i]);
 }
 
-SPACEWARP_FFD_CLONES void bsplineRange(const Kernel& k, const Vec3* in, Vec3* out, std::size_t n) {
+SPACEWARP_SIMD_CLONES void bsplineRange(const Kernel& k, const Vec3* in, Vec3* out, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceFixed<4, detail::bsplineAxis>(k, in[i]);
 }
 
-SPACEWARP_FFD_CLONES void bernsteinRange(const Kernel& k, const Vec3* in, Vec3* out,
-                                         std::size_t n) {
+SPACEWARP_SIMD_CLONES void bernsteinRange(const Kernel& k, const Vec3* in, Vec3* out,
+                                          std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceBernstein(k, in[i]);
 }
-
-#undef SPACEWARP_FFD_CLONES
 
 using RangeFunction = void (*)(const Kernel&, const Vec3*, Vec3*, std::size_t);
 

@@ -8,26 +8,17 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rbf/detail/rbf_system.h>
-
-// The batch kernel works on generic vectors of four doubles inside one target_clones function;
-// -Wpsabi only notes the ABI of such vectors, which never cross a function boundary by value.
-#if defined(__clang__)
-#pragma clang diagnostic ignored "-Wpsabi"
-#elif defined(__GNUC__)
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
 
 namespace spacewarp {
 
 namespace {
 
-constexpr int kLanes = 4;                    // points per SIMD pass
-constexpr std::size_t kPointsPerTask = 256;  // a multiple of kLanes
+using namespace detail::simd;
 
-typedef double VD __attribute__((vector_size(kLanes * sizeof(double))));
-typedef std::uint64_t VU __attribute__((vector_size(kLanes * sizeof(double))));
+constexpr std::size_t kPointsPerTask = 256;  // a multiple of kLanes
 
 // What the batch kernel reads: the centres and weights in structure-of-arrays form, the kernel
 // and its parameter, and the polynomial.
@@ -44,17 +35,6 @@ struct EvalData {
   Mat3 linear;
   Vec3 translation;
 };
-
-// y = 1/√x for x ≥ 0 by Newton's iteration from the bit-level estimate: no libm, no errno, so
-// the loop vectorises; accurate to about one ulp, finite (and r = x y = 0) at x = 0.
-[[gnu::always_inline]] inline void rsqrt(const VD& x, VD& y) {
-  y = reinterpret_cast<VD>(std::uint64_t{0x5FE6EB50C7B537A9} - (reinterpret_cast<VU>(x) >> 1));
-  const VD h = 0.5 * x;
-  y = y * (1.5 - h * y * y);
-  y = y * (1.5 - h * y * y);
-  y = y * (1.5 - h * y * y);
-  y = y + y * (0.5 - h * y * y);
-}
 
 // e^x for x ≤ 0 (0 below −708): x = k ln 2 + f with |f| ≤ ln 2 / 2 (Cody–Waite), e^f by its
 // Taylor polynomial of degree 13 (truncation below 5e-18), 2^k built in the exponent bits.
@@ -150,9 +130,7 @@ template <RbfKernel K>
 
 // x' for kLanes points: in = x[4], y[4], z[4]; out likewise. Every lane runs the same
 // instructions, so a point's result does not depend on its lane or on the other lanes.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void evalLanes(const EvalData& d,
-                                                                           const double* in,
-                                                                           double* out) {
+SPACEWARP_SIMD_CLONES void evalLanes(const EvalData& d, const double* in, double* out) {
   VD X, Y, Z;
   std::memcpy(&X, in, sizeof X);
   std::memcpy(&Y, in + kLanes, sizeof Y);
