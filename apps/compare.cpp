@@ -321,14 +321,11 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
       r.values.resize(inside.size());
       const auto bindStart = Clock::now();
       ProgressTracker tracker(progress, "bind " + name, inside.size());
-      for (std::size_t begin = 0; begin < inside.size(); begin += block) {
-        const std::size_t count = std::min(block, inside.size() - begin);
+      forEachBlock(inside.size(), block, tracker, [&](std::size_t begin, std::size_t count) {
         rows.resize(count * m);
         coordinates->weightsBatch(std::span(inside).subspan(begin, count), rows);
         for (std::size_t k = 0; k < count; ++k) r.values[begin + k] = rows[k * m + r.control];
-        tracker.advance(count);
-      }
-      tracker.finish();
+      });
       const double bind = std::chrono::duration<double>(Clock::now() - bindStart).count();
 
       const PropertyReport properties =

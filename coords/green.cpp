@@ -12,9 +12,6 @@
 #include <utility>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
@@ -692,26 +689,16 @@ void GreenCoordinates::weights(const Vec3& x, std::span<double> row) const {
   evaluate(*impl_, &x, 1, row.data(), row.size(), nullptr);
 }
 
-void GreenCoordinates::weightsBatch(std::span<const Vec3> points, std::span<double> rows) const {
+std::size_t GreenCoordinates::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints GreenCoordinates::weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                                              std::size_t begin, std::size_t end) const {
   const std::size_t m = columnCount();
-  if (rows.size() != points.size() * m) {
-    throw InvalidInput("GreenCoordinates: " + std::to_string(points.size()) + " points need " +
-                       std::to_string(points.size() * m) + " weights but the output has " +
-                       std::to_string(rows.size()));
+  for (std::size_t i = begin; i < end; i += kLanes) {
+    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
+    evaluate(*impl_, points.data() + i, count, rows.data() + i * m, m, nullptr);
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!isFinite(points[i]))
-      throw InvalidInput("GreenCoordinates: point " + std::to_string(i) + " is not finite");
-  }
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, points.size(), kPointsPerTask),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i < r.end(); i += kLanes) {
-          const std::size_t count = std::min<std::size_t>(kLanes, r.end() - i);
-          evaluate(*impl_, points.data() + i, count, rows.data() + i * m, m, nullptr);
-        }
-      },
-      tbb::simple_partitioner());
+  return {};
 }
 
 void GreenCoordinates::columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const {

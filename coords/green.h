@@ -121,11 +121,6 @@ class GreenCoordinates final : public Coordinates {
   /// or row.size() != columnCount().
   void weights(const Vec3& x, std::span<double> row) const override;
 
-  /// weights() of many points (rows: points.size() × columnCount(), row-major), in parallel;
-  /// bit-identical to weights() and independent of the thread count. Throws InvalidInput if
-  /// rows has the wrong size or a point is not finite (naming its index).
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override;
-
   /// The column controls of a posed cage (V posed vertices, same order as the rest cage): the
   /// posed vertices, then for every triangle j the posed unit normal n'_j times the stretch factor
   ///     s_j = sqrt(|u'|²|v|² − 2 (u'·v')(u·v) + |v'|²|u|²) / (√8 · area_j),
@@ -138,6 +133,12 @@ class GreenCoordinates final : public Coordinates {
   /// Where x is: inside, on the surface (within the tolerance) or outside, its nearest triangle,
   /// its distance to the surface and the winding number. Throws InvalidInput if x is not finite.
   Location locate(const Vec3& x) const;
+
+ protected:
+  /// Four points at a time through the same kernels as weights(): bit-identical rows.
+  std::size_t batchGrain() const override;
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override;
 
  private:
   struct Impl;

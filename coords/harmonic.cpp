@@ -36,7 +36,6 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 #include <Eigen/Cholesky>
 #include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
@@ -458,39 +457,27 @@ void HarmonicCoordinates::weights(const Vec3& x, std::span<double> row) const {
   }
 }
 
-void HarmonicCoordinates::weightsBatch(std::span<const Vec3> points, std::span<double> rows) const {
+std::size_t HarmonicCoordinates::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints HarmonicCoordinates::weightsRange(std::span<const Vec3> points,
+                                                 std::span<double> rows, std::size_t begin,
+                                                 std::size_t end) const {
   const std::size_t m = columnCount();
-  if (rows.size() != points.size() * m) {
-    throw InvalidInput("HarmonicCoordinates: " + std::to_string(points.size()) + " points need " +
-                       std::to_string(points.size() * m) + " weights but the output has " +
-                       std::to_string(rows.size()));
+  UnmappedPoints outside;
+  for (std::size_t i = begin; i != end; ++i) {
+    bool out = false;
+    impl_->rowAt(points[i], rows.subspan(i * m, m), out);
+    if (out && impl_->options.outside == HarmonicOutsidePolicy::Throw) outside.add(i);
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!isFinite(points[i]))
-      throw InvalidInput("HarmonicCoordinates: point " + std::to_string(i) + " is not finite");
-  }
-  // (count, first index) of the outside points.
-  using Outside = std::pair<std::size_t, std::size_t>;
-  const Outside none{0, std::numeric_limits<std::size_t>::max()};
-  const Outside outside = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, points.size(), kPointsPerTask), none,
-      [&](const tbb::blocked_range<std::size_t>& r, Outside acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          bool out = false;
-          impl_->rowAt(points[i], rows.subspan(i * m, m), out);
-          if (out) acc = {acc.first + 1, std::min(acc.second, i)};
-        }
-        return acc;
-      },
-      [](const Outside& a, const Outside& b) {
-        return Outside{a.first + b.first, std::min(a.second, b.second)};
-      });
-  if (outside.first > 0 && impl_->options.outside == HarmonicOutsidePolicy::Throw) {
-    throw InvalidInput(
-        "HarmonicCoordinates: " + std::to_string(outside.first) + " of " +
-        std::to_string(points.size()) + " points are outside the cage (the first is point " +
-        std::to_string(outside.second) + " at " + pointText(points[outside.second]) + ")");
-  }
+  return outside;
+}
+
+void HarmonicCoordinates::throwUnmapped(const UnmappedPoints& unmapped,
+                                        std::span<const Vec3> points) const {
+  throw InvalidInput(
+      "HarmonicCoordinates: " + std::to_string(unmapped.count) + " of " +
+      std::to_string(points.size()) + " points are outside the cage (the first is point " +
+      std::to_string(unmapped.first) + " at " + pointText(points[unmapped.first]) + ")");
 }
 
 bool HarmonicCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {

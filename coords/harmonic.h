@@ -157,12 +157,6 @@ class HarmonicCoordinates final : public Coordinates {
   /// the policy is Throw ("1 point is outside the cage").
   void weights(const Vec3& x, std::span<double> row) const override;
 
-  /// Rows of many points (points.size() × cage vertex count, row-major), in parallel. Throws
-  /// InvalidInput naming the first non-finite point, if `rows` has the wrong size, or (policy
-  /// Throw) with the number of points outside the cage and the first one's index; `rows` is
-  /// then unspecified.
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override;
-
   /// The gradients of the weights: constant per tet (the tet that contains x). Returns false
   /// for points outside the cage (callers then use finite differences).
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
@@ -185,6 +179,15 @@ class HarmonicCoordinates final : public Coordinates {
   std::span<const double> vertexValues() const;
   /// The absolute tet volume bound the mesh was made with (world units³).
   double meshVolumeBound() const;
+
+ protected:
+  /// Points outside the cage are reported under the policy Throw: weightsBatch() then throws
+  /// InvalidInput with their number and the first one's index.
+  std::size_t batchGrain() const override;
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override;
+  [[noreturn]] void throwUnmapped(const UnmappedPoints& unmapped,
+                                  std::span<const Vec3> points) const override;
 
  private:
   struct Impl;

@@ -75,9 +75,6 @@
 #include <utility>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
@@ -641,28 +638,17 @@ void MeanValueCoordinates::weights(const Vec3& x, std::span<double> row) const {
   computeRows(impl_->data, &x, 1, row.data());
 }
 
-void MeanValueCoordinates::weightsBatch(std::span<const Vec3> points,
-                                        std::span<double> rows) const {
+std::size_t MeanValueCoordinates::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints MeanValueCoordinates::weightsRange(std::span<const Vec3> points,
+                                                  std::span<double> rows, std::size_t begin,
+                                                  std::size_t end) const {
   const std::size_t m = columnCount();
-  if (rows.size() != points.size() * m) {
-    throw InvalidInput("MeanValueCoordinates: " + std::to_string(points.size()) + " points need " +
-                       std::to_string(points.size() * m) + " weights but the output has " +
-                       std::to_string(rows.size()));
+  for (std::size_t i = begin; i < end; i += kLanes) {
+    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
+    computeRows(impl_->data, points.data() + i, count, rows.data() + i * m);
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!isFinite(points[i]))
-      throw InvalidInput("MeanValueCoordinates: point " + std::to_string(i) + " is not finite");
-  }
-  const CageData& cd = impl_->data;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, points.size(), kPointsPerTask),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i < r.end(); i += kLanes) {
-          const std::size_t count = std::min<std::size_t>(kLanes, r.end() - i);
-          computeRows(cd, points.data() + i, count, rows.data() + i * m);
-        }
-      },
-      tbb::simple_partitioner());
+  return {};
 }
 
 }  // namespace spacewarp

@@ -103,14 +103,11 @@ Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const
     dense_.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m));
     adviseHugePages(dense_.data(), n * m * sizeof(double));
     // Without a display, one batch; with one, blocks big enough to keep every core busy.
-    const std::size_t block = progress ? std::size_t{1} << 14 : std::max<std::size_t>(n, 1);
-    for (std::size_t begin = 0; begin < n; begin += block) {
-      const std::size_t count = std::min(block, n - begin);
-      coordinates_->weightsBatch(std::span(restPoints_).subspan(begin, count),
-                                 std::span<double>(dense_.data() + begin * m, count * m));
-      tracker.advance(count);
-    }
-    tracker.finish();
+    forEachBlock(
+        n, progress ? std::size_t{1} << 14 : 0, tracker, [&](std::size_t begin, std::size_t count) {
+          coordinates_->weightsBatch(std::span(restPoints_).subspan(begin, count),
+                                     std::span<double>(dense_.data() + begin * m, count * m));
+        });
     return;
   }
   // Sparse: every row gets k slots, filled in parallel, then compacted into CSR.

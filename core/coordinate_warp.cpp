@@ -2,9 +2,6 @@
 
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -37,24 +34,16 @@ Vec3 CoordinateWarp::apply(const Vec3& x) const {
   return displace(x, w, displacement_);
 }
 
-void CoordinateWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("CoordinateWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
-  // Blocks of points through weightsBatch, so coordinates with a multi-point kernel (mean-value,
-  // Green) use it; their rows are bit-identical to weights(), so this equals apply().
-  constexpr std::size_t kBlock = 64;
+UnmappedPoints CoordinateWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                          std::size_t begin, std::size_t end) const {
   const std::size_t m = displacement_.size();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), kBlock),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      std::vector<double> rows(r.size() * m);
-                      std::vector<Vec3> block(in.begin() + r.begin(), in.begin() + r.end());
-                      coordinates_->weightsBatch(block, rows);
-                      for (std::size_t i = 0; i < block.size(); ++i)
-                        out[r.begin() + i] =
-                            displace(block[i], std::span(rows).subspan(i * m, m), displacement_);
-                    });
+  std::vector<double> rows((end - begin) * m);
+  const std::vector<Vec3> block(in.begin() + std::ptrdiff_t(begin),
+                                in.begin() + std::ptrdiff_t(end));
+  coordinates_->weightsBatch(block, rows);
+  for (std::size_t i = 0; i < block.size(); ++i)
+    out[begin + i] = displace(block[i], std::span(rows).subspan(i * m, m), displacement_);
+  return {};
 }
 
 Mat3 CoordinateWarp::jacobian(const Vec3& x) const {

@@ -22,11 +22,16 @@ class CoordinateWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
-  /// Computes weights block by block through Coordinates::weightsBatch (so multi-point kernels
-  /// are used); bit-identical to apply().
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   const Coordinates& coordinates() const { return *coordinates_; }
+
+ protected:
+  /// Weights block by block through Coordinates::weightsBatch, so that multi-point kernels
+  /// (mean-value, Green) are used; their rows are bit-identical to weights(), so this equals
+  /// apply().
+  std::size_t batchGrain() const override { return 64; }
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   std::shared_ptr<const Coordinates> coordinates_;

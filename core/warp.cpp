@@ -4,9 +4,7 @@
 #include <limits>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
+#include <spacewarp/core/detail/batch.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -41,15 +39,23 @@ Mat3 Warp::jacobian(const Vec3& x) const {
 }
 
 void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("Warp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
-  // Every point is independent, so the partition (and the thread count) cannot change results.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = apply(in[i]);
-                    });
+  detail::requireSameSize("Warp::applyBatch", in.size(), out.size());
+  const UnmappedPoints unmapped = detail::forEachRange(
+      in.size(), batchGrain(),
+      [&](std::size_t begin, std::size_t end) { return applyRange(in, out, begin, end); });
+  if (unmapped.count > 0) (unmapped.by ? unmapped.by : this)->throwUnmapped(unmapped, in);
+}
+
+UnmappedPoints Warp::applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                                std::size_t end) const {
+  for (std::size_t i = begin; i != end; ++i) out[i] = apply(in[i]);
+  return {};
+}
+
+void Warp::throwUnmapped(const UnmappedPoints& unmapped, std::span<const Vec3> in) const {
+  throw InvalidInput(std::to_string(unmapped.count) + " of " + std::to_string(in.size()) +
+                     " points could not be warped (the first is point " +
+                     std::to_string(unmapped.first) + ")");
 }
 
 Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n) {

@@ -3,9 +3,6 @@
 #include <cstring>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/detail/lattice_basis.h>
@@ -158,21 +155,13 @@ Vec3 LatticeWarp::apply(const Vec3& x) const {
   return out;
 }
 
-void LatticeWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("LatticeWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
-  const Kernel k = kernelOf(lattice_, displacement_);
-  const RangeFunction range = rangeFunctionOf(lattice_.basis());
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  // One call per block of points (not per point); each point is computed on its own, so the
+UnmappedPoints LatticeWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                       std::size_t begin, std::size_t end) const {
+  // One call per range of points (not per point); each point is computed on its own, so the
   // split does not affect the result.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 4096),
-                    [&k, range, src, dst](const tbb::blocked_range<std::size_t>& r) {
-                      range(k, src + r.begin(), dst + r.begin(), r.size());
-                    });
+  const Kernel k = kernelOf(lattice_, displacement_);
+  rangeFunctionOf(lattice_.basis())(k, in.data() + begin, out.data() + begin, end - begin);
+  return {};
 }
 
 Mat3 LatticeWarp::jacobian(const Vec3& x) const {

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -994,34 +993,27 @@ Mat3 DeformationGraphWarp::jacobian(const Vec3& x) const {
   return j;
 }
 
-void DeformationGraphWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("DeformationGraphWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
+std::size_t DeformationGraphWarp::batchGrain() const { return 2048; }
+
+// A range stops at its first point out of reach: the batch reports the lowest one, whatever the
+// thread count.
+UnmappedPoints DeformationGraphWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                                std::size_t begin, std::size_t end) const {
+  Scratch s(index_->k);
+  UnmappedPoints outOfReach;
+  std::size_t i = begin;
+  try {
+    for (; i != end; ++i) out[i] = warpPoint(*index_, a_.data(), t_.data(), in[i], s);
+  } catch (const detail::PointOutOfReach&) {
+    outOfReach.add(i);
   }
-  const GraphIndex* g = index_.get();
-  const Mat3* b = a_.data();
-  const Vec3* t = t_.data();
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  // The lowest point out of reach, whatever the thread count (each range stops at its first).
-  std::atomic<std::size_t> firstOutOfReach{in.size()};
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, in.size(), 2048),
-      [g, b, t, src, dst, &firstOutOfReach](const tbb::blocked_range<std::size_t>& r) {
-        Scratch s(g->k);
-        std::size_t i = r.begin();
-        try {
-          for (; i != r.end(); ++i) dst[i] = warpPoint(*g, b, t, src[i], s);
-        } catch (const detail::PointOutOfReach&) {
-          std::size_t seen = firstOutOfReach.load();
-          while (i < seen && !firstOutOfReach.compare_exchange_weak(seen, i)) {
-          }
-        }
-      });
-  const std::size_t bad = firstOutOfReach.load();
-  if (bad < in.size())
-    throwOutOfReach("point " + std::to_string(bad) + " " + describePoint(in[bad]));
+  return outOfReach;
+}
+
+void DeformationGraphWarp::throwUnmapped(const UnmappedPoints& unmapped,
+                                         std::span<const Vec3> in) const {
+  throwOutOfReach("point " + std::to_string(unmapped.first) + " " +
+                  describePoint(in[unmapped.first]));
 }
 
 // ---------------------------------------------------------------------------------------------

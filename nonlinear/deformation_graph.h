@@ -122,7 +122,13 @@ class DeformationGraphWarp final : public Warp {
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
   /// Parallel (TBB), allocation-free per point, bit-identical to apply() for any thread count.
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
+
+ protected:
+  std::size_t batchGrain() const override;
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
+  [[noreturn]] void throwUnmapped(const UnmappedPoints& unmapped,
+                                  std::span<const Vec3> in) const override;
 
  private:
   std::shared_ptr<const detail::GraphIndex> index_;

@@ -5,9 +5,6 @@
 #include <cstring>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rbf/detail/rbf_system.h>
@@ -257,35 +254,25 @@ Mat3 RbfWarp::jacobian(const Vec3& x) const {
   return j;
 }
 
-void RbfWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("RbfWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
+std::size_t RbfWarp::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints RbfWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                                   std::size_t end) const {
   const EvalData d = evalDataOf(soa_, centres_.size(), options_, linear_, translation_);
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  const std::size_t total = in.size();
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, (total + kPointsPerTask - 1) / kPointsPerTask),
-      [&d, src, dst, total](const tbb::blocked_range<std::size_t>& r) {
-        double lanesIn[3 * kLanes], lanesOut[3 * kLanes];
-        for (std::size_t task = r.begin(); task != r.end(); ++task) {
-          const std::size_t end = std::min(total, (task + 1) * kPointsPerTask);
-          for (std::size_t i = task * kPointsPerTask; i < end; i += kLanes) {
-            const std::size_t count = std::min<std::size_t>(kLanes, end - i);
-            for (std::size_t l = 0; l < kLanes; ++l) {
-              const Vec3& p = src[i + std::min(l, count - 1)];
-              lanesIn[l] = p.x;
-              lanesIn[kLanes + l] = p.y;
-              lanesIn[2 * kLanes + l] = p.z;
-            }
-            evalLanes(d, lanesIn, lanesOut);
-            for (std::size_t l = 0; l < count; ++l)
-              dst[i + l] = Vec3(lanesOut[l], lanesOut[kLanes + l], lanesOut[2 * kLanes + l]);
-          }
-        }
-      });
+  double lanesIn[3 * kLanes], lanesOut[3 * kLanes];
+  for (std::size_t i = begin; i < end; i += kLanes) {
+    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const Vec3& p = in[i + std::min(l, count - 1)];
+      lanesIn[l] = p.x;
+      lanesIn[kLanes + l] = p.y;
+      lanesIn[2 * kLanes + l] = p.z;
+    }
+    evalLanes(d, lanesIn, lanesOut);
+    for (std::size_t l = 0; l < count; ++l)
+      out[i + l] = Vec3(lanesOut[l], lanesOut[kLanes + l], lanesOut[2 * kLanes + l]);
+  }
+  return {};
 }
 
 }  // namespace spacewarp

@@ -42,7 +42,6 @@ class RbfWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   const RbfOptions& options() const { return options_; }
   /// The distinct centres of the fit: handles (duplicates merged), then fixed centres.
@@ -52,6 +51,11 @@ class RbfWarp final : public Warp {
   /// p(x) = linearPart() x + translation().
   const Mat3& linearPart() const { return linear_; }
   const Vec3& translation() const { return translation_; }
+
+ protected:
+  std::size_t batchGrain() const override;
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   RbfOptions options_;

@@ -29,11 +29,17 @@ class LazyRbfCoordinates final : public Coordinates {
   std::size_t controlPointCount() const override { return centres_.size(); }
   std::span<const Vec3> restControlPoints() const override { return centres_; }
   void weights(const Vec3& x, std::span<double> row) const override { get().weights(x, row); }
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override {
-    get().weightsBatch(points, rows);
-  }
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override {
     return get().weightGradients(x, out);
+  }
+
+ protected:
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override {
+    const std::size_t m = columnCount();
+    get().weightsBatch(points.subspan(begin, end - begin),
+                       rows.subspan(begin * m, (end - begin) * m));
+    return {};
   }
 
  private:

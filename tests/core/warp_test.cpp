@@ -4,9 +4,12 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <span>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <spacewarp/core/bend.h>
@@ -179,6 +182,81 @@ TEST(Warp, DefaultBatchRejectsMismatchedSizesAndAcceptsEmpty) {
   test::expectBatchRejectsMismatchedSizes(warp, 5, 6);
   std::vector<Vec3> none;
   EXPECT_NO_THROW(warp.applyBatch(none, none));
+}
+
+// A warp defined only for x >= 0, with a small batch grain so that a batch spans many ranges:
+// its kernel reports the other points, and explains them in its own words.
+class HalfSpaceWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override { return x + Vec3(1.0, 0.0, 0.0); }
+
+ protected:
+  std::size_t batchGrain() const override { return 7; }
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override {
+    UnmappedPoints unmapped;
+    for (std::size_t i = begin; i != end; ++i) {
+      if (in[i].x >= 0.0) {
+        out[i] = apply(in[i]);
+      } else {
+        unmapped.add(i);
+      }
+    }
+    return unmapped;
+  }
+  void throwUnmapped(const UnmappedPoints& unmapped, std::span<const Vec3>) const override {
+    throw InvalidInput("half space: " + std::to_string(unmapped.count) + " points, first " +
+                       std::to_string(unmapped.first));
+  }
+};
+
+std::string batchError(const Warp& warp, std::vector<Vec3> points) {
+  try {
+    warp.applyBatch(points, points);
+  } catch (const InvalidInput& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(Warp, BatchCountsEveryUnmappedPointAndNamesTheFirstForAnyThreadCount) {
+  std::vector<Vec3> points(1000, Vec3(1.0));
+  for (std::size_t i : {998u, 35u, 36u, 500u}) points[i].x = -1.0;
+  const HalfSpaceWarp warp;
+  for (int threads : {1, 2, 4}) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] { EXPECT_EQ(batchError(warp, points), "half space: 4 points, first 35"); });
+  }
+}
+
+TEST(Warp, ACompositionLetsTheStageThatCouldNotWarpExplain) {
+  std::vector<Vec3> points(100, Vec3(1.0));
+  points[40].x = -5.0;  // outside the half space before the shift
+  points[60].x = -0.5;  // inside it after the shift by +1
+  const auto half = std::make_shared<HalfSpaceWarp>();
+  const auto shift = std::make_shared<AffineWarp>(glm::translate(Mat4(1.0), Vec3(1.0, 0.0, 0.0)));
+  EXPECT_EQ(batchError(ComposedWarp(half, shift), points), "half space: 2 points, first 40");
+  EXPECT_EQ(batchError(ComposedWarp(shift, half), points), "half space: 1 points, first 40");
+  // Nested compositions keep the stage that made the report.
+  const auto inner = std::make_shared<ComposedWarp>(shift, half);
+  EXPECT_EQ(batchError(ComposedWarp(inner, shift), points), "half space: 1 points, first 40");
+}
+
+TEST(Warp, TheDefaultExplanationCountsThePoints) {
+  class Refusing final : public Warp {
+   public:
+    Vec3 apply(const Vec3& x) const override { return x; }
+
+   protected:
+    UnmappedPoints applyRange(std::span<const Vec3>, std::span<Vec3>, std::size_t begin,
+                              std::size_t end) const override {
+      UnmappedPoints all;
+      for (std::size_t i = begin; i != end; ++i) all.add(i);
+      return all;
+    }
+  };
+  EXPECT_EQ(batchError(Refusing(), std::vector<Vec3>(9000, Vec3(0.0))),
+            "9000 of 9000 points could not be warped (the first is point 0)");
 }
 
 // The analytic warps against the same shared properties through the Warp interface.

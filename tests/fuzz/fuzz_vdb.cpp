@@ -7,8 +7,9 @@
 // A corrupt size field makes OpenVDB ask for petabytes (io::unzipFromStream's buffer). The
 // system allocator refuses such a request with std::bad_alloc, which readVdbFile() turns into
 // IoError; ASan's allocator aborts instead, so this target replaces the global operator new
-// with one that refuses, as the system does, any request above kAllocationCap. ASan still
-// checks every access to what it hands out (malloc is intercepted).
+// with one that refuses, as the system does, any request above kAllocationCap (every
+// unaligned form, so that each pairs with its delete). ASan still checks every access to what
+// it hands out (malloc is intercepted).
 #include <unistd.h>
 
 #include <cstddef>
@@ -47,10 +48,19 @@ void* operator new(std::size_t size) {
   throw std::bad_alloc();
 }
 void* operator new[](std::size_t size) { return ::operator new(size); }
+void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
+  if (size > kAllocationCap) return nullptr;
+  return std::malloc(size == 0 ? 1 : size);
+}
+void* operator new[](std::size_t size, const std::nothrow_t& tag) noexcept {
+  return ::operator new(size, tag);
+}
 void operator delete(void* memory) noexcept { std::free(memory); }
 void operator delete[](void* memory) noexcept { std::free(memory); }
 void operator delete(void* memory, std::size_t) noexcept { std::free(memory); }
 void operator delete[](void* memory, std::size_t) noexcept { std::free(memory); }
+void operator delete(void* memory, const std::nothrow_t&) noexcept { std::free(memory); }
+void operator delete[](void* memory, const std::nothrow_t&) noexcept { std::free(memory); }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace spacewarp;
