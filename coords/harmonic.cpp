@@ -38,12 +38,10 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <Eigen/Cholesky>
-#include <Eigen/CholmodSupport>
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
 #include <spacewarp/coords/tet_locator.h>
-#include <spacewarp/core/detail/serial_blas.h>
+#include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/atomic_file.h>
 
@@ -354,12 +352,15 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   // ~190k tets (21k interior vertices) it factorises in 0.7 s and solves the 110 right-hand
   // sides in 0.2 s, where Eigen's simplicial LDLᵀ took 1.4 s and 1.9 s (one thread; 1 s with
   // the columns spread over two threads).
-  // A single-threaded BLAS for the factorisation and the solves: bit-identical results for
-  // any OPENBLAS_NUM_THREADS.
-  const detail::SerialBlas serialBlas;
-  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt;
-  llt.compute(a);
-  if (llt.info() != Eigen::Success) {
+  // The wrapper runs the BLAS single-threaded (bit-identical results for any
+  // OPENBLAS_NUM_THREADS) and turns CHOLMOD failures into SolverError; CHOLMOD's default
+  // ordering, as Eigen's wrapper left it before.
+  detail::SparseCholesky cholesky(
+      {"HarmonicCoordinates",
+       "use a coarser mesh (a smaller targetTetCount or a larger maxTetVolume)",
+       detail::CholeskyOrdering::CholmodDefault});
+  cholesky.analyzePattern(a);
+  if (!cholesky.factorize(a)) {
     throw SolverError("HarmonicCoordinates: the factorisation of the Laplacian of " +
                       std::to_string(nI) + " interior vertices failed");
   }
@@ -374,9 +375,7 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
     const auto c0 = static_cast<Eigen::Index>(blk * kBlock);
     const auto cols = static_cast<Eigen::Index>(std::min(kBlock, k - blk * kBlock));
     const Eigen::MatrixXd part = rhs.middleCols(c0, cols);
-    x.middleCols(c0, cols) = llt.solve(part);
-    if (llt.info() != Eigen::Success)
-      throw SolverError("HarmonicCoordinates: the solve for the coordinate functions failed");
+    x.middleCols(c0, cols) = cholesky.solve(part);
     solve.advance();
   }
   for (std::size_t v = 0; v < n; ++v) {
