@@ -15,13 +15,12 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <Eigen/CholmodSupport>
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <Eigen/Sparse>
 #include <nanoflann.hpp>
 
-#include <spacewarp/core/detail/serial_blas.h>
+#include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -645,38 +644,14 @@ struct Problem {
   }
 };
 
-// The fill-reducing ordering of the normal equations: AMD alone. CHOLMOD's default would also
-// try METIS on a graph this filled; on the 1,000-node benchmark METIS saves ~10 % of the
+// The sparse Cholesky of the normal equations. Ordering: AMD alone. CHOLMOD's default would
+// also try METIS on a graph this filled; on the 1,000-node benchmark METIS saves ~10 % of the
 // factorisation's flops (2.9 vs 3.2 GFlop) but its analysis takes ~90 ms against AMD's ~23 ms.
-void configureCholmod(cholmod_common& c) {
-  c.nmethods = 1;
-  c.method[0].ordering = CHOLMOD_AMD;
-  c.postorder = 1;
-  c.print = 0;  // the library never writes to stderr: failures come back through info()
+// The wrapper runs the BLAS single-threaded: on this machine a single BLAS thread is as fast
+// as two for the graph's supernodes (measured: 189 vs 197 ms), so determinism costs nothing.
+detail::SparseCholeskyOptions choleskyOptions() {
+  return {"DeformationGraph::solve", "use fewer graph nodes", detail::CholeskyOrdering::Amd};
 }
-
-// Throws SolverError unless CHOLMOD's last call (`step`) succeeded. Eigen's CHOLMOD wrapper
-// does not look at the status: a failed analysis leaves no factor, which its factorize()
-// dereferences, and a factorisation that ran out of memory still reports success.
-void requireCholmod(const cholmod_common& c, const char* step) {
-  if (c.status >= CHOLMOD_OK) return;  // positive values are warnings (e.g. not positive definite)
-  std::string why;
-  switch (c.status) {
-    case CHOLMOD_OUT_OF_MEMORY:
-      why = "out of memory";
-      break;
-    case CHOLMOD_TOO_LARGE:
-      why = "the factor is too large for CHOLMOD's 32-bit indices";
-      break;
-    default:
-      why = "CHOLMOD status " + std::to_string(c.status);
-  }
-  throw SolverError("DeformationGraph::solve: the sparse Cholesky " + std::string(step) +
-                    " failed (" + why + "); use fewer graph nodes");
-}
-
-// On this machine a single BLAS thread is as fast as two for the graph's supernodes
-// (measured: 189 vs 197 ms), so determinism (detail::SerialBlas) costs nothing here.
 
 // y = A x for the symmetric A whose lower triangle (diagonal included) `lower` holds. Serial.
 void symmetricProduct(const Eigen::SparseMatrix<double>& lower, const Eigen::VectorXd& x,
@@ -732,11 +707,9 @@ struct SolverCache {
   std::vector<int> blockSlots;        // per free node: kBlockSlots slots, column by column
   std::vector<int> diagonal;          // per unknown: its diagonal slot
 
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+  SparseCholesky cholesky{choleskyOptions()};
   bool factorValid = false;
   std::vector<double> factoredBlocks;  // the diagonal blocks' values at the last factorisation
-
-  SolverCache() { configureCholmod(llt.cholmod()); }
 
   bool matches(const Problem& p) const {
     return valid && var == p.var && hNodes == p.hNodes && hWeights == p.hWeights &&
@@ -856,8 +829,7 @@ struct SolverCache {
       }
     }
     std::copy(constant.begin(), constant.end(), lower.valuePtr());
-    llt.analyzePattern(lower);
-    requireCholmod(llt.cholmod(), "analysis");
+    cholesky.analyzePattern(lower);
 
     var = p.var;
     hNodes = p.hNodes;
@@ -922,9 +894,7 @@ struct SolverCache {
   // Factorises `lower`; false if it is not (numerically) positive definite.
   bool factorize() {
     factorValid = false;
-    llt.factorize(lower);
-    requireCholmod(llt.cholmod(), "factorisation");
-    factorValid = llt.info() == Eigen::Success;
+    factorValid = cholesky.factorize(lower);
     if (factorValid) {
       const double* value = lower.valuePtr();
       factoredBlocks.resize(blockSlots.size());
@@ -1292,16 +1262,13 @@ DeformationGraphReport DeformationGraph::solve(std::span<const Vec3> handles,
   // graph makes the factor several times denser than JᵀJ, where a simplicial factorisation
   // crawls. JᵀJ is written straight into a fixed pattern kept in cache_ with its constant part
   // and symbolic analysis (see detail::SolverCache); per iteration only the nodes' diagonal
-  // blocks are rewritten. The BLAS runs single-threaded so that the result does not depend on
-  // its thread count.
-  const detail::SerialBlas serialBlas;
+  // blocks are rewritten. The BLAS runs single-threaded (inside detail::SparseCholesky) so that
+  // the result does not depend on its thread count.
   if (!cache_) cache_ = std::make_unique<detail::SolverCache>();
   detail::SolverCache& cache = *cache_;
   if (!cache.matches(p)) cache.build(p);
-  auto& llt = cache.llt;
   const auto solveWith = [&](const Eigen::VectorXd& b, Eigen::VectorXd& x) {
-    x = llt.solve(b);
-    requireCholmod(llt.cholmod(), "solve");
+    x = cache.cholesky.solve(b);
   };
   // The factor of an earlier iteration's matrix preconditions conjugate gradients on the
   // current one: only the rotation blocks and the damping change between iterations, so a few

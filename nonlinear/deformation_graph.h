@@ -171,8 +171,8 @@ class DeformationGraph {
   ///
   /// The result is bit-identical for any TBB or BLAS thread count: the assembly is serial and
   /// the sparse Cholesky runs its BLAS single-threaded (OpenBLAS's process-wide thread count
-  /// is set to 1 during the solve and restored after it; concurrent solve() calls on
-  /// different graphs are serialised by a process-wide lock).
+  /// is set to 1 during each factorisation and triangular solve and restored after it; those
+  /// of concurrent solve() calls on different graphs are serialised by a process-wide lock).
   ///
   /// Cost: the normal equations' sparsity pattern, their constant (regulariser and
   /// constraint) part, the Cholesky analysis and the last numeric factor are kept between
