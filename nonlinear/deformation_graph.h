@@ -17,8 +17,8 @@
 namespace spacewarp {
 
 namespace detail {
-struct GraphIndex;   // nodes, KD-tree and lookup grid (deformation_graph.cpp)
-struct SolverCache;  // the normal equations' pattern and factor kept between solves (.cpp)
+struct GraphIndex;   // nodes, KD-tree and lookup grid (nonlinear/detail/graph_index.h)
+struct SolverCache;  // normal equations and factor kept between solves (detail/solver_cache.h)
 }  // namespace detail
 
 /// How DeformationGraph(positions, options) picks its nodes among the positions.
