@@ -270,30 +270,21 @@ std::size_t boundaryValues(const Cage& cage, const TetMesh& mesh, std::size_t v,
   return 3;
 }
 
-// Solves for the coordinate values at every mesh vertex (n × k, row-major).
-std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonNegative,
-                                const ProgressCallback& progress) {
-  const std::size_t n = mesh.vertices.size(), k = cage.vertexCount();
-  std::vector<double> values(n * k, 0.0);
-  // Interior numbering.
-  std::vector<int> interior(n, -1);
-  int nI = 0;
-  for (std::size_t v = 0; v < n; ++v)
-    if (mesh.boundaryTriangle[v] < 0) interior[v] = nI++;
-  // Boundary rows.
-  std::array<std::pair<std::uint32_t, double>, 3> bv{};
-  for (std::size_t v = 0; v < n; ++v) {
-    if (interior[v] >= 0) continue;
-    const std::size_t count = boundaryValues(cage, mesh, v, bv);
-    for (std::size_t j = 0; j < count; ++j) values[v * k + bv[j].first] += bv[j].second;
-  }
-  if (nI == 0) return values;
+// K_II (lower triangle) and the right-hand sides −K_IB U_B of the interior vertices.
+struct Laplacian {
+  SparseMatrix a;
+  Eigen::MatrixXd rhs;  // interior vertices × k
+};
 
-  // Assembly of K_II (lower triangle) and the right-hand sides −K_IB U_B.
-  ProgressTracker factorise(progress, "factorise", 2);
+// Assembles the Laplacian tet by tet, in order. `interior`: per mesh vertex its interior
+// index, or −1 on the boundary; nI interior vertices.
+Laplacian assembleLaplacian(const Cage& cage, const TetMesh& mesh, const std::vector<int>& interior,
+                            int nI) {
+  const std::size_t k = cage.vertexCount();
+  std::array<std::pair<std::uint32_t, double>, 3> bv{};
   std::vector<Eigen::Triplet<double, int>> triplets;
   triplets.reserve(mesh.tets.size() * 10);
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(nI, static_cast<Eigen::Index>(k));
+  Laplacian system{SparseMatrix(nI, nI), Eigen::MatrixXd::Zero(nI, static_cast<Eigen::Index>(k))};
   const std::vector<Vec3>& p = mesh.localVertices;
   for (const auto& tet : mesh.tets) {
     const Mat3 d(p[tet[1]] - p[tet[0]], p[tet[2]] - p[tet[0]], p[tet[3]] - p[tet[0]]);
@@ -316,21 +307,21 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
           continue;
         }
         const std::size_t count = boundaryValues(cage, mesh, vb, bv);
-        for (std::size_t j = 0; j < count; ++j) rhs(ia, bv[j].first) -= kab * bv[j].second;
+        for (std::size_t j = 0; j < count; ++j) system.rhs(ia, bv[j].first) -= kab * bv[j].second;
       }
     }
   }
-  SparseMatrix a(nI, nI);
-  a.setFromTriplets(triplets.begin(), triplets.end());
-  triplets = {};
-  factorise.advance();
-  // CHOLMOD's supernodal Cholesky (BLAS-3 on the dense supernodes): on the armadillo cage at
-  // ~190k tets (21k interior vertices) it factorises in 0.7 s and solves the 110 right-hand
-  // sides in 0.2 s, where Eigen's simplicial LDLᵀ took 1.4 s and 1.9 s (one thread; 1 s with
-  // the columns spread over two threads).
-  // The wrapper runs the BLAS single-threaded (bit-identical results for any
-  // OPENBLAS_NUM_THREADS) and turns CHOLMOD failures into SolverError; CHOLMOD's default
-  // ordering, as Eigen's wrapper left it before.
+  system.a.setFromTriplets(triplets.begin(), triplets.end());
+  return system;
+}
+
+// CHOLMOD's supernodal Cholesky (BLAS-3 on the dense supernodes): on the armadillo cage at
+// ~190k tets (21k interior vertices) it factorises in 0.7 s and solves the 110 right-hand
+// sides in 0.2 s, where Eigen's simplicial LDLᵀ took 1.4 s and 1.9 s (one thread; 1 s with
+// the columns spread over two threads). The wrapper runs the BLAS single-threaded
+// (bit-identical results for any OPENBLAS_NUM_THREADS) and turns CHOLMOD failures into
+// SolverError; CHOLMOD's default ordering, as Eigen's wrapper left it before.
+detail::SparseCholesky factoriseLaplacian(const SparseMatrix& a) {
   detail::SparseCholesky cholesky(
       {"HarmonicCoordinates",
        "use a coarser mesh (a smaller targetTetCount or a larger maxTetVolume)",
@@ -338,38 +329,76 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   cholesky.analyzePattern(a);
   if (!cholesky.factorize(a)) {
     throw SolverError("HarmonicCoordinates: the factorisation of the Laplacian of " +
-                      std::to_string(nI) + " interior vertices failed");
+                      std::to_string(a.rows()) + " interior vertices failed");
   }
-  factorise.finish();
+  return cholesky;
+}
 
-  // Blocks of kBlock columns, one after the other: every block is a BLAS-3 solve, and the
-  // fixed blocks keep the result independent of any thread count.
+// Blocks of kBlock columns, one after the other: every block is a BLAS-3 solve, and the fixed
+// blocks keep the result independent of any thread count. Advances `progress` per block.
+Eigen::MatrixXd solveBlocks(detail::SparseCholesky& cholesky, const Eigen::MatrixXd& rhs,
+                            ProgressTracker& progress) {
+  const std::size_t k = static_cast<std::size_t>(rhs.cols());
   const std::size_t blocks = (k + kBlock - 1) / kBlock;
-  ProgressTracker solve(progress, "solve", blocks);
-  Eigen::MatrixXd x(nI, static_cast<Eigen::Index>(k));
+  Eigen::MatrixXd x(rhs.rows(), rhs.cols());
   for (std::size_t blk = 0; blk < blocks; ++blk) {
     const auto c0 = static_cast<Eigen::Index>(blk * kBlock);
     const auto cols = static_cast<Eigen::Index>(std::min(kBlock, k - blk * kBlock));
     const Eigen::MatrixXd part = rhs.middleCols(c0, cols);
     x.middleCols(c0, cols) = cholesky.solve(part);
-    solve.advance();
+    progress.advance();
   }
+  return x;
+}
+
+// Projects every row of `values` (n × k) with a negative entry (see projectNonNegative).
+void projectNegativeRows(std::vector<double>& values, const Cage& cage, const TetMesh& mesh) {
+  const std::size_t n = mesh.vertices.size(), k = cage.vertexCount();
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t v = r.begin(); v != r.end(); ++v) {
+          const std::span<double> row(values.data() + v * k, k);
+          if (*std::min_element(row.begin(), row.end()) < 0.0)
+            projectNonNegative(row, std::span(mesh.localVertices.data(), k), mesh.localVertices[v],
+                               cage.diagonal() / mesh.frame.scale);
+        }
+      });
+}
+
+// Solves for the coordinate values at every mesh vertex (n × k, row-major): the boundary rows
+// are their Dirichlet values, the interior rows solve the Laplacian.
+std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonNegative,
+                                const ProgressCallback& progress) {
+  const std::size_t n = mesh.vertices.size(), k = cage.vertexCount();
+  std::vector<double> values(n * k, 0.0);
+  // Interior numbering.
+  std::vector<int> interior(n, -1);
+  int nI = 0;
+  for (std::size_t v = 0; v < n; ++v)
+    if (mesh.boundaryTriangle[v] < 0) interior[v] = nI++;
+  // Boundary rows.
+  std::array<std::pair<std::uint32_t, double>, 3> bv{};
+  for (std::size_t v = 0; v < n; ++v) {
+    if (interior[v] >= 0) continue;
+    const std::size_t count = boundaryValues(cage, mesh, v, bv);
+    for (std::size_t j = 0; j < count; ++j) values[v * k + bv[j].first] += bv[j].second;
+  }
+  if (nI == 0) return values;
+
+  ProgressTracker factorise(progress, "factorise", 2);
+  const Laplacian system = assembleLaplacian(cage, mesh, interior, nI);
+  factorise.advance();
+  detail::SparseCholesky cholesky = factoriseLaplacian(system.a);
+  factorise.finish();
+
+  ProgressTracker solve(progress, "solve", (k + kBlock - 1) / kBlock);
+  const Eigen::MatrixXd x = solveBlocks(cholesky, system.rhs, solve);
   for (std::size_t v = 0; v < n; ++v) {
     if (interior[v] < 0) continue;
     for (std::size_t c = 0; c < k; ++c)
       values[v * k + c] = x(interior[v], static_cast<Eigen::Index>(c));
   }
-  if (nonNegative) {
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-          for (std::size_t v = r.begin(); v != r.end(); ++v) {
-            const std::span<double> row(values.data() + v * k, k);
-            if (*std::min_element(row.begin(), row.end()) < 0.0)
-              projectNonNegative(row, std::span(mesh.localVertices.data(), k),
-                                 mesh.localVertices[v], cage.diagonal() / mesh.frame.scale);
-          }
-        });
-  }
+  if (nonNegative) projectNegativeRows(values, cage, mesh);
   solve.finish();
   return values;
 }
