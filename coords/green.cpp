@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/coords/detail/green_kernels.h>
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>

@@ -53,7 +53,7 @@
 // two triangles of an edge). At rest Σφ_i v_i + Σψ_j n_j reproduces x to about 1e-13 of the
 // diagonal for cages near the origin. Points are evaluated four at a time in SIMD lanes (an
 // x86-64-v3 build is chosen at run time where the CPU has it), with the kernel's own logarithm
-// and arctangent (within 1.5 ulp; see detail::greenLogRatio and detail::greenAtan2); weights()
+// and arctangent (within 1.5 ulp; see coords/detail/green_kernels.h); weights()
 // and locate() run one point through the same code, so every row is bit-identical whichever
 // call or thread computes it. That makes weights() of a single point cost about as much as
 // weightsBatch() of four: evaluate many points with weightsBatch(). The nearest triangle (outside
@@ -146,20 +146,5 @@ class GreenCoordinates final : public Coordinates {
   GreenOptions options_;
   std::unique_ptr<const Impl> impl_;
 };
-
-namespace detail {
-
-/// The elementary functions of GreenCoordinates' kernel, exposed for their tests (own
-/// approximations, no libm): out[i] = ln(num[i] / den[i]) for finite num[i], den[i] > 0 (normal
-/// or subnormal), and out[i] = atan2(y[i], x[i]) for finite y[i], x[i] (0 when both are zero).
-/// `baseline` runs the portable x86-64 build of the code instead of the one the kernel runs on
-/// this CPU (the x86-64-v3 build, with FMA, where the CPU has it). Throws InvalidInput if the
-/// sizes differ.
-void greenLogRatio(std::span<const double> num, std::span<const double> den, std::span<double> out,
-                   bool baseline = false);
-void greenAtan2(std::span<const double> y, std::span<const double> x, std::span<double> out,
-                bool baseline = false);
-
-}  // namespace detail
 
 }  // namespace spacewarp

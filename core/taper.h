@@ -5,7 +5,7 @@
 #include <limits>
 #include <span>
 
-#include <spacewarp/core/axis_frame.h>
+#include <spacewarp/core/detail/axis_frame.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {

@@ -12,7 +12,7 @@
 #include <tiny_obj_loader.h>
 
 #include <spacewarp/core/errors.h>
-#include <spacewarp/core/io/text_format.h>
+#include <spacewarp/core/io/detail/text_format.h>
 
 namespace spacewarp {
 namespace {

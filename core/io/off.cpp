@@ -9,7 +9,7 @@
 #include <vector>
 
 #include <spacewarp/core/errors.h>
-#include <spacewarp/core/io/text_format.h>
+#include <spacewarp/core/io/detail/text_format.h>
 
 namespace spacewarp {
 namespace {

@@ -1,4 +1,4 @@
-#include <spacewarp/core/io/text_format.h>
+#include <spacewarp/core/io/detail/text_format.h>
 
 #include <charconv>
 #include <cmath>
