@@ -18,9 +18,9 @@
 #include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/MeshToVolume.h>
 
-#include <spacewarp/core/volume/read_vdb.h>
-#include <spacewarp/core/volume/warp_grid.h>
-#include <spacewarp/core/volume/warp_points.h>
+#include <spacewarp/volume/read_vdb.h>
+#include <spacewarp/volume/warp_grid.h>
+#include <spacewarp/volume/warp_points.h>
 #endif
 
 namespace spacewarp::cli {

@@ -18,7 +18,7 @@
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/core/twist.h>
-#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/volume/warp_volume.h>
 #include "apps/cli_test_util.h"
 
 namespace fs = std::filesystem;

@@ -23,8 +23,8 @@
 
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/twist.h>
-#include <spacewarp/core/volume/read_vdb.h>
-#include <spacewarp/core/volume/warp_grid.h>
+#include <spacewarp/volume/read_vdb.h>
+#include <spacewarp/volume/warp_grid.h>
 
 namespace {
 

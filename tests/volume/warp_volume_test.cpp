@@ -1,8 +1,8 @@
-// Tests of core/volume/warp_volume.h: identity, rigid motions against OpenVDB's own
+// Tests of volume/warp_volume.h: identity, rigid motions against OpenVDB's own
 // resampling, level sets (scaled sphere, twisted against the mesh route), mass conservation,
 // non-convergent inverses, determinism, cancellation and rejected inputs.
 
-#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/volume/warp_volume.h>
 
 #include <cmath>
 #include <cstring>

@@ -1,4 +1,4 @@
-#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/volume/warp_volume.h>
 
 #include <algorithm>
 #include <cmath>

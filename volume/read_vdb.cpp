@@ -1,4 +1,4 @@
-#include <spacewarp/core/volume/read_vdb.h>
+#include <spacewarp/volume/read_vdb.h>
 
 #include <exception>
 #include <new>
