@@ -7,10 +7,8 @@
 #include <spacewarp/coords/green.h>
 #ifdef SPACEWARP_HAVE_HARMONIC
 #include <spacewarp/coords/harmonic.h>
-#include <spacewarp/coords/harmonic_warp.h>
 #endif
 #include <spacewarp/coords/mean_value.h>
-#include <spacewarp/core/coordinate_warp.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rig/detail/harmonic_rig.h>
 
@@ -93,12 +91,7 @@ Rig cageRig(const std::string& method, const std::filesystem::path& cage,
   // the cage's file.
   auto coordinates =
       namingFile(cage.string(), [&] { return cageCoordinates(method, rest, options, progress); });
-#ifdef SPACEWARP_HAVE_HARMONIC
-  // Harmonic coordinates have a faster Warp view (a 4-term mix per point).
-  if (auto harmonic = std::dynamic_pointer_cast<const HarmonicCoordinates>(coordinates))
-    return {std::make_shared<HarmonicWarp>(harmonic, posed), coordinates};
-#endif
-  return {std::make_shared<CoordinateWarp>(coordinates, posed), coordinates};
+  return {makeWarp(coordinates, posed), coordinates};
 }
 
 namespace detail {

@@ -7,7 +7,6 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/lattice_coordinates.h>
 #include <spacewarp/ffd/lattice_fit.h>
-#include <spacewarp/ffd/lattice_warp.h>
 
 namespace spacewarp::detail {
 
@@ -96,9 +95,8 @@ Rig ffdRig(RigReader& r) {
       throw;
     }
   }
-  auto warp = std::make_shared<LatticeWarp>(lattice, posed);
   auto coordinates = std::make_shared<LatticeCoordinates>(lattice);
-  return {std::move(warp), std::move(coordinates)};
+  return {makeWarp(coordinates, posed), std::move(coordinates)};
 }
 
 }  // namespace spacewarp::detail
