@@ -240,8 +240,7 @@ void checkOutputFolder(const fs::path& folder) {
   std::set<std::string> ours = {"compare.png", "colour_bar.png", "report.json", "report.md"};
   for (const std::string& name : compareMethods()) ours.insert(name + ".png");
   fs::directory_iterator entries(folder, error);
-  if (error)
-    throw IoError(folder.string() + ": cannot list the output folder: " + error.message());
+  if (error) throw IoError(folder.string() + ": cannot list the output folder: " + error.message());
   for (const fs::directory_entry& entry : entries) {
     const std::string name = entry.path().filename().string();
     if (!ours.count(name) || !entry.is_regular_file(error))

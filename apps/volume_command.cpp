@@ -200,8 +200,8 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
       context.warn(input.string() + ": grid " + name +
                    ": --conserve-mass: the warp changes volumes (|det J|) " + range +
                    "; densities divided by such factors do not conserve the mass where space is "
-                   "squeezed below the voxel size (mass " + shortNumber(r.massBefore) + " -> " +
-                   shortNumber(r.massAfter) + ")");
+                   "squeezed below the voxel size (mass " +
+                   shortNumber(r.massBefore) + " -> " + shortNumber(r.massAfter) + ")");
     }
     if (r.unmappedVoxels > 0) {
       context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.unmappedVoxels) +

@@ -113,9 +113,8 @@ void releaseSlot(SlotT (&table)[N], int slot) {
 /// Lists `path` and returns its slot, or -1 if it is too long or every slot is taken.
 int listTemporary(const std::string& path) {
   if (path.size() >= kSlotPathSize) return -1;
-  return claimSlot(slots, [&](Slot& slot) {
-    std::memcpy(slot.path, path.c_str(), path.size() + 1);
-  });
+  return claimSlot(slots,
+                   [&](Slot& slot) { std::memcpy(slot.path, path.c_str(), path.size() + 1); });
 }
 
 void unlistTemporary(int slot) { releaseSlot(slots, slot); }

@@ -276,9 +276,9 @@ TEST_F(IoSafetyCliTest, WeightsWritersFailCleanly) {
 TEST_F(IoSafetyCliTest, CompareWritersFailCleanly) {
   writeCubeCage("cage.obj", 1.0);
   const auto compare = [&](const std::string& slice, const std::string& output) {
-    return std::vector<std::string>{"compare",  "--cage", path("cage.obj"), "--methods",
-                                    "mvc,ffd",  "--slice", slice,           "--resolution",
-                                    "8",        "-o",      path(output)};
+    return std::vector<std::string>{"compare",   "--cage", path("cage.obj"), "--methods", "mvc,ffd",
+                                    "--slice",   slice,    "--resolution",   "8",         "-o",
+                                    path(output)};
   };
   ASSERT_EQ(finish(start(compare("z=0.2", "out"))).status, 0);
   const std::map<std::string, std::string> old = folderContent(dir_ / "out");
@@ -434,9 +434,9 @@ TEST_F(IoSafetyCliTest, InterruptedCompareRemovesItsTemporary) {
 TEST_F(IoSafetyCliTest, InterruptedCompareKeepsTheWholeOldFolder) {
   writeCubeCage("cage.obj", 1.0);
   const auto compare = [&](const std::string& slice) {
-    return std::vector<std::string>{"compare", "--cage",  path("cage.obj"), "--methods",
-                                    "mvc,ffd", "--slice", slice,            "--resolution",
-                                    "16",      "-o",      path("out")};
+    return std::vector<std::string>{"compare",  "--cage", path("cage.obj"), "--methods", "mvc,ffd",
+                                    "--slice",  slice,    "--resolution",   "16",        "-o",
+                                    path("out")};
   };
   ASSERT_EQ(finish(start(compare("z=0.2"))).status, 0);
   const std::map<std::string, std::string> old = folderContent(dir_ / "out");

@@ -382,9 +382,8 @@ TEST(AtomicFolderTest, ReplacesTheOldFolderAsAWhole) {
     put(folder, "b.txt", "old b");
   });
   ASSERT_EQ(::chmod(out.c_str(), 0750), 0);
-  writeFolderAtomically(dir.path() / "out/", [](const fs::path& folder) {
-    put(folder, "a.txt", "new a");
-  });
+  writeFolderAtomically(dir.path() / "out/",
+                        [](const fs::path& folder) { put(folder, "a.txt", "new a"); });
   EXPECT_EQ(contentOf(out), (std::map<std::string, std::string>{{"a.txt", "new a"}}));
   EXPECT_EQ(permissionsOf(out), 0750u);
   EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out"});
@@ -441,9 +440,8 @@ TEST(AtomicFolderTest, FailureKeepsTheOldFolderWhole) {
 TEST(AtomicFolderTest, RefusesWhatItCannotReplace) {
   TempDir dir;
   put(dir.path(), "file", "x");
-  EXPECT_THAT(test::messageOf<IoError>([&] {
-                writeFolderAtomically(dir.path() / "file", [](const fs::path&) {});
-              }),
+  EXPECT_THAT(test::messageOf<IoError>(
+                  [&] { writeFolderAtomically(dir.path() / "file", [](const fs::path&) {}); }),
               HasSubstr("is not a folder"));
   EXPECT_EQ(readFile(dir.path() / "file"), "x");
   EXPECT_THROW(writeFolderAtomically(dir.path() / ".", [](const fs::path&) {}), IoError);
