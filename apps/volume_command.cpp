@@ -122,6 +122,17 @@ void checkVolumeFile(const std::filesystem::path& path) {
   readVdbFile(path, /*headerOnly=*/true);
 }
 
+namespace {
+
+// "2.5e-06", "0.5", "1.23e+04": three significant digits, for the lines people read.
+std::string shortNumber(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
+}
+
+}  // namespace
+
 VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                                const std::filesystem::path& output, const VolumeCliOptions& options,
                                const CliContext& context) {
@@ -176,6 +187,21 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
       context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.vectorFailures) +
                    " vectors could not be transformed (" + r.vectors +
                    " with a singular Jacobian) and are left inactive");
+    }
+    if (hasExtremeVolumeChange(r)) {
+      // The densities were divided by |det J|: near a collapse the total is far off.
+      std::string range;
+      if (r.maxVolumeChange > 0.0)
+        range = "by factors from " + shortNumber(r.minVolumeChange) + " to " +
+                shortNumber(r.maxVolumeChange);
+      if (r.degenerateVolumeChanges > 0)
+        range += (range.empty() ? "" : ", and ") + std::string("by 0 or a non-finite factor at ") +
+                 counted(r.degenerateVolumeChanges, "voxel") + " (left out)";
+      context.warn(input.string() + ": grid " + name +
+                   ": --conserve-mass: the warp changes volumes (|det J|) " + range +
+                   "; densities divided by such factors do not conserve the mass where space is "
+                   "squeezed below the voxel size (mass " +
+                   shortNumber(r.massBefore) + " -> " + shortNumber(r.massAfter) + ")");
     }
     if (r.unmappedVoxels > 0) {
       context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.unmappedVoxels) +

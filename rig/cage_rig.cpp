@@ -96,6 +96,26 @@ Rig cageRig(const std::string& method, const std::filesystem::path& cage,
 
 namespace detail {
 
+namespace {
+
+// A cage rig read from `reader`; when checking, the cage and the pose are read and checked
+// (a closed cage, a pose of as many vertices) but no coordinates are solved.
+Rig cageRigOf(const RigReader& reader, const std::string& method, const std::filesystem::path& cage,
+              const std::filesystem::path& pose, const CageMethodOptions& options) {
+  if (reader.checking()) {
+    Cage::fromFile(cage).posedVerticesFromFile(pose);
+    return {};
+  }
+  return cageRig(method, cage, pose, options);
+}
+
+}  // namespace
+
+Rig cageRig(RigReader& reader, const std::string& method) {
+  const std::filesystem::path cage = reader.path("cage"), pose = reader.path("pose");
+  return cageRigOf(reader, method, cage, pose, {});
+}
+
 Rig harmonicRig(RigReader& reader) {
 #ifdef SPACEWARP_HAVE_HARMONIC
   const std::filesystem::path cage = reader.path("cage"), pose = reader.path("pose");
@@ -112,7 +132,7 @@ Rig harmonicRig(RigReader& reader) {
     if (options.harmonicOutside != "raise" && options.harmonicOutside != "nearest")
       reader.fail("outside", "must be \"raise\" or \"nearest\"");
   }
-  return cageRig("harmonic", cage, pose, options);
+  return cageRigOf(reader, "harmonic", cage, pose, options);
 #else
   reader.fail("method",
               "'harmonic' is not available: spacewarp was built without TetGen "

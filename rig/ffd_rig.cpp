@@ -78,11 +78,16 @@ Rig ffdRig(RigReader& r) {
                                   std::to_string(lattice.controlPointCount()));
   } else {
     RigReader constraints(r.object("constraints"), r.baseDir(), r.where() + ": constraints");
+    constraints.allowOnly({"from", "to"}, "the constraints", "constraints");
     const std::vector<Vec3> from = constraints.points("from");
     const std::vector<Vec3> to = constraints.points("to");
+    if (to.size() != from.size())
+      constraints.fail("to", "must have as many points as 'from' (" + std::to_string(from.size()) +
+                                 "), not " + std::to_string(to.size()));
     constraints.finish();
     LatticeFitOptions options;
     options.smoothness = r.number("smoothness", options.smoothness);
+    if (r.checking()) return {};  // the fit is the expensive part
     try {
       posed = fitControlPoints(lattice, from, to, options).controlPoints;
     } catch (const SolverError&) {

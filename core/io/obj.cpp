@@ -73,7 +73,7 @@ Vec3 parseTriple(const std::vector<std::string_view>& tokens, const ObjError& er
     double value = 0.0;
     const detail::NumberStatus status = detail::parseDouble(tokens[t], value);
     if (status == detail::NumberStatus::NotANumber)
-      error.fail(std::string(what) + ": '" + std::string(tokens[t]) + "' is not a number");
+      error.fail(std::string(what) + ": " + detail::quotedToken(tokens[t]) + " is not a number");
     if (t <= 3) {
       if (status == detail::NumberStatus::OutOfRange || !std::isfinite(value))
         error.fail(std::string(what) + " has a non-finite coordinate");
@@ -93,7 +93,7 @@ Vec3 parseTexcoord(const std::vector<std::string_view>& tokens, const ObjError& 
     double value = 0.0;
     const detail::NumberStatus status = detail::parseDouble(tokens[t], value);
     if (status == detail::NumberStatus::NotANumber)
-      error.fail("texture coordinate: '" + std::string(tokens[t]) + "' is not a number");
+      error.fail("texture coordinate: " + detail::quotedToken(tokens[t]) + " is not a number");
     if (t <= 3) {
       if (status == detail::NumberStatus::OutOfRange || !std::isfinite(value))
         error.fail("texture coordinate has a non-finite value");
@@ -112,7 +112,7 @@ void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t
   std::size_t start = 0;
   for (;;) {
     const std::size_t slash = corner.find('/', start);
-    if (partCount == 3) error.fail("malformed face corner '" + std::string(corner) + "'");
+    if (partCount == 3) error.fail("malformed face corner " + detail::quotedToken(corner));
     parts[partCount++] =
         corner.substr(start, slash == std::string_view::npos ? slash : slash - start);
     if (slash == std::string_view::npos) break;
@@ -125,7 +125,7 @@ void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t
     if (p == 1 && parts[p].empty() && partCount == 3) continue;  // "v//n"
     std::int64_t index = 0;
     if (!detail::parseInteger(parts[p], index))
-      error.fail("malformed face corner '" + std::string(corner) + "'");
+      error.fail("malformed face corner " + detail::quotedToken(corner));
     std::int64_t resolved = 0;
     if (!resolveIndex(index, counts[p], resolved)) {
       error.fail(std::string("face ") + kinds[p] + " index " + std::to_string(index) +

@@ -52,8 +52,8 @@ class LineReader {
   /// "what index: 'token' problem" for token t (index < 0: no index).
   [[noreturn]] void fail(const char* what, std::int64_t index, const char* problem,
                          std::size_t t) const {
-    fail(std::string(what) + (index >= 0 ? " " + std::to_string(index) : std::string()) + ": '" +
-         std::string(tokens_[t].substr(0, 64)) + "' " + problem);
+    fail(std::string(what) + (index >= 0 ? " " + std::to_string(index) : std::string()) + ": " +
+         detail::quotedToken(tokens_[t]) + " " + problem);
   }
 
   /// Token t as a number (an overflowing one gives infinity); `what` and `index` name the
@@ -155,8 +155,8 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
   if (!reader.next()) throw IoError(name + ": empty file, expected an 'OFF' header");
   const Header header = parseKeyword(reader.tokens().front());
   if (!header.valid) {
-    reader.fail("not an OFF file: expected 'OFF', found '" +
-                std::string(reader.tokens().front().substr(0, 64)) + "'");
+    reader.fail("not an OFF file: expected 'OFF', found " +
+                detail::quotedToken(reader.tokens().front()));
   }
   std::size_t firstCount = 1;  // The counts may follow the keyword on the same line.
   if (reader.tokens().size() == 1) {

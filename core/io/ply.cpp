@@ -240,13 +240,8 @@ void tokenize(std::string_view line, std::vector<std::string_view>& tokens) {
   }
 }
 
-/// A token shortened for messages.
-std::string quote(std::string_view token) {
-  std::string text(1, '\'');
-  text += token.substr(0, 64);
-  text += token.size() > 64 ? "...'" : "'";
-  return text;
-}
+/// A token shortened and escaped for messages.
+std::string quote(std::string_view token) { return detail::quotedToken(token); }
 
 /// Parses a whole token as a value of `type`: integers for integer types (an integral decimal
 /// like "3.0" is accepted too), correctly rounded floats for Float32 and doubles for Float64

@@ -235,7 +235,7 @@ TEST_F(CliFrictionTest, DeformEndsWithASummaryUnlessQuiet) {
   EXPECT_TRUE(fs::exists(dir_ / "q.ply"));
 }
 
-TEST_F(CliFrictionTest, InfoDescribesARigWithoutBuildingIt) {
+TEST_F(CliFrictionTest, InfoChecksARigWithoutSolvingIt) {
   writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {2, 1, 1}), dir_ / "cage.obj");
   write("cage.json", R"({"method": "mvc", "cage": "cage.obj", "pose": "cage.obj"})");
   const CliResult cage = run("info " + path("cage.json"));
@@ -245,18 +245,31 @@ TEST_F(CliFrictionTest, InfoDescribesARigWithoutBuildingIt) {
   EXPECT_THAT(cage.out, HasSubstr("does:"));
 
   write("ffd.json", R"({"method": "ffd", "basis": "bspline", "origin": [0,0,0], "size": [1,1,1],
-                        "resolution": [4, 5, 6], "controlPoints": []})");
+                        "resolution": [4, 5, 6],
+                        "constraints": {"from": [[0.5, 0.5, 0.5]], "to": [[0.6, 0.5, 0.5]]}})");
   EXPECT_THAT(run("info " + path("ffd.json")).out, HasSubstr("[4,5,6] = 120 control points"));
 
-  // A graph too fine to build (deform refuses it) is still described: info does not solve.
+  // A graph is checked but not solved: no "did not converge" warning of its solve (which
+  // deform gives: no iteration allowed).
   write("graph.json", R"({"method": "compose", "warps": [)" + std::string(kShift) +
-                          R"(, {"method": "graph", "spacing": 1e-6, "handles": [[0,0,0],[1,1,1]],
-                              "targets": [[0,0,0],[1,1,1]]}]})");
+                          R"(, {"method": "graph", "spacing": 0.5, "maxIterations": 0,
+                              "handles": [[0,0,0],[1,1,1]], "targets": [[0,0,0],[1,1,1.5]]}]})");
   const CliResult compose = run("info " + path("graph.json"));
   ASSERT_EQ(compose.exitCode, 0) << compose.err;
+  EXPECT_EQ(compose.err, "");
   EXPECT_THAT(compose.out, HasSubstr("applies the 2 warps below in order"));
   EXPECT_THAT(compose.out, HasSubstr("warps[1]:\n  method:     graph"));
   EXPECT_THAT(compose.out, HasSubstr("  handles:    2, moved to as many targets"));
+  EXPECT_THAT(
+      run("deform --rig " + path("graph.json") + " " + path("cage.obj") + " -o " + path("o.obj"))
+          .err,
+      HasSubstr("did not converge"));
+
+  // What deform refuses before solving, info refuses too: here a graph too fine to build.
+  write("fine.json", R"({"method": "graph", "spacing": 1e-6, "handles": [[0,0,0],[1,1,1]],
+                         "targets": [[0,0,0],[1,1,1]]})");
+  expectOneLineError(run("info " + path("fine.json")), 3,
+                     {path("fine.json"), "'spacing' gives more than 2,000,000 grid nodes"});
 
   write("bad.json", R"({"method": "warp9"})");
   expectOneLineError(run("info " + path("bad.json")), 3, {path("bad.json"), "warp9"});

@@ -67,6 +67,13 @@ bool isSpace(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
 }
 
+std::string quotedToken(std::string_view token) {
+  std::string text(1, '\'');
+  text += printable(token.substr(0, 64));
+  text += token.size() > 64 ? "...'" : "'";
+  return text;
+}
+
 void failAt(const std::string& name, std::size_t line, const std::string& message) {
   throw IoError(name + ":" + std::to_string(line) + ": " + message);
 }

@@ -36,6 +36,11 @@ bool parseInteger(std::string_view token, std::int64_t& value);
 /// White space of the "C" locale (' ', '\t', '\r', '\n', '\v', '\f'), without a locale lookup.
 bool isSpace(char c);
 
+/// A token of the file for a message: in single quotes, its first 64 bytes ("..." after
+/// them if longer), with control characters and bytes that are not UTF-8 escaped (printable()
+/// in core/errors.h), so that a binary or corrupt file's bytes never reach the terminal raw.
+std::string quotedToken(std::string_view token);
+
 /// Throws IoError "<name>:<line>: <message>" (`name` usually the path, `line` 1-based).
 [[noreturn]] void failAt(const std::string& name, std::size_t line, const std::string& message);
 
