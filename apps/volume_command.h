@@ -42,9 +42,9 @@ struct VolumeSummary {
   std::size_t inverseFailures = 0;  ///< voxels left inactive because the inverse failed
 };
 
-/// Throws IoError naming `path` unless it is an existing OpenVDB file (only its header is
-/// read), InvalidInput if this build has no volume support: the checks `deform` makes before
-/// it builds a rig.
+/// Throws IoError naming `path` unless it is an existing OpenVDB file (only its header, metadata
+/// and grid descriptors are read, which is enough to refuse a truncated file), InvalidInput if this
+/// build has no volume support: the checks `deform` makes before it builds a rig.
 void checkVolumeFile(const std::filesystem::path& path);
 
 /// Prints what `path` holds: the file's metadata, then for each grid its name, class (level
@@ -57,9 +57,9 @@ void printVolumeInfo(const std::filesystem::path& path);
 /// volumes, fields — and point data grids) and writes them, with their names and metadata and
 /// the file's metadata, to `output` atomically (a temporary in the same folder, renamed).
 /// Grids of other types are left out with a warning (CliContext::warn). Throws IoError naming the
-/// file if it is missing or not a VDB file, InvalidInput naming it if it holds no supported grid or
-/// a grid cannot be warped (non-linear transform, non-cubic level set voxels); nothing is
-/// written then. Voxels whose preimage was not found are reported as warnings.
+/// file if it is missing, not a VDB file or truncated or corrupt, InvalidInput naming it if it
+/// holds no supported grid or a grid cannot be warped (non-linear transform, non-cubic level set
+/// voxels); nothing is written then. Voxels whose preimage was not found are reported as warnings.
 VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                                const std::filesystem::path& output, const VolumeCliOptions& options,
                                const CliContext& context);

@@ -1,6 +1,7 @@
 // End-to-end tests of the volume side of `deform`'s file checks and summary, and of
 // `spacewarp info` on .vdb files.
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <string>
@@ -99,6 +100,35 @@ TEST_F(VolumeFrictionTest, ABadVolumeIsReportedBeforeTheRigIsRead) {
   EXPECT_THAT(r.err, HasSubstr("garbage.vdb"));
   EXPECT_THAT(r.err, ::testing::Not(HasSubstr("missing.json")));
   EXPECT_FALSE(fs::exists(dir_ / "out.vdb"));
+}
+
+TEST_F(VolumeFrictionTest, TruncatedFilesAreRefusedByInfoAndDeformNamingTheFile) {
+  // io::File read a cut file as one whose grids were empty or partial, and both commands
+  // succeeded. (Every cut is tried in tests/volume/read_vdb_test.cpp; these are the CLI's.)
+  writeInput();
+  write("twist.json", R"({"method": "twist", "origin": [0,0,0], "axis": [0,1,0], "rate": 0.8})");
+  const std::string bytes = test::slurp(dir_ / "in.vdb");
+  const std::string cut = (dir_ / "cut.vdb").string();
+  const std::string out = (dir_ / "out.vdb").string();
+  for (const std::size_t length :
+       {std::size_t{0}, std::size_t{7}, std::size_t{100}, std::size_t{1000}, std::size_t{1040},
+        bytes.size() / 3, bytes.size() / 2, bytes.size() - 1}) {
+    SCOPED_TRACE("the first " + std::to_string(length) + " of " + std::to_string(bytes.size()) +
+                 " bytes");
+    fs::remove(cut);
+    write("cut.vdb", bytes.substr(0, length));
+    for (const std::string& args :
+         {"info " + cut,
+          "deform --rig " + (dir_ / "twist.json").string() + " " + cut + " -o " + out}) {
+      const CliResult r = run(args);
+      EXPECT_EQ(r.exitCode, 3) << args;
+      EXPECT_THAT(r.err, ::testing::StartsWith("spacewarp: error: " + cut +
+                                               ": truncated or corrupt OpenVDB file: "));
+      EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+      EXPECT_EQ(r.out, "") << args;
+      EXPECT_FALSE(fs::exists(out));
+    }
+  }
 }
 
 TEST_F(VolumeFrictionTest, DeformSummarisesGridsVoxelsAndInverseFailures) {
