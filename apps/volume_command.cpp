@@ -21,6 +21,7 @@
 #include <spacewarp/volume/read_vdb.h>
 #include <spacewarp/volume/warp_grid.h>
 #include <spacewarp/volume/warp_points.h>
+#include "apps/openvdb_messages.h"
 #endif
 
 namespace spacewarp::cli {
@@ -55,7 +56,9 @@ void checkVolumeFile(const std::filesystem::path& path) {
   throw InvalidInput(path.string() + ": volumes are not supported by this build");
 }
 
-void printVolumeInfo(const std::filesystem::path& path) { checkVolumeFile(path); }
+void printVolumeInfo(const std::filesystem::path& path, const CliContext&) {
+  checkVolumeFile(path);
+}
 
 VolumeSummary deformVolumeFile(const Warp&, const std::filesystem::path& input,
                                const std::filesystem::path&, const VolumeCliOptions&,
@@ -117,8 +120,15 @@ void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
   writeVdbAtomically(path, {grid}, openvdb::MetaMap());
 }
 
+/// Prints what OpenVDB logged about `file` as warnings of the tool.
+void warnAbout(const std::filesystem::path& file, OpenVdbMessages& messages,
+               const CliContext& context) {
+  for (const std::string& message : messages.take()) context.warn(file.string() + ": " + message);
+}
+
 void checkVolumeFile(const std::filesystem::path& path) {
-  openvdb::initialize();
+  // What OpenVDB says about the header is said again when deformVolumeFile reads the file.
+  const OpenVdbMessages dropped;
   readVdbFile(path, /*headerOnly=*/true);
 }
 
@@ -136,8 +146,9 @@ std::string shortNumber(double value) {
 VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                                const std::filesystem::path& output, const VolumeCliOptions& options,
                                const CliContext& context) {
-  openvdb::initialize();
+  OpenVdbMessages messages;
   const VdbFile content = readVdbFile(input);
+  warnAbout(input, messages, context);
 
   std::string found;
   std::size_t supported = 0;
@@ -228,7 +239,9 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
     if (!grid->isType<openvdb::points::PointDataGrid>())
       summary.activeVoxels += r.outputActiveVoxels;
   }
+  warnAbout(input, messages, context);
   writeVdbAtomically(output, warped, *content.metadata);
+  warnAbout(output, messages, context);
   return summary;
 }
 
@@ -260,9 +273,10 @@ const char* className(openvdb::GridClass c) {
 
 }  // namespace
 
-void printVolumeInfo(const std::filesystem::path& path) {
-  openvdb::initialize();
+void printVolumeInfo(const std::filesystem::path& path, const CliContext& context) {
+  OpenVdbMessages messages;
   const VdbFile content = readVdbFile(path);
+  warnAbout(path, messages, context);
   std::printf("file:       %s\n", path.string().c_str());
   std::printf("grids:      %zu\n", content.grids.size());
   printMetadata("metadata:   ", *content.metadata);

@@ -150,26 +150,16 @@ struct Scan {
   std::string forwarded;
 };
 
-Scan scanLines(std::string_view text, const std::string& name) {
+/// One pass over the lines, read as they come (see detail::TextLines): binary or endless input
+/// fails at its first block or its first overlong line, before it is held in memory.
+Scan scanLines(std::istream& in, const std::string& name) {
   Scan scan;
-  scan.forwarded.reserve(text.size() + 1);
   std::vector<std::string_view> tokens;
-  std::size_t lineNumber = 0;
-  std::size_t pos = 0;
-  while (pos < text.size()) {
-    // Lines end with "\n", "\r\n" or "\r", as in tinyobjloader.
-    std::size_t end = pos;
-    while (end < text.size() && text[end] != '\n' && text[end] != '\r') ++end;
-    const std::string_view line = text.substr(pos, end - pos);
-    pos = end;
-    if (pos < text.size()) {
-      const bool crlf = text[pos] == '\r' && pos + 1 < text.size() && text[pos + 1] == '\n';
-      pos += crlf ? 2 : 1;
-    }
-    ++lineNumber;
-
-    const ObjError error(name, lineNumber);
-    if (line.find('\0') != std::string_view::npos) error.fail("unexpected NUL byte");
+  // Lines end with "\n", "\r\n" or "\r", as in tinyobjloader.
+  detail::TextLines lines(in, name, /*loneCrEndsLine=*/true);
+  std::string_view line;
+  while (lines.next(line)) {
+    const ObjError error(name, lines.lineNumber());
     tokenize(line, tokens);
     if (tokens.empty()) {
       scan.forwarded += '\n';
@@ -280,12 +270,7 @@ void assignNormals(PolygonSoup& soup, std::vector<Vec3> fileNormals,
 }
 
 PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
-  std::ostringstream buffer;
-  if (in.peek() != std::char_traits<char>::eof()) buffer << in.rdbuf();
-  if (in.bad()) throw IoError(name + ": read error");
-  const std::string text = std::move(buffer).str();
-
-  Scan scan = scanLines(text, name);
+  Scan scan = scanLines(in, name);
 
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;

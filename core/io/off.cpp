@@ -18,17 +18,20 @@ namespace {
 // Reading
 
 /// Reads the content lines of an OFF file (comments removed, blank lines skipped) as tokens,
-/// and throws IoError messages that name the file and the current line.
+/// and throws IoError messages that name the file and the current line. Lines are read as they
+/// come (see detail::TextLines): binary or endless input fails at its first block or its first
+/// overlong line.
 class LineReader {
  public:
-  LineReader(std::istream& in, const std::string& name) : in_(in), name_(name) {}
+  LineReader(std::istream& in, const std::string& name)
+      : lines_(in, name, /*loneCrEndsLine=*/false), name_(name) {}
 
   /// Moves to the next line with content; false at the end of the file.
   bool next() {
-    while (std::getline(in_, line_)) {
-      ++lineNumber_;
+    std::string_view text;
+    while (lines_.next(text)) {
+      lineNumber_ = lines_.lineNumber();
       tokens_.clear();
-      const std::string_view text(line_);
       std::size_t i = 0;
       while (i < text.size()) {
         while (i < text.size() && detail::isSpace(text[i])) ++i;
@@ -39,7 +42,6 @@ class LineReader {
       }
       if (!tokens_.empty()) return true;
     }
-    if (in_.bad()) throw IoError(name_ + ": read error");
     return false;
   }
 
@@ -74,9 +76,8 @@ class LineReader {
   }
 
  private:
-  std::istream& in_;
+  detail::TextLines lines_;
   const std::string& name_;
-  std::string line_;
   std::vector<std::string_view> tokens_;
   std::size_t lineNumber_ = 0;
 };

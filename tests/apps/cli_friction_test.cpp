@@ -2,6 +2,8 @@
 // (checked before any work), options that do not apply to the input being usage errors,
 // --version, --help and --threads, the summary line of `deform`, and `info` on rigs.
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <string>
@@ -22,6 +24,12 @@ namespace {
 namespace fs = std::filesystem;
 using test::CliResult;
 using ::testing::HasSubstr;
+
+#ifdef SPACEWARP_SANITIZED
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
 
 // Moves every point by (5, 0, 0).
 constexpr const char* kShift =
@@ -107,6 +115,38 @@ TEST_F(CliFrictionTest, UnknownExtensionsExit3NamingTheFileBeforeAnyWork) {
     EXPECT_THAT(r.err, ::testing::Not(HasSubstr("missing.json")));
   }
   expectOnly({"cloud.ply", "model.stl"});
+}
+
+TEST_F(CliFrictionTest, BinaryAndEndlessInputsAreRefusedEarly) {
+  // The text readers used to read their whole input before looking at it: /dev/zero or a FIFO
+  // fed forever grew until memory ran out. Each run here has a minute and (unless sanitizers,
+  // which reserve terabytes of address space, are on) 1.5 GB of address space.
+  const std::string limits = kSanitized ? "timeout 60 " : "ulimit -v 1500000; timeout 60 ";
+  write("twist.json", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1], "rate": 1})");
+  const std::string deform = "deform --rig " + path("twist.json") + " ";
+  for (const std::string extension : {"obj", "off", "ply"}) {
+    SCOPED_TRACE(extension);
+    const std::string zeros = path("zeros." + extension);
+    write("zeros." + extension, std::string(1 << 22, '\0'));
+    CliResult r = run(deform + zeros + " -o " + path("out.obj"), limits);
+    expectOneLineError(r, 3, {zeros + ":1: unexpected NUL byte (byte offset 0): not a text file"});
+
+    const std::string device = path("device." + extension);
+    fs::create_symlink("/dev/zero", device);
+    r = run(deform + device + " -o " + path("out.obj"), limits);
+    expectOneLineError(r, 3, {device + ":1: unexpected NUL byte (byte offset 0)"});
+
+    // A FIFO fed one endless line (its writer ends with the reader, or after a minute).
+    const std::string fifo = path("fifo." + extension);
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    r = run(deform + fifo + " -o " + path("out.obj"),
+            "timeout 60 sh -c \"tr '\\\\0' 7 < /dev/zero > " + fifo + "\" 2>/dev/null & " + limits);
+    expectOneLineError(r, 3, {fifo + ":1: line too long"});
+  }
+  // /dev/zero itself has no extension to say what it holds.
+  expectOneLineError(run(deform + "/dev/zero -o " + path("out.obj"), limits), 3,
+                     {"/dev/zero: no file extension"});
+  EXPECT_FALSE(fs::exists(dir_ / "out.obj"));
 }
 
 TEST_F(CliFrictionTest, OutputMayBeTheInputItself) {
