@@ -15,7 +15,8 @@ struct VdbFile {
 };
 
 /// Reads every grid of the VDB file at `path`, in file order (with `headerOnly`, only checks that
-/// it is one: its header, metadata and grid descriptors are read, no grid). Calls
+/// it is one: its header, metadata and grid descriptors are read, no grid, unless the file was
+/// written as a stream, without grid offsets, which is read whole). Calls
 /// openvdb::initialize(). Throws IoError naming the file if it is missing, a directory, not a
 /// regular file, not an OpenVDB file, or truncated or corrupt ("<path>: truncated or corrupt
 /// OpenVDB file: ..."): a file that ends before what it declares (even when only its header is

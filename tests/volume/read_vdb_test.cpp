@@ -26,6 +26,11 @@
 #include "io/io_test_util.h"
 #include "volume/volume_test_util.h"
 
+#if defined(SPACEWARP_SANITIZED) && __has_include(<sanitizer/lsan_interface.h>)
+#include <sanitizer/lsan_interface.h>
+#define SPACEWARP_LSAN 1
+#endif
+
 namespace spacewarp {
 namespace {
 
@@ -106,8 +111,24 @@ openvdb::GridPtrVec makeGrids(double scale) {
           makePoints(static_cast<int>(40 * scale), 0.25)};
 }
 
+/// While it lives, LeakSanitizer ignores what is allocated: OpenVDB's RootNode::readTopology
+/// leaks the child node it was reading when the read throws (it stores the node only once read),
+/// which a cut file makes it do. Not a leak of ours; tests/fuzz/run.sh ignores it too.
+class OpenVdbLeaksIgnored {
+ public:
+#ifdef SPACEWARP_LSAN
+  OpenVdbLeaksIgnored() { __lsan_disable(); }
+  ~OpenVdbLeaksIgnored() { __lsan_enable(); }
+#else
+  OpenVdbLeaksIgnored() {}  // user-provided, so that an unused instance is no warning
+#endif
+  OpenVdbLeaksIgnored(const OpenVdbLeaksIgnored&) = delete;
+  OpenVdbLeaksIgnored& operator=(const OpenVdbLeaksIgnored&) = delete;
+};
+
 /// The message of the IoError that reading `path` throws ("" if it throws none).
 std::string readError(const fs::path& path, bool headerOnly) {
+  const OpenVdbLeaksIgnored ignored;
   return test::messageOf<IoError>([&] { readVdbFile(path, headerOnly); });
 }
 
