@@ -13,10 +13,10 @@
 #include <gtest/gtest.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/detail/text_format.h>
 #include <spacewarp/core/io/obj.h>
 #include <spacewarp/core/io/off.h>
 #include <spacewarp/core/io/ply.h>
-#include <spacewarp/core/io/detail/text_format.h>
 #include "endless_input.h"
 #include "io_test_util.h"
 
