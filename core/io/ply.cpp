@@ -873,7 +873,8 @@ void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) 
     output.text("\n");
   };
   for (const VertexAttribute& attribute : soup.attributes) declare(attribute);
-  if (soup.polygonCount() > 0) {
+  // Face attributes of a soup without polygons are kept as an empty face element's properties.
+  if (soup.polygonCount() > 0 || !soup.faceAttributes.empty()) {
     output.text("element face ");
     output.text(std::to_string(soup.polygonCount()));
     output.text("\nproperty list ");

@@ -45,9 +45,9 @@ PolygonSoup readPly(std::istream& in, const std::string& name);
 /// attributes in their own ScalarType (Float32 values rounded to float) after them, faces as
 /// `list uchar int vertex_indices` (`list uint ...` when a polygon has more than 255 vertices,
 /// `... uint vertex_indices` when an index exceeds the int range); a soup without polygons
-/// gets no face element. Per-corner normals and texture coordinates are not stored. Binary
-/// output reads back bit-exactly; ASCII output uses the shortest decimal form that reads back
-/// to the identical value, so it does too.
+/// gets no face element unless it has face attributes (then declared on an empty one). Per-corner
+/// normals and texture coordinates are not stored. Binary output reads back bit-exactly; ASCII
+/// output uses the shortest decimal form that reads back to the identical value, so it does too.
 ///
 /// Throws InvalidInput for an inconsistent soup (soup.validate()), an attribute whose name is
 /// empty, contains white space, repeats another of its element or is one of x y z nx ny nz

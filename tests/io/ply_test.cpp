@@ -291,6 +291,20 @@ TEST(PlyTest, RoundTripWithFaceAttributesIsExact) {
   }
 }
 
+// A point cloud read from a file whose face element is empty keeps that element's
+// properties as face attributes without values; writing it must keep them (found by fuzz_ply).
+TEST(PlyTest, RoundTripKeepsFaceAttributesOfAnEmptyFaceElement) {
+  for (const PlyEncoding encoding : kEncodings) {
+    SCOPED_TRACE(static_cast<int>(encoding));
+    PolygonSoup soup = randomSoup(5, 6, 0, false);
+    soup.faceAttributes = {{"flags", ScalarType::UInt8, {}}, {"quality", ScalarType::Float32, {}}};
+    const PolygonSoup back = roundTrip(soup, encoding);
+    EXPECT_EQ(back.polygonCount(), 0u);
+    expectSameSoup(back, soup);
+    expectSameAttributes(back, soup);
+  }
+}
+
 TEST(PlyTest, ReadsFacePropertiesAroundTheIndexListAndDropsFaceLists) {
   // Binary: a per-face colour before the index list, a quality after it, and a texture
   // coordinate list, which is read through and dropped.
