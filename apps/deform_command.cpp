@@ -97,7 +97,7 @@ Command addDeformCommand(CLI::App& app, const CliContext& context) {
               soup = readSoup(args->input);
             const Rig rig = args->rig.empty() ? cageRig(args->method, args->cage, args->pose,
                                                         args->cageOptions, progress)
-                                              : loadRig(args->rig);
+                                              : loadRigFile(args->rig, context);
             std::string what;
             if (volume) {
               const VolumeSummary s = deformVolumeFile(*rig.warp, args->input, args->output,

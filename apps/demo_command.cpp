@@ -127,7 +127,7 @@ void runDemo(const fs::path& dir, const CliContext& context) {
   for (const auto& [name, rig] : rigs) {
     const fs::path rigPath = dir / (name + ".json");
     writeJsonFile(rig, rigPath);
-    const auto warp = loadRig(rigPath).warp;
+    const auto warp = loadRigFile(rigPath, context).warp;
     for (const std::string& input : inputs) {
       const fs::path in = dir / input;
       const fs::path out = dir / (in.stem().string() + "_" + name + in.extension().string());

@@ -124,6 +124,12 @@ void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::pat
   });
 }
 
+Rig loadRigFile(const std::filesystem::path& path, const CliContext& context) {
+  Rig rig = loadRig(path);
+  for (const std::string& warning : rig.warnings) context.warn(warning);
+  return rig;
+}
+
 void createOutputFolder(const std::filesystem::path& dir) {
   std::error_code error;
   std::filesystem::create_directories(dir, error);

@@ -9,6 +9,7 @@
 #include <spacewarp/core/geometry.h>
 #include <spacewarp/core/progress.h>
 #include <spacewarp/core/warp.h>
+#include <spacewarp/rig/rig.h>
 #include "apps/cli_context.h"
 
 namespace spacewarp::cli {
@@ -30,6 +31,9 @@ void deformSoupFile(const Warp& warp, const std::filesystem::path& input,
 /// chosen by the output's extension.
 void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::path& points,
                       const std::filesystem::path& output);
+
+/// Reads and builds a rig file (loadRig) and prints its warnings through `context`.
+Rig loadRigFile(const std::filesystem::path& path, const CliContext& context);
 
 /// Creates `dir` and its parents if needed. Throws IoError naming it if that fails (a file in
 /// the way, no permission).

@@ -52,7 +52,7 @@ Command addWeightsCommand(CLI::App& app, const CliContext& context) {
                 return cageCoordinates(args->method, cage, args->cageOptions, context.progress());
               });
             } else {
-              coordinates = loadRig(args->rig).coordinates;
+              coordinates = loadRigFile(args->rig, context).coordinates;
               if (!coordinates)
                 throw InvalidInput(args->rig + ": this rig's method has no coordinates to export");
             }

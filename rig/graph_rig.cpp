@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -99,20 +99,23 @@ Rig graphRig(RigReader& r) {
   DeformationGraph graph(nodes, {}, options);
   if (r.checking()) return {};  // the solve is the expensive part
   const DeformationGraphReport report = graph.solve(handles, targets, solve);
+  Rig rig{std::make_shared<DeformationGraphWarp>(graph.warp()), nullptr, {}};
   // Warnings, not errors: the warp is still the best the solve found, and usable.
   if (!report.converged) {
-    std::cerr << "spacewarp: warning: " << r.where()
-              << ": the deformation graph did not converge in " << report.iterations
-              << " iterations (energy " << report.energies.front() << " -> "
-              << report.energies.back() << "); raise 'maxIterations' or 'tolerance'\n";
+    std::ostringstream line;
+    line << r.where() << ": the deformation graph did not converge in " << report.iterations
+         << " iterations (energy " << report.energies.front() << " -> " << report.energies.back()
+         << "); raise 'maxIterations' or 'tolerance'";
+    rig.warnings.push_back(line.str());
   }
   if (report.unconstrainedComponents > 0) {
-    std::cerr << "spacewarp: warning: " << r.where() << ": " << report.unconstrainedComponents
-              << " of " << report.componentCount << " parts of the deformation graph ("
-              << report.unconstrainedNodes.size()
-              << " nodes) are reached by no handle and stay in place\n";
+    rig.warnings.push_back(r.where() + ": " + std::to_string(report.unconstrainedComponents) +
+                           " of " + std::to_string(report.componentCount) +
+                           " parts of the deformation graph (" +
+                           std::to_string(report.unconstrainedNodes.size()) +
+                           " nodes) are reached by no handle and stay in place");
   }
-  return {std::make_shared<DeformationGraphWarp>(graph.warp()), nullptr};
+  return rig;
 }
 
 }  // namespace spacewarp::detail

@@ -91,18 +91,21 @@ const std::map<std::string, Method>& factories() {
       {"compose",
        {{"warps"},
         [](RigReader& r) {
-          std::shared_ptr<const Warp> result;
+          Rig result;
           const json& warps = r.array("warps");
           // Each level recurses here: bounded so that hostile nesting cannot overflow the stack.
           if (r.depth() >= kMaxComposeDepth)  // depth counts the compose rigs around this one
             r.fail("warps", "nests compose rigs deeper than " + std::to_string(kMaxComposeDepth) +
                                 " levels");
           for (std::size_t i = 0; i < warps.size(); ++i) {
-            auto next = buildRig(warps[i], r.baseDir(), r.place().nested(i), r.checking()).warp;
-            if (!r.checking())
-              result = result ? std::make_shared<ComposedWarp>(result, next) : next;
+            Rig next = buildRig(warps[i], r.baseDir(), r.place().nested(i), r.checking());
+            if (r.checking()) continue;
+            result.warp =
+                result.warp ? std::make_shared<ComposedWarp>(result.warp, next.warp) : next.warp;
+            for (std::string& warning : next.warnings)
+              result.warnings.push_back(std::move(warning));
           }
-          return warpOnly(result);
+          return result;
         }}},
   };
   return table;

@@ -22,6 +22,10 @@ namespace spacewarp {
 struct Rig {
   std::shared_ptr<const Warp> warp;
   std::shared_ptr<const Coordinates> coordinates;  ///< null for warps without coordinates
+  /// One line each, naming the rig: the warp is usable but not what was asked (a graph solve
+  /// that did not converge, parts of the graph that no handle reaches). The CLI prints them as
+  /// warnings; nested rigs' warnings are their compose rig's.
+  std::vector<std::string> warnings = {};
 };
 
 /// The deepest nesting of compose rigs (a compose inside a compose ... ), and of JSON arrays and

@@ -103,8 +103,8 @@ TEST_F(GraphCliTest, RigidMotionOfTheHandlesMovesTheWholeCloudRigidly) {
 }
 
 // The solve's report reaches the user: one warning line each for a solve stopped by
-// 'maxIterations' and for parts of the graph that no handle reaches; the warp is still
-// written and the exit code is 0.
+// 'maxIterations' and for parts of the graph that no handle reaches, counted in the summary,
+// also from a graph nested in a compose rig; the warp is still written and the exit code is 0.
 TEST_F(GraphCliTest, WarnsAboutNonConvergenceAndUnreachedParts) {
   writeCloud();
   write("graph.json", R"({"method": "graph", "spacing": 0.4, "maxIterations": 1, "handles": )" +
@@ -113,7 +113,17 @@ TEST_F(GraphCliTest, WarnsAboutNonConvergenceAndUnreachedParts) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_THAT(r.err, HasSubstr("graph.json: the deformation graph did not converge in 1 "));
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_THAT(r.out, HasSubstr(", 1 warning\n"));
   EXPECT_TRUE(std::filesystem::exists(dir_ / "out.ply"));
+
+  write(
+      "compose.json",
+      R"({"method": "compose", "warps": [{"method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": 0}, {"method": "graph", "spacing": 0.4, "maxIterations": 1, "handles": )" +
+          jsonPoints(kHandles) + R"(, "targets": )" + jsonPoints(kTargets) + "}]}");
+  r = deform("compose.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("compose.json: warps[1]: the deformation graph did not converge"));
+  EXPECT_THAT(r.out, HasSubstr(", 1 warning\n"));
 
   // Two clusters of nodes 50 apart; the handles are all in the first.
   std::vector<Vec3> nodes = makeRandomPoints(Vec3(-0.2), Vec3(2.2, 1.2, 1.2), 40, 4).positions;
@@ -126,6 +136,7 @@ TEST_F(GraphCliTest, WarnsAboutNonConvergenceAndUnreachedParts) {
   EXPECT_THAT(r.err, HasSubstr("graph.json: 1 of 2 parts of the deformation graph (10 nodes) are "
                                "reached by no handle and stay in place"));
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_THAT(r.out, HasSubstr(", 1 warning\n"));
 }
 
 // 'maxIterations' and 'tolerance' reach the solve: the output is the library's warp solved
