@@ -40,17 +40,36 @@ class WarpDeformer {
   ProgressTracker* tracker_;
 };
 
+/// Every leaf must hold positions: movePoints reads "P" from each one.
+void requirePositions(const openvdb::points::PointDataGrid& grid) {
+  for (auto leaf = grid.tree().cbeginLeaf(); leaf; ++leaf) {
+    if (leaf->attributeSet().find("P") == openvdb::points::AttributeSet::INVALID_POS) {
+      const openvdb::Coord o = leaf->origin();
+      throw InvalidInput("warpPoints: grid '" + printable(grid.getName()) + "': the leaf at (" +
+                         std::to_string(o.x()) + ", " + std::to_string(o.y()) + ", " +
+                         std::to_string(o.z()) + ") has no position attribute 'P'");
+    }
+  }
+}
+
 }  // namespace
 
 WarpedGrid<openvdb::points::PointDataGrid> warpPoints(const Warp& warp,
                                                       const openvdb::points::PointDataGrid& grid,
                                                       const WarpVolumeOptions& options) {
+  requirePositions(grid);
   openvdb::points::PointDataGrid::Ptr out = grid.deepCopy();
   WarpedGrid<openvdb::points::PointDataGrid> result;
   result.report.points = static_cast<std::size_t>(openvdb::points::pointCount(out->tree()));
   ProgressTracker tracker(options.progress, "warp volume", out->tree().leafCount());
   WarpDeformer deformer(warp, tracker);
-  openvdb::points::movePoints(*out, deformer);
+  try {
+    openvdb::points::movePoints(*out, deformer);
+  } catch (const openvdb::Exception& e) {
+    // Attributes that a corrupt file left inconsistent (types, sizes): the grid's fault.
+    throw InvalidInput("warpPoints: grid '" + printable(grid.getName()) +
+                       "': OpenVDB cannot move its points: " + printable(e.what()));
+  }
   tracker.finish();
   result.grid = out;
   return result;

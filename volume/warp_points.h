@@ -5,16 +5,17 @@
 
 #include <openvdb/points/PointDataGrid.h>
 
-#include <spacewarp/volume/warp_volume.h>
 #include <spacewarp/core/warp.h>
+#include <spacewarp/volume/warp_volume.h>
 
 namespace spacewarp {
 
 /// A deep copy of `grid` with every point at warp(p) (world units), attributes and groups
 /// kept, the same transform, name and metadata. Only `options.progress` is used (stage "warp
 /// volume", fraction of leaves done); the report gives the number of points
-/// (WarpVolumeReport::points). Throws InvalidInput if a moved point is not finite (it names
-/// the point's old position), Cancelled if progress asks.
+/// (WarpVolumeReport::points). Throws InvalidInput naming the grid if a leaf has no position
+/// attribute "P" or OpenVDB refuses the grid's attributes while moving them, InvalidInput if
+/// a moved point is not finite (it names the point's old position), Cancelled if progress asks.
 WarpedGrid<openvdb::points::PointDataGrid> warpPoints(const Warp& warp,
                                                       const openvdb::points::PointDataGrid& grid,
                                                       const WarpVolumeOptions& options = {});

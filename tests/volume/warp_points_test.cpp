@@ -6,10 +6,12 @@
 #include <string>
 #include <vector>
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/points/PointCount.h>
 
+#include <spacewarp/core/errors.h>
 #include <spacewarp/core/twist.h>
 #include "volume/volume_test_util.h"
 
@@ -79,6 +81,26 @@ TEST(WarpPoints, MovedPositionsAreTheWarpOfTheOldOnes) {
   }
   // The input is untouched.
   EXPECT_EQ(readPoints(*grid).size(), positions.size());
+}
+
+// A grid read from a corrupt file may have leaves without positions: refused naming the grid,
+// not OpenVDB's LookupError from inside movePoints (found by fuzz_vdb).
+TEST(WarpPoints, ALeafWithoutPositionsIsRefusedNamingTheGrid) {
+  const PointDataGrid::Ptr grid = makePoints({{0.1, 0.1, 0.1}, {3.0, 3.0, 3.0}}, 0.25);
+  auto leaf = grid->tree().beginLeaf();
+  ASSERT_TRUE(leaf);
+  const auto& descriptor = leaf->attributeSet().descriptor();
+  const std::vector<std::size_t> position{descriptor.find("P")};
+  auto without = descriptor.duplicateDrop(position);
+  leaf->dropAttributes(position, descriptor, without);
+  ASSERT_EQ(leaf->attributeSet().find("P"), openvdb::points::AttributeSet::INVALID_POS);
+  try {
+    warpPoints(TwistWarp(TwistParams{}), *grid);
+    FAIL() << "no InvalidInput";
+  } catch (const InvalidInput& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("grid 'points': the leaf at ("));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("has no position attribute 'P'"));
+  }
 }
 
 }  // namespace
