@@ -19,6 +19,7 @@
 #include <openvdb/io/io.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/volume/detail/openvdb_chunks.h>
 
 namespace spacewarp {
 namespace {
@@ -201,6 +202,12 @@ class VdbReader : public openvdb::io::Archive {
 
 VdbFile readVdbFile(const std::filesystem::path& path, bool headerOnly) {
   openvdb::initialize();
+  if (!detail::openVdbChunksChecked()) {
+    // Another copy of OpenVDB's readers was bound first: a corrupt file could overflow a buffer.
+    throw IoError(path.string() +
+                  ": cannot be read safely: OpenVDB's chunk readers in this process are not "
+                  "spacewarp's checked ones (another module loaded OpenVDB first)");
+  }
   const std::string name = path.string();
   std::error_code ec;
   const std::filesystem::file_status status = std::filesystem::status(path, ec);

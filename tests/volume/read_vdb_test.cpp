@@ -4,6 +4,7 @@
 // never read as a file with an empty or partial grid.
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -15,6 +16,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <openvdb/io/Archive.h>
+#include <openvdb/io/Compression.h>
 #include <openvdb/io/Stream.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
@@ -22,6 +24,7 @@
 #include <openvdb/tools/PointIndexGrid.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/volume/detail/openvdb_chunks.h>
 #include <spacewarp/volume/read_vdb.h>
 #include "io/io_test_util.h"
 #include "volume/volume_test_util.h"
@@ -46,6 +49,8 @@ const char* layoutName(Layout layout) { return layout == Layout::Seekable ? "see
 /// Writes the seekable layout to any seekable stream (io::File only writes to a path).
 class MemoryArchive : public openvdb::io::Archive {
  public:
+  using Archive::setCompression;
+
   void writeTo(std::ostream& out, const openvdb::GridPtrVec& grids,
                const openvdb::MetaMap& meta) const {
     write(out, grids, /*seekable=*/true, meta);
@@ -53,14 +58,19 @@ class MemoryArchive : public openvdb::io::Archive {
 };
 
 /// The bytes of a VDB file holding `grids` and the file metadata "scene".
-std::string vdbBytes(const openvdb::GridPtrVec& grids, Layout layout) {
+std::string vdbBytes(const openvdb::GridPtrVec& grids, Layout layout,
+                     std::uint32_t compression = openvdb::io::COMPRESS_ACTIVE_MASK |
+                                                 openvdb::io::COMPRESS_BLOSC) {
   openvdb::MetaMap meta;
   meta.insertMeta("scene", openvdb::StringMetadata("read_vdb test"));
   std::stringstream out(std::ios::in | std::ios::out | std::ios::binary);
-  if (layout == Layout::Seekable)
-    MemoryArchive().writeTo(out, grids, meta);
-  else
+  if (layout == Layout::Seekable) {
+    MemoryArchive archive;
+    archive.setCompression(compression);
+    archive.writeTo(out, grids, meta);
+  } else {
     openvdb::io::Stream(static_cast<std::ostream&>(out)).write(grids, meta);
+  }
   return out.str();
 }
 
@@ -327,6 +337,90 @@ TEST(ReadVdb, OtherFilesAreRefusedNamingThem) {
             (dir.path() / "missing.vdb").string() + ": no such file");
   EXPECT_EQ(readError(dir.path(), true), dir.path().string() + ": is a directory");
   EXPECT_THAT(readError("/dev/zero", true), HasSubstr("/dev/zero: not a regular file"));
+}
+
+// OpenVDB 10 reads a chunk stored uncompressed into the caller's buffer before checking its
+// size (a heap overflow found by fuzz_vdb); volume/detail/openvdb_chunks.cpp checks it first.
+using ChunkReader = void (*)(std::istream&, char*, std::size_t);
+const ChunkReader kChunkReaders[] = {&openvdb::io::unzipFromStream, &openvdb::io::bloscFromStream};
+
+/// A chunk as OpenVDB stores it uncompressed: the size -n, then n bytes.
+std::string storedUncompressed(const std::string& bytes) {
+  const std::int64_t size = -static_cast<std::int64_t>(bytes.size());
+  return std::string(reinterpret_cast<const char*>(&size), 8) + bytes;
+}
+
+TEST(OpenVdbChunks, TheCheckedReadersAreTheOnesThisProgramCalls) {
+  EXPECT_TRUE(detail::openVdbChunksChecked());
+}
+
+TEST(OpenVdbChunks, AnUncompressedChunkLargerThanTheBufferIsRefusedBeforeAnyByteIsWritten) {
+  for (const ChunkReader read : kChunkReaders) {
+    for (const std::size_t claimed : {std::size_t(17), std::size_t(4096), std::size_t(15)}) {
+      std::istringstream in(storedUncompressed(std::string(claimed, 'x')));
+      // The reader is told the buffer holds 16 bytes; the 16 after them must stay untouched.
+      std::string buffer(32, '.');
+      EXPECT_THROW(read(in, buffer.data(), 16), openvdb::IoError) << claimed;
+      EXPECT_EQ(buffer, std::string(32, '.')) << claimed;
+    }
+    // The most negative size has no positive counterpart.
+    const std::int64_t lowest = INT64_MIN;
+    std::istringstream in(std::string(reinterpret_cast<const char*>(&lowest), 8));
+    std::string buffer(16, '.');
+    EXPECT_THROW(read(in, buffer.data(), 16), openvdb::IoError);
+  }
+}
+
+TEST(OpenVdbChunks, IntactChunksReadAsOpenVdbWroteThem) {
+  std::string data(3000, '\0');
+  std::mt19937 random(5);
+  for (char& c : data) c = static_cast<char>(random() % 7);  // compressible
+  for (const bool compressed : {false, true}) {
+    for (int which = 0; which < 2; ++which) {
+      std::stringstream chunk(std::ios::in | std::ios::out | std::ios::binary);
+      if (!compressed)
+        chunk << storedUncompressed(data);
+      else if (which == 0)
+        openvdb::io::zipToStream(chunk, data.data(), data.size());
+      else
+        openvdb::io::bloscToStream(chunk, data.data(), 1, data.size());
+      chunk << "after";
+      std::string back(data.size(), '.');
+      kChunkReaders[which](chunk, back.data(), back.size());
+      EXPECT_EQ(back, data) << compressed << which;
+      std::string rest;
+      chunk >> rest;
+      EXPECT_EQ(rest, "after") << "the reader stopped at the chunk's end";
+    }
+  }
+}
+
+TEST(OpenVdbChunks, AFileWhoseChunkClaimsMoreThanItsLeafIsRefused) {
+  // Random bits do not compress: zip stores every leaf's 512 floats uncompressed (size
+  // -2048). OpenVDB's own reading of a float grid happens inside libopenvdb, so this also
+  // checks that the library's calls reach the checked readers.
+  auto grid = openvdb::FloatGrid::create(0.0f);
+  grid->setName("noise");
+  std::mt19937 random(9);
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j)
+      for (int k = 0; k < 8; ++k)
+        grid->tree().setValue(openvdb::Coord(i, j, k),
+                              std::bit_cast<float>(static_cast<std::uint32_t>(random())));
+  std::string bytes = vdbBytes({grid}, Layout::Seekable, openvdb::io::COMPRESS_ZIP);
+  const std::int64_t leaf = -2048, twice = -4096;
+  const std::size_t at = bytes.rfind(std::string(reinterpret_cast<const char*>(&leaf), 8));
+  ASSERT_NE(at, std::string::npos) << "no leaf stored uncompressed";
+  test::TempDir dir;
+  const fs::path path = dir.path() / "noise.vdb";
+  replaceFile(path, bytes);
+  EXPECT_EQ(readError(path, false), "");
+  std::memcpy(bytes.data() + at, &twice, 8);
+  replaceFile(path, bytes);
+  EXPECT_EQ(readError(path, false),
+            path.string() +
+                ": truncated or corrupt OpenVDB file: grid 'noise': IoError: a chunk stored "
+                "uncompressed claims 4096 bytes where 2048 are expected");
 }
 
 }  // namespace
