@@ -2,17 +2,23 @@
 // voxels) twisted by warpVolume() and, as the baseline measured in the same run, by OpenVDB's
 // own non-affine GridResampler with a transformer that maps through the closed-form inverse
 // twist. Also a mean-value cage warp of the same grid, exact and cached as a displacement
-// field. Items are input active voxels. Last, two small spheres far apart (sparse volumes).
+// field. Items are input active voxels. Then two small spheres far apart (sparse volumes).
+// Last, reading the sphere's file with readVdbFile (bounds-checked stream, checked chunks)
+// against openvdb::io::File in the same run.
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <benchmark/benchmark.h>
+#include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Composite.h>
 #include <openvdb/tools/LevelSetSphere.h>
@@ -22,6 +28,7 @@
 #include <spacewarp/core/coordinate_warp.h>
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/core/twist.h>
+#include <spacewarp/volume/read_vdb.h>
 #include <spacewarp/volume/warp_volume.h>
 
 namespace {
@@ -223,6 +230,57 @@ BENCHMARK(BM_VolumeSparseSpheres)
     ->Args({0, 5})
     ->Args({0, 6})
     ->Args({1, 6})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+/// The sphere in a temporary VDB file (OpenVDB's default Blosc compression), removed at exit.
+class SphereFile {
+ public:
+  SphereFile()
+      : path_(std::filesystem::temp_directory_path() /
+              ("spacewarp_bench_sphere_" + std::to_string(::getpid()) + ".vdb")) {
+    openvdb::io::File file(path_.string());
+    file.write({sphere().deepCopy()});
+    file.close();
+  }
+  ~SphereFile() {
+    std::error_code ignored;
+    std::filesystem::remove(path_, ignored);
+  }
+  SphereFile(const SphereFile&) = delete;
+  SphereFile& operator=(const SphereFile&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+const std::filesystem::path& sphereFile() {
+  static const SphereFile file;
+  return file.path();
+}
+
+void BM_VolumeReadVdbFile(benchmark::State& state) {
+  const auto& path = sphereFile();
+  std::size_t voxels = 0;
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      const VdbFile content = readVdbFile(path);
+      voxels = content.grids.at(0)->activeVoxelCount();
+    } else {
+      openvdb::io::File file(path.string());
+      file.open(/*delayLoad=*/false);
+      voxels = file.getGrids()->at(0)->activeVoxelCount();
+    }
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * voxels));
+  state.SetBytesProcessed(
+      static_cast<std::int64_t>(state.iterations() * std::filesystem::file_size(path)));
+}
+BENCHMARK(BM_VolumeReadVdbFile)
+    ->ArgName("openvdb_io_file")  // 0: readVdbFile, 1: openvdb::io::File (baseline)
+    ->Arg(0)
+    ->Arg(1)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
