@@ -358,7 +358,23 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   // any OPENBLAS_NUM_THREADS.
   const detail::SerialBlas serialBlas;
   Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt;
-  llt.compute(a);
+  // Eigen's wrapper does not look at CHOLMOD's status: an analysis that ran out of memory
+  // leaves no factor (which factorize() would dereference), and a factorisation that did still
+  // reports success.
+  const auto requireMemory = [&](const char* step) {
+    if (llt.cholmod().status == CHOLMOD_OUT_OF_MEMORY)
+      throw OutOfMemory("HarmonicCoordinates: the sparse Cholesky " + std::string(step) +
+                        " of the Laplacian of " + std::to_string(nI) +
+                        " interior vertices ran out of memory");
+  };
+  llt.analyzePattern(a);
+  requireMemory("analysis");
+  if (llt.cholmod().status < CHOLMOD_OK) {
+    throw SolverError("HarmonicCoordinates: the analysis of the Laplacian of " +
+                      std::to_string(nI) + " interior vertices failed");
+  }
+  llt.factorize(a);
+  requireMemory("factorisation");
   if (llt.info() != Eigen::Success) {
     throw SolverError("HarmonicCoordinates: the factorisation of the Laplacian of " +
                       std::to_string(nI) + " interior vertices failed");
@@ -375,8 +391,10 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
     const auto cols = static_cast<Eigen::Index>(std::min(kBlock, k - blk * kBlock));
     const Eigen::MatrixXd part = rhs.middleCols(c0, cols);
     x.middleCols(c0, cols) = llt.solve(part);
-    if (llt.info() != Eigen::Success)
+    if (llt.info() != Eigen::Success) {
+      requireMemory("solve");
       throw SolverError("HarmonicCoordinates: the solve for the coordinate functions failed");
+    }
     solve.advance();
   }
   for (std::size_t v = 0; v < n; ++v) {

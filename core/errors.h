@@ -21,6 +21,15 @@ class SolverError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Memory that ran out inside a library that reports it by a status code rather than by
+/// std::bad_alloc (TetGen, CHOLMOD); the message names the step. A SolverError, since the method
+/// produced no result; the command line reports it as it does std::bad_alloc (exit 3, "out of
+/// memory while ...").
+class OutOfMemory : public SolverError {
+ public:
+  using SolverError::SolverError;
+};
+
 /// A file that could not be read or written, or whose content is malformed.
 class IoError : public std::runtime_error {
  public:

@@ -655,16 +655,17 @@ void configureCholmod(cholmod_common& c) {
   c.print = 0;  // the library never writes to stderr: failures come back through info()
 }
 
-// Throws SolverError unless CHOLMOD's last call (`step`) succeeded. Eigen's CHOLMOD wrapper
-// does not look at the status: a failed analysis leaves no factor, which its factorize()
-// dereferences, and a factorisation that ran out of memory still reports success.
+// Throws SolverError unless CHOLMOD's last call (`step`) succeeded (OutOfMemory, a SolverError,
+// when memory ran out). Eigen's CHOLMOD wrapper does not look at the status: a failed analysis
+// leaves no factor, which its factorize() dereferences, and a factorisation that ran out of
+// memory still reports success.
 void requireCholmod(const cholmod_common& c, const char* step) {
   if (c.status >= CHOLMOD_OK) return;  // positive values are warnings (e.g. not positive definite)
   std::string why;
   switch (c.status) {
     case CHOLMOD_OUT_OF_MEMORY:
-      why = "out of memory";
-      break;
+      throw OutOfMemory("DeformationGraph::solve: the sparse Cholesky " + std::string(step) +
+                        " ran out of memory; use fewer graph nodes");
     case CHOLMOD_TOO_LARGE:
       why = "the factor is too large for CHOLMOD's 32-bit indices";
       break;
