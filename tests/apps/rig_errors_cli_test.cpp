@@ -172,7 +172,7 @@ TEST_F(RigErrorsCliTest, RunningOutOfMemoryWithoutAnEstimateIsStillOneLineAndExi
       runLimited("deform --rig " + (dir_ / "rbf.json").string() + " " +
                  (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
   expectRefused(r, dir_ / "out.ply");
-  EXPECT_THAT(r.err, HasSubstr("out of memory in 'spacewarp deform'"));
+  EXPECT_THAT(r.err, HasSubstr("out of memory while running 'spacewarp deform'"));
 }
 
 #ifdef SPACEWARP_HAVE_HARMONIC
