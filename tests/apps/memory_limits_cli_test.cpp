@@ -112,4 +112,27 @@ TEST_F(MemoryLimitsCliTest, ASmallDeformRunsAndEndsPromptlyUnderAnAddressSpaceLi
   }
 }
 
+// OpenBLAS maps a 128 MiB work buffer on a thread's first factorisation and retries forever
+// when that fails: a graph rig's solve hung under these limits. The first sparse Cholesky on a
+// thread now checks that the buffer fits.
+TEST_F(MemoryLimitsCliTest, ASparseSolveNeverHangsUnderALimit) {
+  if (kSanitized) GTEST_SKIP() << "an address-space limit cannot apply to a sanitizer build";
+  write("graph.json", R"({"method": "graph", "spacing": 0.5, "handles": [[0, 0, 0], [1, 1, 1]],
+                          "targets": [[0, 0, 0], [1, 1, 1.2]]})");
+  for (const long limit : {250000L, 300000L, 350000L}) {
+    const std::string what = "ulimit -v " + std::to_string(limit);
+    const test::CliResult r =
+        runLimited("deform --rig " + (dir_ / "graph.json").string() + " " +
+                       (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string(),
+                   limit, 60);
+    expectDoneOrOneLine(r, what);
+    if (r.exitCode == 3) {
+      EXPECT_THAT(r.err, HasSubstr("BLAS work buffer")) << what;
+      expectNoOutput("out.ply");
+    }
+    EXPECT_LT(seconds_, 30.0) << what;
+    fs::remove(dir_ / "out.ply");
+  }
+}
+
 }  // namespace
