@@ -150,4 +150,51 @@ TEST_F(MemoryLimitsCliTest, CompareOfALargeCageRunsInBoundedMemory) {
   EXPECT_TRUE(fs::exists(dir_ / "out" / "report.json"));
 }
 
+#ifdef SPACEWARP_HAVE_HARMONIC
+// A billion tets: refused at once (no limit needed: terabytes), not after TetGen has filled the
+// memory, by the commands that make harmonic coordinates.
+TEST_F(MemoryLimitsCliTest, AnAbsurdTetCountIsRefusedBeforeMeshing) {
+  writeBoxCage("cage.obj", 1);
+  write("pose.obj", test::slurp(dir_ / "cage.obj"));
+  write("harmonic.json", R"({"method": "harmonic", "cage": "cage.obj", "pose": "pose.obj",
+                             "tets": 1e9})");
+  const std::string cage = (dir_ / "cage.obj").string(), cloud = (dir_ / "cloud.ply").string();
+  const std::vector<std::string> commands = {
+      "deform --method harmonic --tets 1000000000 --cage " + cage + " --pose " +
+          (dir_ / "pose.obj").string() + " " + cloud + " -o " + (dir_ / "out.ply").string(),
+      "deform --rig " + (dir_ / "harmonic.json").string() + " " + cloud + " -o " +
+          (dir_ / "out.ply").string(),
+      "weights --method harmonic --tets 1000000000 --cage " + cage + " " + cloud + " -o " +
+          (dir_ / "w.csv").string()};
+  for (const std::string& command : commands) {
+    const auto start = std::chrono::steady_clock::now();
+    const test::CliResult r = run(command, "timeout 120 ");
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(r.exitCode, 3) << command << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << command << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr("1000000")) << command;
+    EXPECT_THAT(r.err, HasSubstr("TB of memory, more than the")) << command;
+    EXPECT_LT(seconds, 20.0) << command;
+  }
+  expectNoOutput("out.ply");
+  expectNoOutput("w.csv");
+}
+
+// The estimates do not refuse normal work: the default mesh (200,000 tets) under 1 GB.
+TEST_F(MemoryLimitsCliTest, AHarmonicDeformAtTheDefaultResolutionRunsUnderALimit) {
+  if (kSanitized) GTEST_SKIP() << "an address-space limit cannot apply to a sanitizer build";
+  writeBoxCage("cage.obj", 2);
+  write("pose.obj", test::slurp(dir_ / "cage.obj"));
+  writeCloud(Vec3(0.1), Vec3(0.9), 200, 5);  // inside the cage
+  const test::CliResult r =
+      runLimited("deform --method harmonic --cage " + (dir_ / "cage.obj").string() + " --pose " +
+                     (dir_ / "pose.obj").string() + " " + (dir_ / "cloud.ply").string() + " -o " +
+                     (dir_ / "out.ply").string(),
+                 1000000);
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir_ / "out.ply"));
+}
+#endif
+
 }  // namespace
