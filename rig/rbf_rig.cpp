@@ -7,7 +7,9 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/rbf/detail/rbf_system.h>
 #include <spacewarp/rbf/rbf_coordinates.h>
 #include <spacewarp/rbf/rbf_warp.h>
 
@@ -87,6 +89,10 @@ Rig rbfRig(RigReader& r) {
   options.radius = r.number("radius", options.radius);
   if (!(options.scale > 0.0)) r.fail("scale", "must be > 0");
   if (!(options.radius > 0.0)) r.fail("radius", "must be > 0");
+  // The warp's dense system (RbfWarp checks it too, without the key's name).
+  checkMemory(RbfSystem::memoryEstimate(centres.size() + fixed.size()),
+              "'centers' (" + std::to_string(centres.size()) + " centres" +
+                  (fixed.empty() ? "" : " and " + std::to_string(fixed.size()) + " fixed") + ")");
   Rig rig;
   rig.warp = std::make_shared<RbfWarp>(centres, targets, fixed, options);
   rig.coordinates = std::make_shared<LazyRbfCoordinates>(centres, fixed, options, r.where());

@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Eigenvalues>
 
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp::detail {
@@ -100,9 +101,16 @@ RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handl
   return result;
 }
 
+double RbfSystem::memoryEstimate(std::size_t n) {
+  const double entries = static_cast<double>(n) * static_cast<double>(n);
+  return 2.25 * sizeof(double) * entries + 4e6;
+}
+
 RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centres,
                      const RbfOptions& options)
     : n_(centres.size()) {
+  checkMemory(memoryEstimate(n_),
+              who + ": the RBF system of " + std::to_string(n_) + " distinct centres");
   sigma_ = options.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
   const std::string needs =
       who +
