@@ -150,9 +150,27 @@ TEST_F(MemoryLimitsCliTest, CompareOfALargeCageRunsInBoundedMemory) {
   EXPECT_TRUE(fs::exists(dir_ / "out" / "report.json"));
 }
 
+// RBF coordinates with one handle per vertex of a 9,602-vertex cage need five dense 9,602²
+// arrays (3.7 GB): refused before any work, naming the method, with nothing written.
+TEST_F(MemoryLimitsCliTest, CompareRefusesAMethodTooLargeForTheLimitBeforeAnyWork) {
+  if (kSanitized) GTEST_SKIP() << "an address-space limit cannot apply to a sanitizer build";
+  writeBoxCage("box.obj", 40);
+  const test::CliResult r =
+      runLimited("compare --cage " + (dir_ / "box.obj").string() +
+                     " --methods mvc,rbf --slice z=0.5 -o " + (dir_ / "out").string(),
+                 1500000);
+  EXPECT_EQ(r.exitCode, 3) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_THAT(r.err,
+              HasSubstr("box.obj: comparing method 'rbf' on this 9602-vertex cage needs about "));
+  EXPECT_THAT(r.err, HasSubstr("GB of memory, more than the"));
+  EXPECT_LT(seconds_, 20.0);  // before the mean-value panel was drawn
+  expectNoOutput("out");
+}
+
 #ifdef SPACEWARP_HAVE_HARMONIC
 // A billion tets: refused at once (no limit needed: terabytes), not after TetGen has filled the
-// memory, by the commands that make harmonic coordinates.
+// memory, by every command that makes harmonic coordinates.
 TEST_F(MemoryLimitsCliTest, AnAbsurdTetCountIsRefusedBeforeMeshing) {
   writeBoxCage("cage.obj", 1);
   write("pose.obj", test::slurp(dir_ / "cage.obj"));
@@ -165,7 +183,9 @@ TEST_F(MemoryLimitsCliTest, AnAbsurdTetCountIsRefusedBeforeMeshing) {
       "deform --rig " + (dir_ / "harmonic.json").string() + " " + cloud + " -o " +
           (dir_ / "out.ply").string(),
       "weights --method harmonic --tets 1000000000 --cage " + cage + " " + cloud + " -o " +
-          (dir_ / "w.csv").string()};
+          (dir_ / "w.csv").string(),
+      "compare --cage " + cage + " --methods harmonic --tets 1000000000 --slice z=0.5 -o " +
+          (dir_ / "out").string()};
   for (const std::string& command : commands) {
     const auto start = std::chrono::steady_clock::now();
     const test::CliResult r = run(command, "timeout 120 ");
@@ -179,6 +199,7 @@ TEST_F(MemoryLimitsCliTest, AnAbsurdTetCountIsRefusedBeforeMeshing) {
   }
   expectNoOutput("out.ply");
   expectNoOutput("w.csv");
+  expectNoOutput("out");
 }
 
 // The estimates do not refuse normal work: the default mesh (200,000 tets) under 1 GB.
