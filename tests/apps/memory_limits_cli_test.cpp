@@ -14,6 +14,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <tbb/info.h>
 
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
@@ -45,11 +46,14 @@ class MemoryLimitsCliTest : public test::CliFixture {
   }
 
   // Runs spacewarp under `ulimit -v` (kB) and `timeout` (a hang exits 124 instead of blocking
-  // the suite), timing the run.
+  // the suite), timing the run. With at most 2 worker threads: every thread's stack takes
+  // address space, so the limits below would not hold on a machine with many cores.
   test::CliResult runLimited(const std::string& args, long kilobytes, int seconds = 120) {
     const auto start = std::chrono::steady_clock::now();
-    test::CliResult r = run(args, "ulimit -v " + std::to_string(kilobytes) + "; timeout " +
-                                      std::to_string(seconds) + " ");
+    const int threads = std::min(2, tbb::info::default_concurrency());
+    test::CliResult r = run(
+        "--threads " + std::to_string(threads) + " " + args,
+        "ulimit -v " + std::to_string(kilobytes) + "; timeout " + std::to_string(seconds) + " ");
     seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return r;
   }
