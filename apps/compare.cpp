@@ -270,10 +270,11 @@ void checkComparisonMemory(const CompareRequest& request,
                            const Slice& slice) {
   const double pixels = static_cast<double>(slice.width) * static_cast<double>(slice.height);
   const double count = static_cast<double>(methods.size());
+  // Besides, about 16 MB of working memory: PNG encoding, the reports, the threads' own.
   const double shared =
       pixels * (1.0 + sizeof(Vec3) + sizeof(std::size_t)) +    // inside flags, points, indices
       pixels * count * (sizeof(double) + 2.0 * sizeof(Rgb)) +  // values, panel, side by side
-      static_cast<double>(request.samples) * sizeof(Vec3);
+      static_cast<double>(request.samples) * sizeof(Vec3) + 16e6;
   for (const std::string& name : methods) {
     const Method& method = table.at(name);
     const std::size_t m = method.columns(cage);

@@ -65,8 +65,11 @@ constexpr std::size_t kPointsPerTask = 256;
 constexpr double kMeanVolumeFraction = 0.43;
 
 // Peak memory, fitted to the peak RSS of meshing and solving (cube and bar cages of 8 to 20
-// vertices at 10k to 2.6M tets, and TetGen alone on a 20,736-triangle cage); the estimates
-// below stay 1.1 to 1.5 times above every measurement:
+// vertices at 10k to 2.6M tets, and TetGen alone on a 20,736-triangle cage). Each term bounds
+// its measurement by 1.1 to 1.5 times; with the mesh size predicted from the target (below),
+// the whole estimate came to 1.7 to 2.3 times the process's peak RSS (cage.obj of the demo at
+// 100k to 1.6M tets, a cube at 1.6M, a 602-vertex box at 50k), most for small meshes, where
+// OpenBLAS's buffer (address space, mostly untouched) weighs most:
 // - the mesh (TetGen's pools, then the TetMesh), the Laplacian's triplets and the point locator
 //   take about 250 bytes a tet, of which 160 after meshing;
 constexpr double kBytesPerTet = 250.0, kSolveBytesPerTet = 160.0;
