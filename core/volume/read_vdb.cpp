@@ -30,8 +30,10 @@ VdbFile readVdbFile(const std::filesystem::path& path, bool headerOnly) {
   } catch (const std::ios_base::failure& e) {
     throw IoError(path.string() + ": cannot be read (" + e.what() + ")");
   } catch (const std::bad_alloc&) {
-    // A corrupt size field asks for more memory than there is.
-    throw IoError(path.string() + ": not a readable OpenVDB file (a size in it is too large)");
+    // The grids do not fit in the memory available, or a corrupt size field asks for more
+    // memory than there is: the two cannot be told apart here.
+    throw IoError(path.string() +
+                  ": out of memory while reading it (or a size in it is corrupt and too large)");
   } catch (const std::exception& e) {
     // OpenVDB's readers also let through the standard library's and its codecs' exceptions.
     throw IoError(path.string() + ": not a readable OpenVDB file (" + e.what() + ")");
