@@ -169,7 +169,7 @@ int exitCode(int argc, char** argv) {
     return reportOutOfMemory();
   } catch (const std::system_error& e) {
     // std::thread's failure to start a thread, when memory (for its stack) ran out.
-    if (isOutOfResources(e.code().value())) return reportOutOfMemory(printable(e.what()).c_str());
+    if (isOutOfResources(e.code())) return reportOutOfMemory(printable(e.what()).c_str());
     std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
     return kOther;
   } catch (const std::length_error&) {

@@ -55,7 +55,7 @@ std::terminate_handler previousTerminate = nullptr;
     } catch (const OutOfMemory& e) {
       exitOutOfMemory(e.what());
     } catch (const std::system_error& e) {
-      if (isOutOfResources(e.code().value())) exitOutOfMemory(e.what());
+      if (isOutOfResources(e.code())) exitOutOfMemory(e.what());
     } catch (...) {
     }
   }
@@ -134,6 +134,12 @@ void setActivity(std::string_view text) {
 }
 
 bool isOutOfResources(int errorNumber) { return errorNumber == ENOMEM || errorNumber == EAGAIN; }
+
+bool isOutOfResources(const std::error_code& code) {
+  return (code.category() == std::generic_category() ||
+          code.category() == std::system_category()) &&
+         isOutOfResources(code.value());
+}
 
 int reportOutOfMemory(const char* detail) {
   if (!reported.exchange(true)) {

@@ -32,6 +32,7 @@
 
 #include <string>
 #include <string_view>
+#include <system_error>
 
 namespace spacewarp::cli {
 
@@ -40,9 +41,13 @@ namespace spacewarp::cli {
 /// thread only. Before the first call: "starting spacewarp".
 void setActivity(std::string_view activity);
 
-/// Whether an error code means that the system ran out of memory or of threads (ENOMEM,
-/// EAGAIN): a std::system_error from std::thread, for instance.
+/// Whether an errno value means that the system ran out of memory or of threads (ENOMEM,
+/// EAGAIN).
 bool isOutOfResources(int errorNumber);
+
+/// The same for an error code of the generic or system category: a std::system_error from
+/// std::thread, for instance.
+bool isOutOfResources(const std::error_code& code);
 
 /// Prints "spacewarp: error: out of memory while <activity>: <detail>" (detail: "the input is
 /// too large for the memory available" when null) as one line (control characters replaced),
