@@ -22,7 +22,7 @@
 #include <spacewarp/core/coordinate_warp.h>
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/core/twist.h>
-#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/volume/warp_volume.h>
 
 namespace {
 

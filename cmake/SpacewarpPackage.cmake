@@ -13,6 +13,9 @@ configure_package_config_file(
 write_basic_package_version_file(
   ${PROJECT_BINARY_DIR}/spacewarpConfigVersion.cmake
   COMPATIBILITY SameMinorVersion)
+# FindCHOLMOD.cmake goes along: the exported static libraries link CHOLMOD::CHOLMOD, which
+# spacewarpConfig.cmake defines through it.
 install(FILES ${PROJECT_BINARY_DIR}/spacewarpConfig.cmake
               ${PROJECT_BINARY_DIR}/spacewarpConfigVersion.cmake
+              ${PROJECT_SOURCE_DIR}/cmake/FindCHOLMOD.cmake
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/spacewarp)

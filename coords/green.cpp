@@ -1,7 +1,5 @@
 #include <spacewarp/coords/green.h>
 
-#include <emmintrin.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -14,10 +12,9 @@
 #include <utility>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
+#include <spacewarp/coords/detail/green_kernels.h>
 #include <spacewarp/core/detail/aligned_buffer.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -87,44 +84,15 @@ constexpr double kInv4Pi = 0.25 * std::numbers::inv_pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // ---- lanes ----
-// The evaluation runs kLanes points at once on VD, a generic vector of doubles (GCC/Clang vector
-// extension), which each target_clones clone lowers to its own registers (x86-64-v3: one ymm per
-// operation, with FMA; baseline x86-64: two xmm), as in mean_value.cpp. The passes have no libm
-// calls, a lane's values never depend on another lane's (the only branches skip work that no lane
-// of the group needs, see anyLane()), and a single point (weights(), locate()) runs through the
-// same code with every lane set to it, so a row is bit-identical whichever call, lane, group of
-// points or thread computes it. Helpers take vectors by reference (by value, wide vectors have a
-// different ABI in the two clones) and are always inlined, so that each clone compiles them for
-// its own target.
-constexpr int kLanes = 4;
-typedef double VD __attribute__((vector_size(kLanes * sizeof(double))));
-typedef std::int64_t VI __attribute__((vector_size(kLanes * sizeof(double))));
-typedef std::uint64_t VU __attribute__((vector_size(kLanes * sizeof(double))));
+// The evaluation runs kLanes points at once on detail::simd's vectors (see core/detail/simd.h for
+// the rules they follow). A lane's values never depend on another lane's (the only branches skip
+// work that no lane of the group needs, see anyLane()), and a single point (weights(), locate())
+// runs through the same code with every lane set to it, so a row is bit-identical whichever
+// call, lane, group of points or thread computes it.
+using namespace detail::simd;
 
 // Points per parallel task in weightsBatch (a multiple of kLanes).
 constexpr std::size_t kPointsPerTask = 64;
-
-[[gnu::always_inline]] inline void absLanes(const VD& x, VD& y) {
-  y = reinterpret_cast<VD>(reinterpret_cast<VU>(x) & std::uint64_t{0x7fffffffffffffff});
-}
-
-// The correctly rounded square root (sqrtpd on both halves: exact like std::sqrt, without its
-// errno check, which keeps the loop from vectorising).
-[[gnu::always_inline]] inline void sqrtLanes(const VD& x, VD& y) {
-  __m128d half[2];
-  std::memcpy(half, &x, sizeof x);
-  half[0] = _mm_sqrt_pd(half[0]);
-  half[1] = _mm_sqrt_pd(half[1]);
-  std::memcpy(&y, half, sizeof y);
-}
-
-// Whether some lane of a mask is set. The passes branch on it only to skip work that no lane
-// needs: every lane's values are computed by the same instructions whichever way they go.
-[[gnu::always_inline]] inline bool anyLane(const VI& mask) {
-  __m128d half[2];
-  std::memcpy(half, &mask, sizeof mask);
-  return _mm_movemask_pd(_mm_or_pd(half[0], half[1])) != 0;
-}
 
 // x = 2^e m with m ∈ [1, 2), for finite x > 0 (normal or subnormal): mant = m, expo = e + 1023.
 [[gnu::always_inline]] inline void splitLanes(const VD& x, VD& mant, VI& expo) {
@@ -299,8 +267,7 @@ struct Scratch {
 
 // The vertex and edge terms of the points in s.io[0..2]; the smallest squared distance from a
 // point to an edge goes to s.io[6].
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void edgePass(
-    const detail::GreenData& g, Scratch& s) {
+SPACEWARP_SIMD_CLONES void edgePass(const detail::GreenData& g, Scratch& s) {
   const VD zero{};
   const VD px = s.io[0], py = s.io[1], pz = s.io[2];
   VertexLanes* __restrict vl = s.vertices.data();
@@ -389,8 +356,7 @@ constexpr int kOpposite[3] = {2, 0, 1};  // the corner opposite edge i
 // flags in s.io[5] the points within the surface tolerance of some triangle's plane. In the
 // surface pass, for the lanes set in s.io[3], the triangles touching x (within the tolerance)
 // contribute their principal value: no double layer (Ω = 0, h = 0) and the single layer at h = 0.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void facePass(
-    const detail::GreenData& g, Scratch& s, bool surface) {
+SPACEWARP_SIMD_CLONES void facePass(const detail::GreenData& g, Scratch& s, bool surface) {
   const VD zero{};
   const VD infinity = zero + kInf;
   const double tol2 = g.surfaceTolerance2;
@@ -609,17 +575,15 @@ template <bool kLog>
   }
 }
 
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void logRatioDispatched(
-    const double* num, const double* den, double* out, std::size_t n) {
+SPACEWARP_SIMD_CLONES void logRatioDispatched(const double* num, const double* den, double* out,
+                                              std::size_t n) {
   lanewise<true>(num, den, out, n);
 }
 void logRatioBaseline(const double* num, const double* den, double* out, std::size_t n) {
   lanewise<true>(num, den, out, n);
 }
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void atan2Dispatched(const double* y,
-                                                                                 const double* x,
-                                                                                 double* out,
-                                                                                 std::size_t n) {
+SPACEWARP_SIMD_CLONES void atan2Dispatched(const double* y, const double* x, double* out,
+                                           std::size_t n) {
   lanewise<false>(y, x, out, n);
 }
 void atan2Baseline(const double* y, const double* x, double* out, std::size_t n) {
@@ -726,26 +690,16 @@ void GreenCoordinates::weights(const Vec3& x, std::span<double> row) const {
   evaluate(*impl_, &x, 1, row.data(), row.size(), nullptr);
 }
 
-void GreenCoordinates::weightsBatch(std::span<const Vec3> points, std::span<double> rows) const {
+std::size_t GreenCoordinates::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints GreenCoordinates::weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                                              std::size_t begin, std::size_t end) const {
   const std::size_t m = columnCount();
-  if (rows.size() != points.size() * m) {
-    throw InvalidInput("GreenCoordinates: " + std::to_string(points.size()) + " points need " +
-                       std::to_string(points.size() * m) + " weights but the output has " +
-                       std::to_string(rows.size()));
+  for (std::size_t i = begin; i < end; i += kLanes) {
+    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
+    evaluate(*impl_, points.data() + i, count, rows.data() + i * m, m, nullptr);
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!isFinite(points[i]))
-      throw InvalidInput("GreenCoordinates: point " + std::to_string(i) + " is not finite");
-  }
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, points.size(), kPointsPerTask),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i < r.end(); i += kLanes) {
-          const std::size_t count = std::min<std::size_t>(kLanes, r.end() - i);
-          evaluate(*impl_, points.data() + i, count, rows.data() + i * m, m, nullptr);
-        }
-      },
-      tbb::simple_partitioner());
+  return {};
 }
 
 void GreenCoordinates::columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const {

@@ -53,7 +53,7 @@
 // two triangles of an edge). At rest Σφ_i v_i + Σψ_j n_j reproduces x to about 1e-13 of the
 // diagonal for cages near the origin. Points are evaluated four at a time in SIMD lanes (an
 // x86-64-v3 build is chosen at run time where the CPU has it), with the kernel's own logarithm
-// and arctangent (within 1.5 ulp; see detail::greenLogRatio and detail::greenAtan2); weights()
+// and arctangent (within 1.5 ulp; see coords/detail/green_kernels.h); weights()
 // and locate() run one point through the same code, so every row is bit-identical whichever
 // call or thread computes it. That makes weights() of a single point cost about as much as
 // weightsBatch() of four: evaluate many points with weightsBatch(). The nearest triangle (outside
@@ -121,11 +121,6 @@ class GreenCoordinates final : public Coordinates {
   /// or row.size() != columnCount().
   void weights(const Vec3& x, std::span<double> row) const override;
 
-  /// weights() of many points (rows: points.size() × columnCount(), row-major), in parallel;
-  /// bit-identical to weights() and independent of the thread count. Throws InvalidInput if
-  /// rows has the wrong size or a point is not finite (naming its index).
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override;
-
   /// The column controls of a posed cage (V posed vertices, same order as the rest cage): the
   /// posed vertices, then for every triangle j the posed unit normal n'_j times the stretch factor
   ///     s_j = sqrt(|u'|²|v|² − 2 (u'·v')(u·v) + |v'|²|u|²) / (√8 · area_j),
@@ -139,26 +134,17 @@ class GreenCoordinates final : public Coordinates {
   /// its distance to the surface and the winding number. Throws InvalidInput if x is not finite.
   Location locate(const Vec3& x) const;
 
+ protected:
+  /// Four points at a time through the same kernels as weights(): bit-identical rows.
+  std::size_t batchGrain() const override;
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override;
+
  private:
   struct Impl;
   std::shared_ptr<const Cage> cage_;
   GreenOptions options_;
   std::unique_ptr<const Impl> impl_;
 };
-
-namespace detail {
-
-/// The elementary functions of GreenCoordinates' kernel, exposed for their tests (own
-/// approximations, no libm): out[i] = ln(num[i] / den[i]) for finite num[i], den[i] > 0 (normal
-/// or subnormal), and out[i] = atan2(y[i], x[i]) for finite y[i], x[i] (0 when both are zero).
-/// `baseline` runs the portable x86-64 build of the code instead of the one the kernel runs on
-/// this CPU (the x86-64-v3 build, with FMA, where the CPU has it). Throws InvalidInput if the
-/// sizes differ.
-void greenLogRatio(std::span<const double> num, std::span<const double> den, std::span<double> out,
-                   bool baseline = false);
-void greenAtan2(std::span<const double> y, std::span<const double> x, std::span<double> out,
-                bool baseline = false);
-
-}  // namespace detail
 
 }  // namespace spacewarp

@@ -23,12 +23,8 @@
 // the matrix and right-hand sides are bit-identical from run to run.
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <fstream>
 #include <limits>
 #include <string>
 #include <utility>
@@ -36,24 +32,20 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 #include <Eigen/Cholesky>
-#include <Eigen/CholmodSupport>
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
+#include <spacewarp/coords/detail/harmonic_file.h>
+#include <spacewarp/coords/harmonic_warp.h>
 #include <spacewarp/coords/tet_locator.h>
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/detail/serial_blas.h>
+#include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
-#include <spacewarp/core/io/atomic_file.h>
 
 namespace spacewarp {
 
 namespace {
-
-static_assert(std::endian::native == std::endian::little,
-              "the harmonic coordinate file format is little-endian");
 
 // Right-hand-side columns per solve call (fixed, for determinism).
 constexpr std::size_t kBlock = 32;
@@ -92,24 +84,7 @@ double expectedTets(const Cage& cage, double volumeBound) {
   return cage.volume() / (kMeanVolumeFraction * volumeBound) + 4.0 * cage.triangleCount();
 }
 
-constexpr char kMagic[8] = {'S', 'W', 'H', 'A', 'R', 'M', 'C', '\0'};
-// Version 2: the mesh vertices are stored in the cage's frame (version 1 stored them in world
-// units and is still read).
-constexpr std::uint32_t kVersion = 2;
-constexpr std::size_t kHeaderSize = 72;
-
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
-
-// FNV-1a, 64-bit, over bytes.
-struct Fnv {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  void add(const void* data, std::size_t size) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    std::uint64_t x = h;
-    for (std::size_t i = 0; i < size; ++i) x = (x ^ p[i]) * 0x100000001b3ull;
-    h = x;
-  }
-};
 
 std::string number(double value) {
   char text[32];
@@ -332,7 +307,103 @@ std::size_t boundaryValues(const Cage& cage, const TetMesh& mesh, std::size_t v,
   return 3;
 }
 
-// Solves for the coordinate values at every mesh vertex (n × k, row-major).
+// K_II (lower triangle) and the right-hand sides −K_IB U_B of the interior vertices.
+struct Laplacian {
+  SparseMatrix a;
+  Eigen::MatrixXd rhs;  // interior vertices × k
+};
+
+// Assembles the Laplacian tet by tet, in order. `interior`: per mesh vertex its interior
+// index, or −1 on the boundary; nI interior vertices.
+Laplacian assembleLaplacian(const Cage& cage, const TetMesh& mesh, const std::vector<int>& interior,
+                            int nI) {
+  const std::size_t k = cage.vertexCount();
+  std::array<std::pair<std::uint32_t, double>, 3> bv{};
+  std::vector<Eigen::Triplet<double, int>> triplets;
+  triplets.reserve(mesh.tets.size() * 10);
+  Laplacian system{SparseMatrix(nI, nI), Eigen::MatrixXd::Zero(nI, static_cast<Eigen::Index>(k))};
+  const std::vector<Vec3>& p = mesh.localVertices;
+  for (const auto& tet : mesh.tets) {
+    const Mat3 d(p[tet[1]] - p[tet[0]], p[tet[2]] - p[tet[0]], p[tet[3]] - p[tet[0]]);
+    const double det = glm::determinant(d);
+    if (!(det > 0.0)) continue;  // a flat tet adds nothing
+    const Mat3 inv = glm::inverse(d);
+    Vec3 g[4];
+    for (int i = 0; i < 3; ++i) g[i + 1] = Vec3(inv[0][i], inv[1][i], inv[2][i]);
+    g[0] = -(g[1] + g[2] + g[3]);
+    const double volume = det / 6.0;
+    for (int a = 0; a < 4; ++a) {
+      const int ia = interior[tet[static_cast<std::size_t>(a)]];
+      if (ia < 0) continue;
+      for (int b = 0; b < 4; ++b) {
+        const std::uint32_t vb = tet[static_cast<std::size_t>(b)];
+        const double kab = volume * glm::dot(g[a], g[b]);
+        const int ib = interior[vb];
+        if (ib >= 0) {
+          if (ib <= ia) triplets.emplace_back(ia, ib, kab);
+          continue;
+        }
+        const std::size_t count = boundaryValues(cage, mesh, vb, bv);
+        for (std::size_t j = 0; j < count; ++j) system.rhs(ia, bv[j].first) -= kab * bv[j].second;
+      }
+    }
+  }
+  system.a.setFromTriplets(triplets.begin(), triplets.end());
+  return system;
+}
+
+// CHOLMOD's supernodal Cholesky (BLAS-3 on the dense supernodes): on the armadillo cage at
+// ~190k tets (21k interior vertices) it factorises in 0.7 s and solves the 110 right-hand
+// sides in 0.2 s, where Eigen's simplicial LDLᵀ took 1.4 s and 1.9 s (one thread; 1 s with
+// the columns spread over two threads). The wrapper runs the BLAS single-threaded
+// (bit-identical results for any OPENBLAS_NUM_THREADS) and turns CHOLMOD failures into
+// SolverError; CHOLMOD's default ordering, as Eigen's wrapper left it before.
+detail::SparseCholesky factoriseLaplacian(const SparseMatrix& a) {
+  detail::SparseCholesky cholesky(
+      {"HarmonicCoordinates",
+       "use a coarser mesh (a smaller targetTetCount or a larger maxTetVolume)",
+       detail::CholeskyOrdering::CholmodDefault});
+  cholesky.analyzePattern(a);
+  if (!cholesky.factorize(a)) {
+    throw SolverError("HarmonicCoordinates: the factorisation of the Laplacian of " +
+                      std::to_string(a.rows()) + " interior vertices failed");
+  }
+  return cholesky;
+}
+
+// Blocks of kBlock columns, one after the other: every block is a BLAS-3 solve, and the fixed
+// blocks keep the result independent of any thread count. Advances `progress` per block.
+Eigen::MatrixXd solveBlocks(detail::SparseCholesky& cholesky, const Eigen::MatrixXd& rhs,
+                            ProgressTracker& progress) {
+  const std::size_t k = static_cast<std::size_t>(rhs.cols());
+  const std::size_t blocks = (k + kBlock - 1) / kBlock;
+  Eigen::MatrixXd x(rhs.rows(), rhs.cols());
+  for (std::size_t blk = 0; blk < blocks; ++blk) {
+    const auto c0 = static_cast<Eigen::Index>(blk * kBlock);
+    const auto cols = static_cast<Eigen::Index>(std::min(kBlock, k - blk * kBlock));
+    const Eigen::MatrixXd part = rhs.middleCols(c0, cols);
+    x.middleCols(c0, cols) = cholesky.solve(part);
+    progress.advance();
+  }
+  return x;
+}
+
+// Projects every row of `values` (n × k) with a negative entry (see projectNonNegative).
+void projectNegativeRows(std::vector<double>& values, const Cage& cage, const TetMesh& mesh) {
+  const std::size_t n = mesh.vertices.size(), k = cage.vertexCount();
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t v = r.begin(); v != r.end(); ++v) {
+          const std::span<double> row(values.data() + v * k, k);
+          if (*std::min_element(row.begin(), row.end()) < 0.0)
+            projectNonNegative(row, std::span(mesh.localVertices.data(), k), mesh.localVertices[v],
+                               cage.diagonal() / mesh.frame.scale);
+        }
+      });
+}
+
+// Solves for the coordinate values at every mesh vertex (n × k, row-major): the boundary rows
+// are their Dirichlet values, the interior rows solve the Laplacian.
 std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonNegative,
                                 const ProgressCallback& progress) {
   const std::size_t n = mesh.vertices.size(), k = cage.vertexCount();
@@ -357,104 +428,20 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
   }
   if (nI == 0) return values;
 
-  // Assembly of K_II (lower triangle) and the right-hand sides −K_IB U_B.
   ProgressTracker factorise(progress, "factorise", 2);
-  std::vector<Eigen::Triplet<double, int>> triplets;
-  triplets.reserve(mesh.tets.size() * 10);
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(nI, static_cast<Eigen::Index>(k));
-  const std::vector<Vec3>& p = mesh.localVertices;
-  for (const auto& tet : mesh.tets) {
-    const Mat3 d(p[tet[1]] - p[tet[0]], p[tet[2]] - p[tet[0]], p[tet[3]] - p[tet[0]]);
-    const double det = glm::determinant(d);
-    if (!(det > 0.0)) continue;  // a flat tet adds nothing
-    const Mat3 inv = glm::inverse(d);
-    Vec3 g[4];
-    for (int i = 0; i < 3; ++i) g[i + 1] = Vec3(inv[0][i], inv[1][i], inv[2][i]);
-    g[0] = -(g[1] + g[2] + g[3]);
-    const double volume = det / 6.0;
-    for (int a = 0; a < 4; ++a) {
-      const int ia = interior[tet[static_cast<std::size_t>(a)]];
-      if (ia < 0) continue;
-      for (int b = 0; b < 4; ++b) {
-        const std::uint32_t vb = tet[static_cast<std::size_t>(b)];
-        const double kab = volume * glm::dot(g[a], g[b]);
-        const int ib = interior[vb];
-        if (ib >= 0) {
-          if (ib <= ia) triplets.emplace_back(ia, ib, kab);
-          continue;
-        }
-        const std::size_t count = boundaryValues(cage, mesh, vb, bv);
-        for (std::size_t j = 0; j < count; ++j) rhs(ia, bv[j].first) -= kab * bv[j].second;
-      }
-    }
-  }
-  SparseMatrix a(nI, nI);
-  a.setFromTriplets(triplets.begin(), triplets.end());
-  triplets = {};
+  const Laplacian system = assembleLaplacian(cage, mesh, interior, nI);
   factorise.advance();
-  // CHOLMOD's supernodal Cholesky (BLAS-3 on the dense supernodes): on the armadillo cage at
-  // ~190k tets (21k interior vertices) it factorises in 0.7 s and solves the 110 right-hand
-  // sides in 0.2 s, where Eigen's simplicial LDLᵀ took 1.4 s and 1.9 s (one thread; 1 s with
-  // the columns spread over two threads).
-  // A single-threaded BLAS for the factorisation and the solves: bit-identical results for
-  // any OPENBLAS_NUM_THREADS.
-  const detail::SerialBlas serialBlas;
-  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt;
-  // Eigen's wrapper does not look at CHOLMOD's status: an analysis that ran out of memory
-  // leaves no factor (which factorize() would dereference), and a factorisation that did still
-  // reports success.
-  const auto requireMemory = [&](const char* step) {
-    if (llt.cholmod().status == CHOLMOD_OUT_OF_MEMORY)
-      throw OutOfMemory("HarmonicCoordinates: the sparse Cholesky " + std::string(step) +
-                        " of the Laplacian of " + std::to_string(nI) +
-                        " interior vertices ran out of memory");
-  };
-  llt.analyzePattern(a);
-  requireMemory("analysis");
-  if (llt.cholmod().status < CHOLMOD_OK) {
-    throw SolverError("HarmonicCoordinates: the analysis of the Laplacian of " +
-                      std::to_string(nI) + " interior vertices failed");
-  }
-  llt.factorize(a);
-  requireMemory("factorisation");
-  if (llt.info() != Eigen::Success) {
-    throw SolverError("HarmonicCoordinates: the factorisation of the Laplacian of " +
-                      std::to_string(nI) + " interior vertices failed");
-  }
+  detail::SparseCholesky cholesky = factoriseLaplacian(system.a);
   factorise.finish();
 
-  // Blocks of kBlock columns, one after the other: every block is a BLAS-3 solve, and the
-  // fixed blocks keep the result independent of any thread count.
-  const std::size_t blocks = (k + kBlock - 1) / kBlock;
-  ProgressTracker solve(progress, "solve", blocks);
-  Eigen::MatrixXd x(nI, static_cast<Eigen::Index>(k));
-  for (std::size_t blk = 0; blk < blocks; ++blk) {
-    const auto c0 = static_cast<Eigen::Index>(blk * kBlock);
-    const auto cols = static_cast<Eigen::Index>(std::min(kBlock, k - blk * kBlock));
-    const Eigen::MatrixXd part = rhs.middleCols(c0, cols);
-    x.middleCols(c0, cols) = llt.solve(part);
-    if (llt.info() != Eigen::Success) {
-      requireMemory("solve");
-      throw SolverError("HarmonicCoordinates: the solve for the coordinate functions failed");
-    }
-    solve.advance();
-  }
+  ProgressTracker solve(progress, "solve", (k + kBlock - 1) / kBlock);
+  const Eigen::MatrixXd x = solveBlocks(cholesky, system.rhs, solve);
   for (std::size_t v = 0; v < n; ++v) {
     if (interior[v] < 0) continue;
     for (std::size_t c = 0; c < k; ++c)
       values[v * k + c] = x(interior[v], static_cast<Eigen::Index>(c));
   }
-  if (nonNegative) {
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-          for (std::size_t v = r.begin(); v != r.end(); ++v) {
-            const std::span<double> row(values.data() + v * k, k);
-            if (*std::min_element(row.begin(), row.end()) < 0.0)
-              projectNonNegative(row, std::span(mesh.localVertices.data(), k),
-                                 mesh.localVertices[v], cage.diagonal() / mesh.frame.scale);
-          }
-        });
-  }
+  if (nonNegative) projectNegativeRows(values, cage, mesh);
   solve.finish();
   return values;
 }
@@ -526,39 +513,33 @@ void HarmonicCoordinates::weights(const Vec3& x, std::span<double> row) const {
   }
 }
 
-void HarmonicCoordinates::weightsBatch(std::span<const Vec3> points, std::span<double> rows) const {
+std::shared_ptr<const Warp> HarmonicCoordinates::makeWarpFor(
+    std::shared_ptr<const Coordinates> self, std::span<const Vec3> posed) const {
+  return std::make_shared<HarmonicWarp>(
+      std::static_pointer_cast<const HarmonicCoordinates>(std::move(self)), posed);
+}
+
+std::size_t HarmonicCoordinates::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints HarmonicCoordinates::weightsRange(std::span<const Vec3> points,
+                                                 std::span<double> rows, std::size_t begin,
+                                                 std::size_t end) const {
   const std::size_t m = columnCount();
-  if (rows.size() != points.size() * m) {
-    throw InvalidInput("HarmonicCoordinates: " + std::to_string(points.size()) + " points need " +
-                       std::to_string(points.size() * m) + " weights but the output has " +
-                       std::to_string(rows.size()));
+  UnmappedPoints outside;
+  for (std::size_t i = begin; i != end; ++i) {
+    bool out = false;
+    impl_->rowAt(points[i], rows.subspan(i * m, m), out);
+    if (out && impl_->options.outside == HarmonicOutsidePolicy::Throw) outside.add(i);
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!isFinite(points[i]))
-      throw InvalidInput("HarmonicCoordinates: point " + std::to_string(i) + " is not finite");
-  }
-  // (count, first index) of the outside points.
-  using Outside = std::pair<std::size_t, std::size_t>;
-  const Outside none{0, std::numeric_limits<std::size_t>::max()};
-  const Outside outside = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, points.size(), kPointsPerTask), none,
-      [&](const tbb::blocked_range<std::size_t>& r, Outside acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          bool out = false;
-          impl_->rowAt(points[i], rows.subspan(i * m, m), out);
-          if (out) acc = {acc.first + 1, std::min(acc.second, i)};
-        }
-        return acc;
-      },
-      [](const Outside& a, const Outside& b) {
-        return Outside{a.first + b.first, std::min(a.second, b.second)};
-      });
-  if (outside.first > 0 && impl_->options.outside == HarmonicOutsidePolicy::Throw) {
-    throw InvalidInput(
-        "HarmonicCoordinates: " + std::to_string(outside.first) + " of " +
-        std::to_string(points.size()) + " points are outside the cage (the first is point " +
-        std::to_string(outside.second) + " at " + pointText(points[outside.second]) + ")");
-  }
+  return outside;
+}
+
+void HarmonicCoordinates::throwUnmapped(const UnmappedPoints& unmapped,
+                                        std::span<const Vec3> points) const {
+  throw InvalidInput(
+      "HarmonicCoordinates: " + std::to_string(unmapped.count) + " of " +
+      std::to_string(points.size()) + " points are outside the cage (the first is point " +
+      std::to_string(unmapped.first) + " at " + pointText(points[unmapped.first]) + ")");
 }
 
 bool HarmonicCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
@@ -578,119 +559,20 @@ bool HarmonicCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) co
   return true;
 }
 
-// ---- files ----
+// ---- files (the format: coords/detail/harmonic_file.h) ----
 
 std::uint64_t HarmonicCoordinates::cageHash(const Cage& cage) {
-  Fnv fnv;
-  for (const Vec3& p : cage.vertices()) {
-    const double xyz[3] = {p.x, p.y, p.z};
-    fnv.add(xyz, sizeof xyz);
-  }
-  for (const Triangle& t : cage.triangles()) {
-    const std::uint32_t abc[3] = {t.x, t.y, t.z};
-    fnv.add(abc, sizeof abc);
-  }
-  return fnv.h;
+  return detail::harmonicCageHash(cage);
 }
-
-namespace {
-
-// Writes raw values into a buffer sized in advance.
-struct Writer {
-  char* at;
-  void bytes(const void* data, std::size_t size) {
-    std::memcpy(at, data, size);
-    at += size;
-  }
-  template <typename T>
-  void put(const T& value) {
-    bytes(&value, sizeof(T));
-  }
-};
-
-template <typename T>
-T get(const std::vector<char>& in, std::size_t offset) {
-  T value;
-  std::memcpy(&value, in.data() + offset, sizeof(T));
-  return value;
-}
-
-std::vector<char> readAll(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path.string() + ": cannot open the harmonic coordinate file");
-  std::vector<char> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw IoError(path.string() + ": cannot read the harmonic coordinate file");
-  return data;
-}
-
-HarmonicCoordinates::FileInfo parseHeader(const std::vector<char>& data,
-                                          const std::filesystem::path& path) {
-  const std::string where = path.string() + ": ";
-  if (data.size() < kHeaderSize + 8) {
-    throw IoError(where + "not a harmonic coordinate file: " + std::to_string(data.size()) +
-                  " bytes, too short for the header");
-  }
-  if (std::memcmp(data.data(), kMagic, sizeof kMagic) != 0)
-    throw IoError(where + "not a harmonic coordinate file (bad magic)");
-  HarmonicCoordinates::FileInfo info;
-  info.version = get<std::uint32_t>(data, 8);
-  if (info.version != 1 && info.version != kVersion) {
-    throw IoError(where + "unsupported harmonic coordinate file version " +
-                  std::to_string(info.version) + " (this build reads versions 1 and " +
-                  std::to_string(kVersion) + ")");
-  }
-  info.cageVertexCount = get<std::uint64_t>(data, 16);
-  info.cageTriangleCount = get<std::uint64_t>(data, 24);
-  info.cageHash = get<std::uint64_t>(data, 32);
-  info.meshVertexCount = get<std::uint64_t>(data, 40);
-  info.tetCount = get<std::uint64_t>(data, 48);
-  info.radiusEdgeRatio = get<double>(data, 56);
-  info.maxTetVolume = get<double>(data, 64);
-  return info;
-}
-
-}  // namespace
 
 HarmonicCoordinates::FileInfo HarmonicCoordinates::readFileInfo(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path.string() + ": cannot open the harmonic coordinate file");
-  std::vector<char> header(kHeaderSize + 8);
-  in.read(header.data(), static_cast<std::streamsize>(header.size()));
-  header.resize(static_cast<std::size_t>(in.gcount()));
-  return parseHeader(header, path);
+  return detail::readHarmonicFileInfo(path);
 }
 
 void HarmonicCoordinates::save(const std::filesystem::path& path) const {
   const Impl& im = *impl_;
-  const std::size_t n = im.mesh.vertices.size(), k = im.k();
-  const std::size_t size = kHeaderSize + n * (24 + 4 + 8 * k) + im.mesh.tets.size() * 16 + 8;
-  std::vector<char> data(size);
-  Writer w{data.data()};
-  w.bytes(kMagic, sizeof kMagic);
-  w.put(kVersion);
-  w.put(std::uint32_t{0});
-  w.put(static_cast<std::uint64_t>(k));
-  w.put(static_cast<std::uint64_t>(im.cage->triangleCount()));
-  w.put(cageHash(*im.cage));
-  w.put(static_cast<std::uint64_t>(n));
-  w.put(static_cast<std::uint64_t>(im.mesh.tets.size()));
-  w.put(im.options.radiusEdgeRatio);
-  w.put(im.volumeBound);
-  for (const Vec3& p : im.mesh.localVertices) {
-    w.put(p.x);
-    w.put(p.y);
-    w.put(p.z);
-  }
-  for (const auto& tet : im.mesh.tets)
-    for (const std::uint32_t v : tet) w.put(v);
-  for (const std::int32_t b : im.mesh.boundaryTriangle) w.put(b);
-  w.bytes(im.values.data(), im.values.size() * sizeof(double));
-  Fnv fnv;
-  fnv.add(data.data(), size - 8);
-  w.put(fnv.h);
-  writeFileAtomically(path, [&](std::ostream& out) {
-    out.write(data.data(), static_cast<std::streamsize>(data.size()));
-  });
+  detail::writeHarmonicFile(path, *im.cage, im.mesh, im.values, im.options.radiusEdgeRatio,
+                            im.volumeBound);
 }
 
 std::shared_ptr<const HarmonicCoordinates> HarmonicCoordinates::load(
@@ -698,95 +580,13 @@ std::shared_ptr<const HarmonicCoordinates> HarmonicCoordinates::load(
     const HarmonicOptions& options) {
   if (!cage) throw InvalidInput("HarmonicCoordinates: the cage is null");
   checkOptions(options);
-  const std::string where = path.string() + ": ";
-  const std::vector<char> data = readAll(path);
-  const FileInfo info = parseHeader(data, path);
-  if (info.cageVertexCount != cage->vertexCount() ||
-      info.cageTriangleCount != cage->triangleCount() || info.cageHash != cageHash(*cage)) {
-    throw InvalidInput(where + "the harmonic coordinates were solved for another cage (" +
-                       std::to_string(info.cageVertexCount) + " vertices, " +
-                       std::to_string(info.cageTriangleCount) + " triangles; this cage has " +
-                       std::to_string(cage->vertexCount()) + " and " +
-                       std::to_string(cage->triangleCount()) +
-                       (info.cageVertexCount == cage->vertexCount() &&
-                                info.cageTriangleCount == cage->triangleCount()
-                            ? ", but its vertices or triangles differ)"
-                            : ")"));
-  }
-  const std::uint64_t n = info.meshVertexCount, m = info.tetCount, k = info.cageVertexCount;
-  constexpr std::uint64_t kLimit = std::uint64_t{1} << 40;
-  if (n < k || n > kLimit || m == 0 || m > kLimit || k > (kLimit / n)) {
-    throw IoError(where + "corrupt harmonic coordinate file: impossible counts (" +
-                  std::to_string(n) + " mesh vertices, " + std::to_string(m) + " tets)");
-  }
-  const std::uint64_t expected = kHeaderSize + n * 24 + m * 16 + n * 4 + n * k * 8 + 8;
-  if (data.size() < expected) {
-    throw IoError(where + "truncated harmonic coordinate file: " + std::to_string(data.size()) +
-                  " bytes, " + std::to_string(expected) + " expected");
-  }
-  if (data.size() > expected) {
-    throw IoError(where + "corrupt harmonic coordinate file: " +
-                  std::to_string(data.size() - expected) + " trailing bytes");
-  }
-  Fnv fnv;
-  fnv.add(data.data(), data.size() - 8);
-  if (fnv.h != get<std::uint64_t>(data, data.size() - 8))
-    throw IoError(where + "corrupt harmonic coordinate file: checksum mismatch");
-
+  detail::HarmonicFileData file = detail::readHarmonicFile(path, *cage);
   auto impl = std::make_unique<Impl>();
   impl->options = options;
-  impl->options.radiusEdgeRatio = info.radiusEdgeRatio;
-  impl->volumeBound = info.maxTetVolume;
-  std::size_t offset = kHeaderSize;
-  TetMesh& mesh = impl->mesh;
-  mesh.frame = cage->frame();
-  // Version 2 stores the vertices in the cage's frame, version 1 in world units.
-  std::vector<Vec3>& stored = info.version == 1 ? mesh.vertices : mesh.localVertices;
-  stored.resize(n);
-  for (Vec3& p : stored) {
-    p = Vec3(get<double>(data, offset), get<double>(data, offset + 8),
-             get<double>(data, offset + 16));
-    offset += 24;
-    if (!isFinite(p))
-      throw IoError(where + "corrupt harmonic coordinate file: a vertex is not finite");
-  }
-  for (std::size_t i = 0; i < k; ++i) {
-    if (info.version == 1 ? stored[i] != cage->vertices()[i]
-                          : stored[i] != mesh.frame.toLocal(cage->vertices()[i])) {
-      throw IoError(where + "corrupt harmonic coordinate file: mesh vertex " + std::to_string(i) +
-                    " is not cage vertex " + std::to_string(i));
-    }
-  }
-  if (info.version == 1) {
-    mesh.localVertices.resize(n);
-    for (std::size_t i = 0; i < n; ++i)
-      mesh.localVertices[i] = mesh.frame.toLocal(mesh.vertices[i]);
-  } else {
-    mesh.vertices = worldVertices(*cage, mesh.frame, mesh.localVertices);
-  }
-  mesh.tets.resize(m);
-  for (auto& tet : mesh.tets) {
-    for (std::uint32_t& v : tet) {
-      v = get<std::uint32_t>(data, offset);
-      offset += 4;
-      if (v >= n)
-        throw IoError(where + "corrupt harmonic coordinate file: a tet corner is out of range");
-    }
-  }
-  mesh.boundaryTriangle.resize(n);
-  for (std::int32_t& b : mesh.boundaryTriangle) {
-    b = get<std::int32_t>(data, offset);
-    offset += 4;
-    if (b < -1 || (b >= 0 && static_cast<std::uint64_t>(b) >= info.cageTriangleCount))
-      throw IoError(where +
-                    "corrupt harmonic coordinate file: a boundary triangle is out of range");
-  }
-  impl->values.resize(n * k);
-  std::memcpy(impl->values.data(), data.data() + offset, n * k * sizeof(double));
-  for (const double v : impl->values) {
-    if (!std::isfinite(v))
-      throw IoError(where + "corrupt harmonic coordinate file: a coordinate value is not finite");
-  }
+  impl->options.radiusEdgeRatio = file.radiusEdgeRatio;
+  impl->volumeBound = file.volumeBound;
+  impl->mesh = std::move(file.mesh);
+  impl->values = std::move(file.values);
   impl->cage = std::move(cage);
   return std::shared_ptr<const HarmonicCoordinates>(
       new HarmonicCoordinates(FromImpl{}, std::move(impl)));

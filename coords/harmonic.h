@@ -167,12 +167,6 @@ class HarmonicCoordinates final : public Coordinates {
   /// the policy is Throw ("1 point is outside the cage").
   void weights(const Vec3& x, std::span<double> row) const override;
 
-  /// Rows of many points (points.size() × cage vertex count, row-major), in parallel. Throws
-  /// InvalidInput naming the first non-finite point, if `rows` has the wrong size, or (policy
-  /// Throw) with the number of points outside the cage and the first one's index; `rows` is
-  /// then unspecified.
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override;
-
   /// The gradients of the weights: constant per tet (the tet that contains x). Returns false
   /// for points outside the cage (callers then use finite differences).
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
@@ -195,6 +189,18 @@ class HarmonicCoordinates final : public Coordinates {
   std::span<const double> vertexValues() const;
   /// The absolute tet volume bound the mesh was made with (world units³).
   double meshVolumeBound() const;
+
+ protected:
+  /// A HarmonicWarp: a 4-term mix of per-vertex displacements per point.
+  std::shared_ptr<const Warp> makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                          std::span<const Vec3> posed) const override;
+  /// Points outside the cage are reported under the policy Throw: weightsBatch() then throws
+  /// InvalidInput with their number and the first one's index.
+  std::size_t batchGrain() const override;
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override;
+  [[noreturn]] void throwUnmapped(const UnmappedPoints& unmapped,
+                                  std::span<const Vec3> points) const override;
 
  private:
   struct Impl;

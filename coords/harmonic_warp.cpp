@@ -7,7 +7,6 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include <spacewarp/core/errors.h>
 
@@ -63,42 +62,33 @@ Vec3 HarmonicWarp::apply(const Vec3& x) const {
   return x + d;
 }
 
-void HarmonicWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("HarmonicWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
+std::size_t HarmonicWarp::batchGrain() const { return 1024; }
+
+// Outside points are left where they are and counted; throwUnmapped() explains them.
+UnmappedPoints HarmonicWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                        std::size_t begin, std::size_t end) const {
+  UnmappedPoints outside;
+  for (std::size_t i = begin; i != end; ++i) {
+    const Vec3 x = in[i];
+    Vec3 d;
+    if (isFinite(x) && displacement(x, d)) {
+      out[i] = x + d;
+    } else {
+      out[i] = x;
+      outside.add(i);
+    }
   }
+  return outside;
+}
+
+void HarmonicWarp::throwUnmapped(const UnmappedPoints& unmapped, std::span<const Vec3> in) const {
   for (std::size_t i = 0; i < in.size(); ++i) {
     if (!isFinite(in[i]))
       throw InvalidInput("HarmonicWarp: point " + std::to_string(i) + " is not finite");
   }
-  // (count, first index) of the outside points. `in` and `out` may alias: each point is read
-  // before it is written.
-  using Outside = std::pair<std::size_t, std::size_t>;
-  const Outside none{0, std::numeric_limits<std::size_t>::max()};
-  const Outside outside = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, in.size(), 1024), none,
-      [&](const tbb::blocked_range<std::size_t>& r, Outside acc) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Vec3 x = in[i];
-          Vec3 d;
-          if (displacement(x, d)) {
-            out[i] = x + d;
-          } else {
-            out[i] = x;
-            acc = {acc.first + 1, std::min(acc.second, i)};
-          }
-        }
-        return acc;
-      },
-      [](const Outside& a, const Outside& b) {
-        return Outside{a.first + b.first, std::min(a.second, b.second)};
-      });
-  if (outside.first > 0) {
-    throw InvalidInput(
-        "HarmonicWarp: " + std::to_string(outside.first) + " of " + std::to_string(in.size()) +
-        " points are outside the cage (the first is point " + std::to_string(outside.second) + ")");
-  }
+  throw InvalidInput(
+      "HarmonicWarp: " + std::to_string(unmapped.count) + " of " + std::to_string(in.size()) +
+      " points are outside the cage (the first is point " + std::to_string(unmapped.first) + ")");
 }
 
 Mat3 HarmonicWarp::jacobian(const Vec3& x) const {

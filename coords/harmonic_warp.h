@@ -29,9 +29,15 @@ class HarmonicWarp final : public Warp {
   /// Constant per tet: I + Σ_a D_a ∇b_aᵀ over the tet's corners a (D_a the mixed displacement,
   /// b_a the barycentric coordinates); central differences outside the cage (NearestPoint).
   Mat3 jacobian(const Vec3& x) const override;
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   const HarmonicCoordinates& coordinates() const { return *coordinates_; }
+
+ protected:
+  std::size_t batchGrain() const override;
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
+  [[noreturn]] void throwUnmapped(const UnmappedPoints& unmapped,
+                                  std::span<const Vec3> in) const override;
 
  private:
   // The displacement of x, or false if x is outside the cage.

@@ -75,24 +75,14 @@
 #include <utility>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/detail/aligned_buffer.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
-
-// See "lanes" below.
-#if defined(__clang__)
-#pragma clang diagnostic ignored "-Wpsabi"
-#elif defined(__GNUC__)
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
 
 namespace spacewarp {
 
 namespace {
 
-constexpr int kLanes = 4;  // points per SIMD pass
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 // Fast-path acceptance (see the top of the file). kErrM scales ε Σ θ (1 + ...) to the error of
@@ -123,29 +113,12 @@ constexpr double kAsin[10] = {0.166666666666666541491,   0.075000000000170839426
                               0.00692529909733411594078, 0.016467470525355094967};
 
 // ---- lanes ----
-// The fast passes work on VD, a generic vector of kLanes doubles (GCC/Clang vector extension),
-// which each target_clones clone lowers to its own registers (x86-64-v3: one ymm per operation,
-// with FMA; baseline x86-64: two xmm). They have no libm calls and no branches on lane values,
-// and a single point (weights()) runs through the same code in lane 0: every lane executes the
-// same instructions, so a row is bit-identical whichever call, lane or thread computes it.
-// Vectors are passed by reference and kept in 64-byte aligned buffers, because the baseline
-// target aligns these types less than the x86-64-v3 clone assumes. (-Wpsabi is silenced above:
-// it only notes the by-value ABI of wide vectors returned by inline helpers.)
-typedef double VD __attribute__((vector_size(kLanes * sizeof(double))));
-typedef std::int64_t VI __attribute__((vector_size(kLanes * sizeof(double))));
-typedef std::uint64_t VU __attribute__((vector_size(kLanes * sizeof(double))));
-
-// 1/√x for x ≥ 0 by Newton's iteration from the classic bit-level estimate (vectorisable, no
-// errno), accurate to about one ulp; finite for x = 0. (Helpers take and return vectors by
-// reference: Clang rejects by-value vectors between the clones and a baseline-target helper.)
-inline void rsqrt(const VD& x, VD& y) {
-  y = reinterpret_cast<VD>(std::uint64_t{0x5FE6EB50C7B537A9} - (reinterpret_cast<VU>(x) >> 1));
-  const VD h = 0.5 * x;
-  y = y * (1.5 - h * y * y);
-  y = y * (1.5 - h * y * y);
-  y = y * (1.5 - h * y * y);
-  y = y + y * (0.5 - h * y * y);
-}
+// The fast passes work on detail::simd's vectors of kLanes doubles (see core/detail/simd.h for
+// the rules they follow). A single point (weights()) runs through the same code in lane 0, so a
+// row is bit-identical whichever call, lane or thread computes it. Vectors are kept in 64-byte
+// aligned buffers, because the baseline target aligns these types less than the x86-64-v3 clone
+// assumes.
+using namespace detail::simd;
 
 // 1 + t R(t), so that asin(z) = z (1 + t R(t)) for t = z².
 inline void asinFactor(const VD& t, VD& q) {
@@ -193,8 +166,7 @@ struct Scratch {
 // The fast passes for the points in s.io[0..2] (x, y, z). Leaves acc (Σ of the accepted
 // triangle weights), io[3] (snap candidates), io[4] (reproduction error estimate) and flagged
 // (triangles for the careful path).
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void fastPass(const CageData& cd,
-                                                                          Scratch& s) {
+SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
   using V = VD;
   const V zero{}, one = zero + 1.0;
   const V X = s.io[0], Y = s.io[1], Z = s.io[2];
@@ -666,28 +638,17 @@ void MeanValueCoordinates::weights(const Vec3& x, std::span<double> row) const {
   computeRows(impl_->data, &x, 1, row.data());
 }
 
-void MeanValueCoordinates::weightsBatch(std::span<const Vec3> points,
-                                        std::span<double> rows) const {
+std::size_t MeanValueCoordinates::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints MeanValueCoordinates::weightsRange(std::span<const Vec3> points,
+                                                  std::span<double> rows, std::size_t begin,
+                                                  std::size_t end) const {
   const std::size_t m = columnCount();
-  if (rows.size() != points.size() * m) {
-    throw InvalidInput("MeanValueCoordinates: " + std::to_string(points.size()) + " points need " +
-                       std::to_string(points.size() * m) + " weights but the output has " +
-                       std::to_string(rows.size()));
+  for (std::size_t i = begin; i < end; i += kLanes) {
+    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
+    computeRows(impl_->data, points.data() + i, count, rows.data() + i * m);
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!isFinite(points[i]))
-      throw InvalidInput("MeanValueCoordinates: point " + std::to_string(i) + " is not finite");
-  }
-  const CageData& cd = impl_->data;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, points.size(), kPointsPerTask),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i < r.end(); i += kLanes) {
-          const std::size_t count = std::min<std::size_t>(kLanes, r.end() - i);
-          computeRows(cd, points.data() + i, count, rows.data() + i * m);
-        }
-      },
-      tbb::simple_partitioner());
+  return {};
 }
 
 }  // namespace spacewarp

@@ -61,13 +61,14 @@ class MeanValueCoordinates final : public Coordinates {
   /// the weight sum is zero or not representable there (seen only for points ~1e300 away).
   void weights(const Vec3& x, std::span<double> row) const override;
 
-  /// Rows of many points (points.size() × vertex count, row-major), computed four points at a
-  /// time with vectorised kernels, in parallel. Throws InvalidInput naming the first
-  /// non-finite point, or if `rows` has the wrong size; SolverError as weights().
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override;
-
   const Cage& cage() const;
   const MeanValueOptions& options() const;
+
+ protected:
+  /// Four points at a time through the vectorised kernels; SolverError as weights().
+  std::size_t batchGrain() const override;
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override;
 
  private:
   struct Impl;

@@ -10,6 +10,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/progress.h>
 
 namespace spacewarp {
 
@@ -34,12 +35,13 @@ void forEachWeightRow(const Coordinates& c, std::span<const Vec3> points, Visit&
   const std::size_t m = c.columnCount();
   const std::size_t block = blockRows(m);
   std::vector<double> rows(std::min(block, points.size()) * m);
-  for (std::size_t begin = 0; begin < points.size(); begin += block) {
-    const std::size_t count = std::min(block, points.size() - begin);
+  const ProgressCallback none;  // the kit reports no progress
+  ProgressTracker untracked(none, "properties", points.size());
+  forEachBlock(points.size(), block, untracked, [&](std::size_t begin, std::size_t count) {
     const std::span<double> part(rows.data(), count * m);
     c.weightsBatch(points.subspan(begin, count), part);
     for (std::size_t i = 0; i < count; ++i) visit(begin + i, part.data() + i * m);
-  }
+  });
 }
 
 // The sample-based checks, shared by both overloads. `centre` is the fixed point of the

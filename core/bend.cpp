@@ -4,9 +4,6 @@
 #include <cmath>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -103,19 +100,11 @@ Mat3 BendWarp::jacobian(const Vec3& x) const {
          glm::outerProduct(d, zy * a + zz * d);
 }
 
-void BendWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("BendWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
+UnmappedPoints BendWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                    std::size_t begin, std::size_t end) const {
   const BendKernel k{frame_.origin, frame_.axis, direction_, params_.rate, frame_.lo, frame_.hi};
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 4096),
-                    [k, src, dst](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        dst[i] = bendPoint(k, src[i]);
-                    });
+  for (std::size_t i = begin; i != end; ++i) out[i] = bendPoint(k, in[i]);
+  return {};
 }
 
 }  // namespace spacewarp

@@ -5,7 +5,7 @@
 #include <limits>
 #include <span>
 
-#include <spacewarp/core/axis_frame.h>
+#include <spacewarp/core/detail/axis_frame.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
@@ -51,7 +51,6 @@ class BendWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   /// The parameters as given (axis and direction not normalised or orthogonalised).
   const BendParams& params() const { return params_; }
@@ -59,6 +58,10 @@ class BendWarp final : public Warp {
   const Vec3& axis() const { return frame_.axis; }
   /// The unit direction d towards the centre of curvature, perpendicular to the axis.
   const Vec3& direction() const { return direction_; }
+
+ protected:
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   BendParams params_;

@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 
 #include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -37,10 +38,10 @@ void forRowBlocks(std::size_t n, Body body) {
 // the order is fixed, so a row's result does not depend on the thread that computes it.
 // Deform should be bound by how fast the weights stream in: the x86-64-v3 (AVX2) clone keeps
 // the arithmetic below that bound where the portable SSE2 build cannot.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void denseRows(
-    const double* weights, std::size_t m, const double* dx, const double* dy, const double* dz,
-    const Vec3* rest, Vec3* out, std::size_t begin, std::size_t end) {
-  using V4 = double __attribute__((vector_size(32)));
+SPACEWARP_SIMD_CLONES void denseRows(const double* weights, std::size_t m, const double* dx,
+                                     const double* dy, const double* dz, const Vec3* rest,
+                                     Vec3* out, std::size_t begin, std::size_t end) {
+  using V4 = detail::simd::VD;
   for (std::size_t i = begin; i < end; ++i) {
     const double* w = weights + i * m;
     V4 ax = {0, 0, 0, 0}, ay = {0, 0, 0, 0}, az = {0, 0, 0, 0};
@@ -102,14 +103,11 @@ Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const
     dense_.resize(static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(m));
     adviseHugePages(dense_.data(), n * m * sizeof(double));
     // Without a display, one batch; with one, blocks big enough to keep every core busy.
-    const std::size_t block = progress ? std::size_t{1} << 14 : std::max<std::size_t>(n, 1);
-    for (std::size_t begin = 0; begin < n; begin += block) {
-      const std::size_t count = std::min(block, n - begin);
-      coordinates_->weightsBatch(std::span(restPoints_).subspan(begin, count),
-                                 std::span<double>(dense_.data() + begin * m, count * m));
-      tracker.advance(count);
-    }
-    tracker.finish();
+    forEachBlock(
+        n, progress ? std::size_t{1} << 14 : 0, tracker, [&](std::size_t begin, std::size_t count) {
+          coordinates_->weightsBatch(std::span(restPoints_).subspan(begin, count),
+                                     std::span<double>(dense_.data() + begin * m, count * m));
+        });
     return;
   }
   // Sparse: every row gets k slots, filled in parallel, then compacted into CSR.

@@ -1,5 +1,6 @@
 #include <spacewarp/core/combinators.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -28,10 +29,20 @@ Mat3 ComposedWarp::jacobian(const Vec3& x) const {
   return second_->jacobian(first_->apply(x)) * first_->jacobian(x);
 }
 
-void ComposedWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  // Each stage keeps its own (possibly specialised) batch path.
-  first_->applyBatch(in, out);
-  second_->applyBatch(out, out);
+std::size_t ComposedWarp::batchGrain() const {
+  return std::min(first_->batchGrain(), second_->batchGrain());
+}
+
+UnmappedPoints ComposedWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                        std::size_t begin, std::size_t end) const {
+  // Each report names the stage whose kernel made it, so that this stage explains it.
+  const auto stage = [](const Warp& warp, UnmappedPoints unmapped) {
+    if (unmapped.count > 0 && !unmapped.by) unmapped.by = &warp;
+    return unmapped;
+  };
+  UnmappedPoints unmapped = stage(*first_, first_->applyRange(in, out, begin, end));
+  unmapped.merge(stage(*second_, second_->applyRange(out, out, begin, end)));
+  return unmapped;
 }
 
 }  // namespace spacewarp

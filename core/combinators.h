@@ -1,7 +1,9 @@
 #pragma once
 // Warps built from other warps or from a matrix: identity, affine, composition.
 
+#include <cstddef>
 #include <memory>
+#include <span>
 
 #include <spacewarp/core/warp.h>
 
@@ -41,7 +43,13 @@ class ComposedWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override { return second_->apply(first_->apply(x)); }
   Mat3 jacobian(const Vec3& x) const override;
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
+
+ protected:
+  /// The smaller of the stages' grains.
+  std::size_t batchGrain() const override;
+  /// Each stage's own kernel on the range, one after the other.
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   std::shared_ptr<const Warp> first_;

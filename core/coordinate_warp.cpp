@@ -2,9 +2,6 @@
 
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -19,6 +16,7 @@ CoordinateWarp::CoordinateWarp(std::shared_ptr<const Coordinates> coordinates,
   coordinates_->columnControls(coordinates_->restControlPoints(), rest);
   coordinates_->columnControls(posed, displacement_);
   for (std::size_t c = 0; c < m; ++c) displacement_[c] -= rest[c];
+  sparse_ = 4 * coordinates_->maxNonZeros() <= m;
 }
 
 namespace {
@@ -31,30 +29,38 @@ Vec3 displace(const Vec3& x, std::span<const double> w, std::span<const Vec3> di
 
 }  // namespace
 
+Vec3 CoordinateWarp::displaceSparse(const Vec3& x, std::span<SparseWeight> slots) const {
+  const std::size_t count = coordinates_->sparseWeights(x, slots);
+  Vec3 sum(0.0);
+  for (std::size_t s = 0; s < count; ++s) sum += slots[s].weight * displacement_[slots[s].column];
+  return x + sum;
+}
+
 Vec3 CoordinateWarp::apply(const Vec3& x) const {
+  if (sparse_) {
+    std::vector<SparseWeight> slots(coordinates_->maxNonZeros());
+    return displaceSparse(x, slots);
+  }
   std::vector<double> w(displacement_.size());
   coordinates_->weights(x, w);
   return displace(x, w, displacement_);
 }
 
-void CoordinateWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("CoordinateWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
+UnmappedPoints CoordinateWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                          std::size_t begin, std::size_t end) const {
+  if (sparse_) {
+    std::vector<SparseWeight> slots(coordinates_->maxNonZeros());
+    for (std::size_t i = begin; i != end; ++i) out[i] = displaceSparse(in[i], slots);
+    return {};
   }
-  // Blocks of points through weightsBatch, so coordinates with a multi-point kernel (mean-value,
-  // Green) use it; their rows are bit-identical to weights(), so this equals apply().
-  constexpr std::size_t kBlock = 64;
   const std::size_t m = displacement_.size();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), kBlock),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      std::vector<double> rows(r.size() * m);
-                      std::vector<Vec3> block(in.begin() + r.begin(), in.begin() + r.end());
-                      coordinates_->weightsBatch(block, rows);
-                      for (std::size_t i = 0; i < block.size(); ++i)
-                        out[r.begin() + i] =
-                            displace(block[i], std::span(rows).subspan(i * m, m), displacement_);
-                    });
+  std::vector<double> rows((end - begin) * m);
+  const std::vector<Vec3> block(in.begin() + std::ptrdiff_t(begin),
+                                in.begin() + std::ptrdiff_t(end));
+  coordinates_->weightsBatch(block, rows);
+  for (std::size_t i = 0; i < block.size(); ++i)
+    out[begin + i] = displace(block[i], std::span(rows).subspan(i * m, m), displacement_);
+  return {};
 }
 
 Mat3 CoordinateWarp::jacobian(const Vec3& x) const {

@@ -2,9 +2,8 @@
 
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
+#include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/detail/batch.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -32,11 +31,28 @@ void Coordinates::weightsBatch(std::span<const Vec3> points, std::span<double> r
                        std::to_string(points.size() * m) + " weights but the output has " +
                        std::to_string(rows.size()));
   }
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 64),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        weights(points[i], rows.subspan(i * m, m));
-                    });
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!isFinite(points[i]))
+      throw InvalidInput("coordinates: point " + std::to_string(i) + " is not finite");
+  }
+  const UnmappedPoints unmapped = detail::forEachRange(
+      points.size(), batchGrain(),
+      [&](std::size_t begin, std::size_t end) { return weightsRange(points, rows, begin, end); });
+  if (unmapped.count > 0) throwUnmapped(unmapped, points);
+}
+
+UnmappedPoints Coordinates::weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                                         std::size_t begin, std::size_t end) const {
+  const std::size_t m = columnCount();
+  for (std::size_t i = begin; i != end; ++i) weights(points[i], rows.subspan(i * m, m));
+  return {};
+}
+
+void Coordinates::throwUnmapped(const UnmappedPoints& unmapped,
+                                std::span<const Vec3> points) const {
+  throw InvalidInput(
+      "coordinates: " + std::to_string(unmapped.count) + " of " + std::to_string(points.size()) +
+      " points have no weights (the first is point " + std::to_string(unmapped.first) + ")");
 }
 
 std::size_t Coordinates::sparseWeights(const Vec3& x, std::span<SparseWeight> out) const {
@@ -68,5 +84,17 @@ void Coordinates::columnControls(std::span<const Vec3> posed, std::span<Vec3> ou
 }
 
 bool Coordinates::weightGradients(const Vec3&, std::span<Vec3>) const { return false; }
+
+std::shared_ptr<const Warp> Coordinates::makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                                     std::span<const Vec3> posed) const {
+  return std::make_shared<CoordinateWarp>(std::move(self), posed);
+}
+
+std::shared_ptr<const Warp> makeWarp(std::shared_ptr<const Coordinates> coordinates,
+                                     std::span<const Vec3> posed) {
+  if (!coordinates) throw InvalidInput("makeWarp: the coordinates are null");
+  const Coordinates& c = *coordinates;
+  return c.makeWarpFor(std::move(coordinates), posed);
+}
 
 }  // namespace spacewarp

@@ -14,11 +14,13 @@
 // identity border).
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
 #include <spacewarp/core/math.h>
+#include <spacewarp/core/warp.h>
 
 namespace spacewarp {
 
@@ -50,9 +52,12 @@ class Coordinates {
   /// entries. Throws InvalidInput if x is not finite or the row has the wrong size.
   virtual void weights(const Vec3& x, std::span<double> row) const = 0;
 
-  /// The weights of many points, row-major (points.size() × columnCount()), in parallel and
-  /// independent of the thread count. The default calls weights() per point.
-  virtual void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const;
+  /// The weights of many points, row-major (points.size() × columnCount()), in parallel (TBB):
+  /// [0, n) is cut into ranges of batchGrain() points, each computed by weightsRange(), so the
+  /// rows do not depend on the number of threads. Throws InvalidInput if `rows` has the wrong
+  /// size or a point is not finite (naming the first), and what throwUnmapped() throws when
+  /// some points have no weights.
+  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const;
 
   /// At most how many weights of one point are non-zero: columnCount() for dense coordinates
   /// (cages, harmonic coordinates included, RBF); 8 for a trilinear lattice.
@@ -75,6 +80,38 @@ class Coordinates {
  protected:
   /// Throws InvalidInput unless x is finite and row.size() == columnCount().
   void checkWeightsArguments(const Vec3& x, std::size_t rowSize) const;
+
+  /// The Warp of these coordinates posed by `posed`, for makeWarp(): `self` is this object.
+  /// The default is a CoordinateWarp; coordinates with a faster warp of their own override it.
+  virtual std::shared_ptr<const Warp> makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                                  std::span<const Vec3> posed) const;
+
+  /// Points per range of weightsBatch() (default 64).
+  virtual std::size_t batchGrain() const { return 64; }
+
+  /// The batch kernel: the rows of points [begin, end) (indices into the whole batch; row i is
+  /// rows[i · columnCount(), (i + 1) · columnCount())), every point finite. Called on disjoint
+  /// ranges from several threads at once. Returns the points that have no weights (their rows
+  /// unspecified); the default calls weights() per point and reports none.
+  virtual UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                                      std::size_t begin, std::size_t end) const;
+
+  /// Throws for the points of the batch that weightsRange() could not weigh. The default throws
+  /// InvalidInput with their number and the first one's index.
+  [[noreturn]] virtual void throwUnmapped(const UnmappedPoints& unmapped,
+                                          std::span<const Vec3> points) const;
+
+ private:
+  friend std::shared_ptr<const Warp> makeWarp(std::shared_ptr<const Coordinates> coordinates,
+                                              std::span<const Vec3> posed);
 };
+
+/// The fastest Warp of `coordinates` posed by `posed` (controlPointCount() points, world
+/// units): x' = x + Σ_c w_c(x) (C_c(posed) − C_c(rest)), computed by the coordinates' own warp
+/// where they have one (HarmonicWarp, LatticeWarp, RbfWarp) and by a CoordinateWarp otherwise.
+/// The warp keeps `coordinates` alive. Throws InvalidInput if `coordinates` is null or `posed`
+/// has the wrong size or is not finite.
+std::shared_ptr<const Warp> makeWarp(std::shared_ptr<const Coordinates> coordinates,
+                                     std::span<const Vec3> posed);
 
 }  // namespace spacewarp

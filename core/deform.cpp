@@ -23,21 +23,14 @@ std::vector<Vec3> movedPositions(const Warp& warp, const std::vector<Vec3>& posi
                                  const ProgressCallback& progress) {
   const std::size_t n = positions.size();
   std::vector<Vec3> moved(n);
-  if (!progress) {
-    warp.applyBatch(positions, moved);
-  } else {
-    // Blocks large enough to keep every core busy inside applyBatch, small enough for a
-    // responsive display and cancel.
-    constexpr std::size_t kBlock = std::size_t{1} << 16;
-    ProgressTracker tracker(progress, "deform", n);
-    const std::span<const Vec3> in(positions);
-    for (std::size_t begin = 0; begin < n; begin += kBlock) {
-      const std::size_t count = std::min(kBlock, n - begin);
-      warp.applyBatch(in.subspan(begin, count), std::span<Vec3>(moved).subspan(begin, count));
-      tracker.advance(count);
-    }
-    tracker.finish();
-  }
+  // Without a display, one batch; with one, blocks large enough to keep every core busy inside
+  // applyBatch, small enough for a responsive display and cancel.
+  ProgressTracker tracker(progress, "deform", n);
+  const std::span<const Vec3> in(positions);
+  forEachBlock(
+      n, progress ? std::size_t{1} << 16 : 0, tracker, [&](std::size_t begin, std::size_t count) {
+        warp.applyBatch(in.subspan(begin, count), std::span<Vec3>(moved).subspan(begin, count));
+      });
   for (std::size_t i = 0; i < moved.size(); ++i) {
     if (!isFinite(moved[i])) {
       throw InvalidInput("the warp sent vertex " + std::to_string(i) + " to a non-finite position");

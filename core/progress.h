@@ -3,6 +3,7 @@
 // The library calls a user callback with a stage name and the fraction done; the callback
 // returns false to cancel, and the work then stops by throwing Cancelled.
 
+#include <algorithm>
 #include <atomic>
 #include <cstddef>
 #include <functional>
@@ -79,5 +80,20 @@ class ProgressTracker {
   std::atomic<bool> cancelled_{false};
   std::mutex mutex_;
 };
+
+/// Runs fn(begin, count) on consecutive blocks of at most `block` items covering [0, n), one
+/// after the other (each block is meant to be parallel inside), advancing `tracker` by each
+/// block's size, then finishes the tracker. `block` = 0 means a single block. The blocks give
+/// a display its steps and a cancel its chances, and bound the memory of per-block buffers.
+template <class Fn>
+void forEachBlock(std::size_t n, std::size_t block, ProgressTracker& tracker, Fn&& fn) {
+  if (block == 0) block = std::max<std::size_t>(n, 1);
+  for (std::size_t begin = 0; begin < n; begin += block) {
+    const std::size_t count = std::min(block, n - begin);
+    fn(begin, count);
+    tracker.advance(count);
+  }
+  tracker.finish();
+}
 
 }  // namespace spacewarp

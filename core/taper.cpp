@@ -3,9 +3,6 @@
 #include <algorithm>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -52,19 +49,11 @@ Mat3 TaperWarp::jacobian(const Vec3& x) const {
          glm::outerProduct((params_.rate * frame_.clampSlope(s)) * p, a);
 }
 
-void TaperWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("TaperWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
+UnmappedPoints TaperWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                     std::size_t begin, std::size_t end) const {
   const TaperKernel k{frame_.origin, frame_.axis, params_.rate, frame_.lo, frame_.hi};
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 4096),
-                    [k, src, dst](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        dst[i] = taperPoint(k, src[i]);
-                    });
+  for (std::size_t i = begin; i != end; ++i) out[i] = taperPoint(k, in[i]);
+  return {};
 }
 
 }  // namespace spacewarp

@@ -5,7 +5,7 @@
 #include <limits>
 #include <span>
 
-#include <spacewarp/core/axis_frame.h>
+#include <spacewarp/core/detail/axis_frame.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
@@ -38,7 +38,6 @@ class TaperWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   /// The parameters as given (the axis not normalised).
   const TaperParams& params() const { return params_; }
@@ -46,6 +45,10 @@ class TaperWarp final : public Warp {
   const Vec3& axis() const { return frame_.axis; }
   /// The scale r(ŝ) = 1 + rate clamp(s, lo, hi) of the cross-section at axial coordinate s.
   double scaleAt(double s) const { return 1.0 + params_.rate * frame_.clamp(s); }
+
+ protected:
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   TaperParams params_;

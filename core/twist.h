@@ -5,7 +5,7 @@
 #include <limits>
 #include <span>
 
-#include <spacewarp/core/axis_frame.h>
+#include <spacewarp/core/detail/axis_frame.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
@@ -34,12 +34,15 @@ class TwistWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   /// The parameters as given (the axis not normalised).
   const TwistParams& params() const { return params_; }
   /// The unit axis.
   const Vec3& axis() const { return frame_.axis; }
+
+ protected:
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   TwistParams params_;

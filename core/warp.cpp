@@ -1,12 +1,11 @@
 #include <spacewarp/core/warp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
+#include <spacewarp/core/detail/batch.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -18,12 +17,38 @@ Mat3 cofactor(const Mat3& j) {
   return Mat3(glm::cross(j[1], j[2]), glm::cross(j[2], j[0]), glm::cross(j[0], j[1]));
 }
 
+// v times 2^-e, e the exponent of `magnitude` (> 0, finite): exact (no rounding, as long as
+// no result is subnormal), so that products of such entries neither overflow nor underflow.
+Vec3 scaledDown(const Vec3& v, double magnitude) {
+  const int e = std::ilogb(magnitude);
+  return {std::scalbn(v.x, -e), std::scalbn(v.y, -e), std::scalbn(v.z, -e)};
+}
+
+// J scaled by the power of two that brings its largest entry into [1, 2): the same
+// directions, signs and ratios, so J^-T n normalised and the sign of det J are unchanged,
+// while the cofactors of entries near 1e300 or 1e-300 no longer overflow or underflow.
+// J unchanged when it is zero or not finite.
+Mat3 scaledToUnit(const Mat3& j) {
+  const double m = std::max({maxAbs(j[0]), maxAbs(j[1]), maxAbs(j[2])});
+  if (!(m > 0.0) || !std::isfinite(m)) return j;
+  return Mat3(scaledDown(j[0], m), scaledDown(j[1], m), scaledDown(j[2], m));
+}
+
 }  // namespace
 
 bool isSingularJacobian(const Mat3& j) {
-  const double det = glm::determinant(j);
-  const double scale = glm::length(j[0]) * glm::length(j[1]) * glm::length(j[2]);
-  return !std::isfinite(det) || std::abs(det) <= 1e-14 * scale;
+  // The determinant of J with each column scaled to unit length: det J / Π |column|, in
+  // [-1, 1], and the same for J and s J at any scale s (the product of the column lengths
+  // itself would overflow for entries near 1e300, and underflow near 1e-300).
+  Mat3 unit;
+  for (int c = 0; c < 3; ++c) {
+    if (!isFinite(j[c])) return true;
+    const double m = maxAbs(j[c]);
+    if (m == 0.0) return true;
+    const Vec3 column = scaledDown(j[c], m);
+    unit[c] = column / glm::length(column);
+  }
+  return std::abs(glm::determinant(unit)) <= 1e-14;
 }
 
 Mat3 Warp::jacobian(const Vec3& x) const {
@@ -41,22 +66,31 @@ Mat3 Warp::jacobian(const Vec3& x) const {
 }
 
 void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("Warp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
-  // Every point is independent, so the partition (and the thread count) cannot change results.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = apply(in[i]);
-                    });
+  detail::requireSameSize("Warp::applyBatch", in.size(), out.size());
+  const UnmappedPoints unmapped = detail::forEachRange(
+      in.size(), batchGrain(),
+      [&](std::size_t begin, std::size_t end) { return applyRange(in, out, begin, end); });
+  if (unmapped.count > 0) (unmapped.by ? unmapped.by : this)->throwUnmapped(unmapped, in);
+}
+
+UnmappedPoints Warp::applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                                std::size_t end) const {
+  for (std::size_t i = begin; i != end; ++i) out[i] = apply(in[i]);
+  return {};
+}
+
+void Warp::throwUnmapped(const UnmappedPoints& unmapped, std::span<const Vec3> in) const {
+  throw InvalidInput(std::to_string(unmapped.count) + " of " + std::to_string(in.size()) +
+                     " points could not be warped (the first is point " +
+                     std::to_string(unmapped.first) + ")");
 }
 
 Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n) {
   return transformNormal(warp.jacobian(x), n);
 }
 
-Vec3 transformNormal(const Mat3& j, const Vec3& n) {
+Vec3 transformNormal(const Mat3& jacobian, const Vec3& n) {
+  const Mat3 j = scaledToUnit(jacobian);
   Vec3 v = cofactor(j) * n;  // = det(J) J^-T n
   if (glm::determinant(j) < 0.0) v = -v;
   const double len = glm::length(v);
@@ -91,7 +125,11 @@ InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& opt
     if (result.iterations >= options.maxIterations) return result;
     const Mat3 j = warp.jacobian(result.x);
     if (isSingularJacobian(j)) return result;
-    const Vec3 dx = -(glm::inverse(j) * (warp.apply(result.x) - y));
+    // J^-1 r as (2^-e J)^-1 (2^-e r): the same step, without overflow for huge J.
+    const Mat3 unit = scaledToUnit(j);
+    const double m = std::max({maxAbs(j[0]), maxAbs(j[1]), maxAbs(j[2])});
+    const Vec3 r = warp.apply(result.x) - y;
+    const Vec3 dx = -(glm::inverse(unit) * scaledDown(r, m));
     // Backtracking: halve the step until the residual decreases.
     bool accepted = false;
     for (double t = 1.0; t > 1e-10; t *= 0.5) {

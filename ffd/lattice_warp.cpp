@@ -3,9 +3,7 @@
 #include <cstring>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/detail/lattice_basis.h>
 
@@ -15,7 +13,7 @@ namespace {
 
 // Four doubles (x, y, z, 0) of one control's displacement: one AVX register in the x86-64-v3
 // clones. Loaded with memcpy and never returned by value (that would change the psABI).
-using V4 = double __attribute__((vector_size(32)));
+using V4 = detail::simd::VD;
 
 // Everything the per-point map needs, by value, so the batch loop keeps it at hand.
 struct Kernel {
@@ -86,23 +84,20 @@ inline Vec3 displaceBernstein(const Kernel& k, const Vec3& x) {
 // One function per basis over a range of points, each with an x86-64-v3 (AVX2 + FMA) clone
 // chosen once at load time. apply() calls the same functions on one point, so that apply() and
 // applyBatch() give the same bits on any machine.
-#define SPACEWARP_FFD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 
-SPACEWARP_FFD_CLONES void trilinearRange(const Kernel& k, const Vec3* in, Vec3* out,
-                                         std::size_t n) {
+SPACEWARP_SIMD_CLONES void trilinearRange(const Kernel& k, const Vec3* in, Vec3* out,
+                                          std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceFixed<2, detail::trilinearAxis>(k, in[i]);
 }
 
-SPACEWARP_FFD_CLONES void bsplineRange(const Kernel& k, const Vec3* in, Vec3* out, std::size_t n) {
+SPACEWARP_SIMD_CLONES void bsplineRange(const Kernel& k, const Vec3* in, Vec3* out, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceFixed<4, detail::bsplineAxis>(k, in[i]);
 }
 
-SPACEWARP_FFD_CLONES void bernsteinRange(const Kernel& k, const Vec3* in, Vec3* out,
-                                         std::size_t n) {
+SPACEWARP_SIMD_CLONES void bernsteinRange(const Kernel& k, const Vec3* in, Vec3* out,
+                                          std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceBernstein(k, in[i]);
 }
-
-#undef SPACEWARP_FFD_CLONES
 
 using RangeFunction = void (*)(const Kernel&, const Vec3*, Vec3*, std::size_t);
 
@@ -160,21 +155,13 @@ Vec3 LatticeWarp::apply(const Vec3& x) const {
   return out;
 }
 
-void LatticeWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("LatticeWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
-  const Kernel k = kernelOf(lattice_, displacement_);
-  const RangeFunction range = rangeFunctionOf(lattice_.basis());
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  // One call per block of points (not per point); each point is computed on its own, so the
+UnmappedPoints LatticeWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                       std::size_t begin, std::size_t end) const {
+  // One call per range of points (not per point); each point is computed on its own, so the
   // split does not affect the result.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 4096),
-                    [&k, range, src, dst](const tbb::blocked_range<std::size_t>& r) {
-                      range(k, src + r.begin(), dst + r.begin(), r.size());
-                    });
+  const Kernel k = kernelOf(lattice_, displacement_);
+  rangeFunctionOf(lattice_.basis())(k, in.data() + begin, out.data() + begin, end - begin);
+  return {};
 }
 
 Mat3 LatticeWarp::jacobian(const Vec3& x) const {

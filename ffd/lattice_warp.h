@@ -22,11 +22,14 @@ class LatticeWarp final : public Warp {
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
   /// Parallel (TBB) over fixed blocks; no allocation and no virtual call per point.
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   const Lattice& lattice() const { return lattice_; }
   /// The posed control points.
   std::span<const Vec3> controlPoints() const { return posed_; }
+
+ protected:
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   Lattice lattice_;

@@ -17,8 +17,8 @@
 namespace spacewarp {
 
 namespace detail {
-struct GraphIndex;   // nodes, KD-tree and lookup grid (deformation_graph.cpp)
-struct SolverCache;  // the normal equations' pattern and factor kept between solves (.cpp)
+struct GraphIndex;   // nodes, KD-tree and lookup grid (nonlinear/detail/graph_index.h)
+struct SolverCache;  // normal equations and factor kept between solves (detail/solver_cache.h)
 }  // namespace detail
 
 /// How DeformationGraph(positions, options) picks its nodes among the positions.
@@ -122,7 +122,13 @@ class DeformationGraphWarp final : public Warp {
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
   /// Parallel (TBB), allocation-free per point, bit-identical to apply() for any thread count.
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
+
+ protected:
+  std::size_t batchGrain() const override;
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
+  [[noreturn]] void throwUnmapped(const UnmappedPoints& unmapped,
+                                  std::span<const Vec3> in) const override;
 
  private:
   std::shared_ptr<const detail::GraphIndex> index_;
@@ -172,8 +178,8 @@ class DeformationGraph {
   ///
   /// The result is bit-identical for any TBB or BLAS thread count: the assembly is serial and
   /// the sparse Cholesky runs its BLAS single-threaded (OpenBLAS's process-wide thread count
-  /// is set to 1 during the solve and restored after it; concurrent solve() calls on
-  /// different graphs are serialised by a process-wide lock).
+  /// is set to 1 during each factorisation and triangular solve and restored after it; those
+  /// of concurrent solve() calls on different graphs are serialised by a process-wide lock).
   ///
   /// Cost: the normal equations' sparsity pattern, their constant (regulariser and
   /// constraint) part, the Cholesky analysis and the last numeric factor are kept between

@@ -9,9 +9,6 @@
 #include <string>
 #include <utility>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -492,20 +489,14 @@ Vec3 MlsWarp::apply(const Vec3& x) const {
   return mlsPoint(modelOf(handles_, targets_, options_), x, scratch.data());
 }
 
-void MlsWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("MlsWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
+std::size_t MlsWarp::batchGrain() const { return 1024; }
+
+UnmappedPoints MlsWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                                   std::size_t end) const {
   const Model m = modelOf(handles_, targets_, options_);
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 1024),
-                    [m, src, dst](const tbb::blocked_range<std::size_t>& r) {
-                      Scratch scratch(m.n);
-                      for (std::size_t i = r.begin(); i != r.end(); ++i)
-                        dst[i] = mlsPoint(m, src[i], scratch.data());
-                    });
+  Scratch scratch(m.n);
+  for (std::size_t i = begin; i != end; ++i) out[i] = mlsPoint(m, in[i], scratch.data());
+  return {};
 }
 
 Mat3 MlsWarp::jacobian(const Vec3& x) const {

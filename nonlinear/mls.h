@@ -91,7 +91,6 @@ class MlsWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
-  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const override;
 
   /// The local fit at x (for a handle, its limit fit, which maps that handle to its target).
   MlsFit localFit(const Vec3& x) const;
@@ -99,6 +98,11 @@ class MlsWarp final : public Warp {
   std::span<const Vec3> handles() const { return handles_; }
   std::span<const Vec3> targets() const { return targets_; }
   const MlsOptions& options() const { return options_; }
+
+ protected:
+  std::size_t batchGrain() const override;
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override;
 
  private:
   std::vector<Vec3> handles_;

@@ -5,29 +5,17 @@
 #include <cstring>
 #include <string>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rbf/detail/rbf_system.h>
-
-// The batch kernel works on generic vectors of four doubles inside one target_clones function;
-// -Wpsabi only notes the ABI of such vectors, which never cross a function boundary by value.
-#if defined(__clang__)
-#pragma clang diagnostic ignored "-Wpsabi"
-#elif defined(__GNUC__)
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
 
 namespace spacewarp {
 
 namespace {
 
-constexpr int kLanes = 4;                    // points per SIMD pass
-constexpr std::size_t kPointsPerTask = 256;  // a multiple of kLanes
+using namespace detail::simd;
 
-typedef double VD __attribute__((vector_size(kLanes * sizeof(double))));
-typedef std::uint64_t VU __attribute__((vector_size(kLanes * sizeof(double))));
+constexpr std::size_t kPointsPerTask = 256;  // a multiple of kLanes
 
 // What the batch kernel reads: the centres and weights in structure-of-arrays form, the kernel
 // and its parameter, and the polynomial.
@@ -44,17 +32,6 @@ struct EvalData {
   Mat3 linear;
   Vec3 translation;
 };
-
-// y = 1/√x for x ≥ 0 by Newton's iteration from the bit-level estimate: no libm, no errno, so
-// the loop vectorises; accurate to about one ulp, finite (and r = x y = 0) at x = 0.
-[[gnu::always_inline]] inline void rsqrt(const VD& x, VD& y) {
-  y = reinterpret_cast<VD>(std::uint64_t{0x5FE6EB50C7B537A9} - (reinterpret_cast<VU>(x) >> 1));
-  const VD h = 0.5 * x;
-  y = y * (1.5 - h * y * y);
-  y = y * (1.5 - h * y * y);
-  y = y * (1.5 - h * y * y);
-  y = y + y * (0.5 - h * y * y);
-}
 
 // e^x for x ≤ 0 (0 below −708): x = k ln 2 + f with |f| ≤ ln 2 / 2 (Cody–Waite), e^f by its
 // Taylor polynomial of degree 13 (truncation below 5e-18), 2^k built in the exponent bits.
@@ -150,9 +127,7 @@ template <RbfKernel K>
 
 // x' for kLanes points: in = x[4], y[4], z[4]; out likewise. Every lane runs the same
 // instructions, so a point's result does not depend on its lane or on the other lanes.
-__attribute__((target_clones("arch=x86-64-v3", "default"))) void evalLanes(const EvalData& d,
-                                                                           const double* in,
-                                                                           double* out) {
+SPACEWARP_SIMD_CLONES void evalLanes(const EvalData& d, const double* in, double* out) {
   VD X, Y, Z;
   std::memcpy(&X, in, sizeof X);
   std::memcpy(&Y, in + kLanes, sizeof Y);
@@ -206,6 +181,13 @@ double kernelParam(const RbfOptions& o) {
 RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
                  const RbfOptions& options)
     : RbfWarp(centres, targets, {}, options) {}
+
+void RbfWarp::check(std::span<const Vec3> centres, std::span<const Vec3> targets,
+                    std::span<const Vec3> fixed, const RbfOptions& options) {
+  const std::string who = "RbfWarp";
+  const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, &targets, fixed, options);
+  detail::checkRbfPolynomial(who, c.unique);
+}
 
 RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
                  std::span<const Vec3> fixed, const RbfOptions& options)
@@ -279,35 +261,25 @@ Mat3 RbfWarp::jacobian(const Vec3& x) const {
   return j;
 }
 
-void RbfWarp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
-  if (in.size() != out.size()) {
-    throw InvalidInput("RbfWarp::applyBatch: input has " + std::to_string(in.size()) +
-                       " points but output has " + std::to_string(out.size()));
-  }
+std::size_t RbfWarp::batchGrain() const { return kPointsPerTask; }
+
+UnmappedPoints RbfWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                                   std::size_t end) const {
   const EvalData d = evalDataOf(soa_, centres_.size(), options_, linear_, translation_);
-  const Vec3* src = in.data();
-  Vec3* dst = out.data();
-  const std::size_t total = in.size();
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, (total + kPointsPerTask - 1) / kPointsPerTask),
-      [&d, src, dst, total](const tbb::blocked_range<std::size_t>& r) {
-        double lanesIn[3 * kLanes], lanesOut[3 * kLanes];
-        for (std::size_t task = r.begin(); task != r.end(); ++task) {
-          const std::size_t end = std::min(total, (task + 1) * kPointsPerTask);
-          for (std::size_t i = task * kPointsPerTask; i < end; i += kLanes) {
-            const std::size_t count = std::min<std::size_t>(kLanes, end - i);
-            for (std::size_t l = 0; l < kLanes; ++l) {
-              const Vec3& p = src[i + std::min(l, count - 1)];
-              lanesIn[l] = p.x;
-              lanesIn[kLanes + l] = p.y;
-              lanesIn[2 * kLanes + l] = p.z;
-            }
-            evalLanes(d, lanesIn, lanesOut);
-            for (std::size_t l = 0; l < count; ++l)
-              dst[i + l] = Vec3(lanesOut[l], lanesOut[kLanes + l], lanesOut[2 * kLanes + l]);
-          }
-        }
-      });
+  double lanesIn[3 * kLanes], lanesOut[3 * kLanes];
+  for (std::size_t i = begin; i < end; i += kLanes) {
+    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const Vec3& p = in[i + std::min(l, count - 1)];
+      lanesIn[l] = p.x;
+      lanesIn[kLanes + l] = p.y;
+      lanesIn[2 * kLanes + l] = p.z;
+    }
+    evalLanes(d, lanesIn, lanesOut);
+    for (std::size_t l = 0; l < count; ++l)
+      out[i + l] = Vec3(lanesOut[l], lanesOut[kLanes + l], lanesOut[2 * kLanes + l]);
+  }
+  return {};
 }
 
 }  // namespace spacewarp

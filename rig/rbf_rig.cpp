@@ -1,5 +1,6 @@
 #include <spacewarp/rig/detail/rbf_rig.h>
 
+#include <cstdio>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -31,11 +32,17 @@ class LazyRbfCoordinates final : public Coordinates {
   std::size_t controlPointCount() const override { return centres_.size(); }
   std::span<const Vec3> restControlPoints() const override { return centres_; }
   void weights(const Vec3& x, std::span<double> row) const override { get().weights(x, row); }
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override {
-    get().weightsBatch(points, rows);
-  }
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override {
     return get().weightGradients(x, out);
+  }
+
+ protected:
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override {
+    const std::size_t m = columnCount();
+    get().weightsBatch(points.subspan(begin, end - begin),
+                       rows.subspan(begin * m, (end - begin) * m));
+    return {};
   }
 
  private:
@@ -85,14 +92,31 @@ Rig rbfRig(RigReader& r) {
     r.fail("scale", "applies to the gaussian and inverse-multiquadric kernels only");
   if (r.has("radius") && options.kernel != RbfKernel::WendlandC2)
     r.fail("radius", "applies to the wendland kernel only");
+  const bool defaultScale = !r.has("scale");
   options.scale = r.number("scale", options.scale);
   options.radius = r.number("radius", options.radius);
   if (!(options.scale > 0.0)) r.fail("scale", "must be > 0");
   if (!(options.radius > 0.0)) r.fail("radius", "must be > 0");
-  // The warp's dense system (RbfWarp checks it too, without the key's name).
+  if (!(options.radius >= kMinRbfScale && options.radius <= kMaxRbfScale))
+    r.fail("radius", "must be within [1e-150, 1e150]");
+  // A scale that does not suit the centres gives NaN or a singular fit: say so here, naming
+  // the key, rather than blame the input for the non-finite points it makes.
+  std::vector<Vec3> all = centres;
+  all.insert(all.end(), fixed.begin(), fixed.end());
+  if (const std::string problem = rbfScaleProblem(options, all); !problem.empty()) {
+    char value[32];
+    std::snprintf(value, sizeof value, "%.3g", options.scale);
+    r.fail("scale", value + std::string(defaultScale ? " (the default) " : " ") + problem);
+  }
+  // The warp's dense system (RbfWarp checks it too, without the key's name); in `info` too,
+  // which refuses what deform would.
   checkMemory(RbfSystem::memoryEstimate(centres.size() + fixed.size()),
               "'centers' (" + std::to_string(centres.size()) + " centres" +
                   (fixed.empty() ? "" : " and " + std::to_string(fixed.size()) + " fixed") + ")");
+  if (r.checking()) {
+    RbfWarp::check(centres, targets, fixed, options);  // what the fit would refuse, without it
+    return {};
+  }
   Rig rig;
   rig.warp = std::make_shared<RbfWarp>(centres, targets, fixed, options);
   rig.coordinates = std::make_shared<LazyRbfCoordinates>(centres, fixed, options, r.where());

@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <spacewarp/coords/detail/green_kernels.h>
 #include <spacewarp/coords/properties.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/coordinate_warp.h>

@@ -115,17 +115,21 @@ class Padded final : public Coordinates {
     std::fill(row.begin(), row.end(), 0.0);
     inner_.weights(x, row.first(inner_.columnCount()));
   }
-  void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const override {
-    std::size_t seen = largestBatch.load();
-    while (points.size() > seen && !largestBatch.compare_exchange_weak(seen, points.size())) {
-    }
-    Coordinates::weightsBatch(points, rows);
-  }
   void columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const override {
     std::fill(out.begin(), out.end(), Vec3(0.0));
     inner_.columnControls(posed, out.first(inner_.columnCount()));
   }
   mutable std::atomic<std::size_t> largestBatch{0};
+
+ protected:
+  // `points` is the whole batch that weightsBatch() was given.
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override {
+    std::size_t seen = largestBatch.load();
+    while (points.size() > seen && !largestBatch.compare_exchange_weak(seen, points.size())) {
+    }
+    return Coordinates::weightsRange(points, rows, begin, end);
+  }
 
  private:
   const Coordinates& inner_;

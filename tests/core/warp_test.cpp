@@ -4,9 +4,12 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <span>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <spacewarp/core/bend.h>
@@ -104,6 +107,59 @@ TEST(Warp, TransformNormalOfACollapsedWarpIsZeroNotNaN) {
   EXPECT_EQ(n, Vec3(0.0));
 }
 
+// The verdict depends on how close J's columns are to dependent, not on J's size: a regular J
+// scaled to entries of 1e300 (whose determinant and column-length product overflow) or 1e-300
+// (which underflow) is regular, a singular one singular, at every scale.
+TEST(Warp, SingularJacobianIsScaleInvariant) {
+  const Mat3 regular = Mat3(glm::rotate(Mat4(1.0), 0.7, Vec3(1.0, 2.0, 3.0))) *
+                       Mat3(Vec3(1, 0, 0), Vec3(0.5, 2, 0), Vec3(0, 0.3, 3));
+  const Vec3 u = glm::normalize(Vec3(1.0, 2.0, 3.0));
+  const Mat3 projection = Mat3(1.0) - glm::outerProduct(u, u);  // rank 2, det ~ 1e-17
+  const Mat3 rankOne = glm::outerProduct(u, Vec3(1.0, -1.0, 2.0));
+  for (const double scale : {1e-300, 1e-150, 1e-6, 1.0, 1e6, 1e150, 1e300}) {
+    SCOPED_TRACE(scale);
+    EXPECT_FALSE(isSingularJacobian(scale * regular));
+    EXPECT_FALSE(isSingularJacobian(scale * Mat3(1.0)));
+    EXPECT_FALSE(isSingularJacobian(scale * Mat3(Vec3(-1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))));
+    EXPECT_TRUE(isSingularJacobian(scale * projection));
+    EXPECT_TRUE(isSingularJacobian(scale * rankOne));
+  }
+  // Columns of very different lengths: anisotropic, still regular.
+  EXPECT_FALSE(isSingularJacobian(Mat3(Vec3(1e300, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1e-300))));
+  EXPECT_TRUE(isSingularJacobian(Mat3(0.0)));
+  EXPECT_TRUE(isSingularJacobian(Mat3(Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0.0))));
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(isSingularJacobian(Mat3(Vec3(inf, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))));
+  EXPECT_TRUE(isSingularJacobian(
+      Mat3(Vec3(std::numeric_limits<double>::quiet_NaN(), 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))));
+}
+
+// J^-T n normalised does not depend on J's scale: entries of 1e300 or 1e-300 give the same
+// normal as the unscaled J (their cofactors would overflow or underflow).
+TEST(Warp, TransformNormalOfAHugeOrTinyJacobian) {
+  const Mat3 j = Mat3(Vec3(2.0, 0.5, 0.0), Vec3(0.0, 1.0, 0.3), Vec3(0.1, 0.0, -3.0));
+  const Vec3 n = glm::normalize(Vec3(1.0, -2.0, 0.5));
+  const Vec3 expected = transformNormal(j, n);
+  ASSERT_NEAR(glm::length(expected), 1.0, 1e-15);
+  for (const double scale : {0x1p-1000, 0x1p-500, 0x1p500, 0x1p1000, 1e-300, 1e300}) {
+    SCOPED_TRACE(scale);
+    EXPECT_LT(relativeError(transformNormal(scale * j, n), expected), 1e-15);
+  }
+  // Scaling by powers of two is exact: the same bits.
+  EXPECT_EQ(transformNormal(0x1p1000 * j, n), expected);
+}
+
+TEST(Warp, InverseOfAHugeAffineWarpConverges) {
+  const Mat3 linear = 1e300 * Mat3(Vec3(2.0, 0.5, 0.0), Vec3(0.0, 1.0, 0.3), Vec3(0.1, 0.0, 3.0));
+  Mat4 m(1.0);
+  for (int c = 0; c < 3; ++c) m[c] = glm::dvec4(linear[c], 0.0);
+  const AffineWarp warp(m);
+  const Vec3 x(1e-300, -2e-300, 3e-301);
+  const InverseResult r = inverse(warp, warp.apply(x));
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT(relativeError(r.x, x), 1e-12);
+}
+
 TEST(Warp, NormalsOfTheDefaultJacobianStayPerpendicular) {
   const SinWarp warp;
   std::mt19937 rng(3);
@@ -179,6 +235,81 @@ TEST(Warp, DefaultBatchRejectsMismatchedSizesAndAcceptsEmpty) {
   test::expectBatchRejectsMismatchedSizes(warp, 5, 6);
   std::vector<Vec3> none;
   EXPECT_NO_THROW(warp.applyBatch(none, none));
+}
+
+// A warp defined only for x >= 0, with a small batch grain so that a batch spans many ranges:
+// its kernel reports the other points, and explains them in its own words.
+class HalfSpaceWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override { return x + Vec3(1.0, 0.0, 0.0); }
+
+ protected:
+  std::size_t batchGrain() const override { return 7; }
+  UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                            std::size_t end) const override {
+    UnmappedPoints unmapped;
+    for (std::size_t i = begin; i != end; ++i) {
+      if (in[i].x >= 0.0) {
+        out[i] = apply(in[i]);
+      } else {
+        unmapped.add(i);
+      }
+    }
+    return unmapped;
+  }
+  void throwUnmapped(const UnmappedPoints& unmapped, std::span<const Vec3>) const override {
+    throw InvalidInput("half space: " + std::to_string(unmapped.count) + " points, first " +
+                       std::to_string(unmapped.first));
+  }
+};
+
+std::string batchError(const Warp& warp, std::vector<Vec3> points) {
+  try {
+    warp.applyBatch(points, points);
+  } catch (const InvalidInput& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(Warp, BatchCountsEveryUnmappedPointAndNamesTheFirstForAnyThreadCount) {
+  std::vector<Vec3> points(1000, Vec3(1.0));
+  for (std::size_t i : {998u, 35u, 36u, 500u}) points[i].x = -1.0;
+  const HalfSpaceWarp warp;
+  for (int threads : {1, 2, 4}) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] { EXPECT_EQ(batchError(warp, points), "half space: 4 points, first 35"); });
+  }
+}
+
+TEST(Warp, ACompositionLetsTheStageThatCouldNotWarpExplain) {
+  std::vector<Vec3> points(100, Vec3(1.0));
+  points[40].x = -5.0;  // outside the half space before the shift
+  points[60].x = -0.5;  // inside it after the shift by +1
+  const auto half = std::make_shared<HalfSpaceWarp>();
+  const auto shift = std::make_shared<AffineWarp>(glm::translate(Mat4(1.0), Vec3(1.0, 0.0, 0.0)));
+  EXPECT_EQ(batchError(ComposedWarp(half, shift), points), "half space: 2 points, first 40");
+  EXPECT_EQ(batchError(ComposedWarp(shift, half), points), "half space: 1 points, first 40");
+  // Nested compositions keep the stage that made the report.
+  const auto inner = std::make_shared<ComposedWarp>(shift, half);
+  EXPECT_EQ(batchError(ComposedWarp(inner, shift), points), "half space: 1 points, first 40");
+}
+
+TEST(Warp, TheDefaultExplanationCountsThePoints) {
+  class Refusing final : public Warp {
+   public:
+    Vec3 apply(const Vec3& x) const override { return x; }
+
+   protected:
+    UnmappedPoints applyRange(std::span<const Vec3>, std::span<Vec3>, std::size_t begin,
+                              std::size_t end) const override {
+      UnmappedPoints all;
+      for (std::size_t i = begin; i != end; ++i) all.add(i);
+      return all;
+    }
+  };
+  EXPECT_EQ(batchError(Refusing(), std::vector<Vec3>(9000, Vec3(0.0))),
+            "9000 of 9000 points could not be warped (the first is point 0)");
 }
 
 // The analytic warps against the same shared properties through the Warp interface.

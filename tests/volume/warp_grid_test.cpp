@@ -1,7 +1,7 @@
-// Tests of core/volume/warp_grid.h: grids of any type are dispatched to the right warper or
+// Tests of volume/warp_grid.h: grids of any type are dispatched to the right warper or
 // rejected by name.
 
-#include <spacewarp/core/volume/warp_grid.h>
+#include <spacewarp/volume/warp_grid.h>
 
 #include <string>
 

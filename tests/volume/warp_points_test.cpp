@@ -1,6 +1,6 @@
-// Tests of core/volume/warp_points.h: points move to warp(p) with their attributes.
+// Tests of volume/warp_points.h: points move to warp(p) with their attributes.
 
-#include <spacewarp/core/volume/warp_points.h>
+#include <spacewarp/volume/warp_points.h>
 
 #include <random>
 #include <string>

@@ -1,4 +1,4 @@
-#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/volume/warp_volume.h>
 
 #include <algorithm>
 #include <cmath>
@@ -830,6 +830,11 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
     std::size_t solved = 0, failures = 0, vectorFailures = 0, iterations = 0;
     int maxIterations = 0;
     double mass = 0.0;
+    // conserveMass: the range of |det J| the densities were divided by, and the voxels left
+    // out because it was 0 or not finite.
+    double minVolumeChange = std::numeric_limits<double>::infinity();
+    double maxVolumeChange = 0.0;
+    std::size_t degenerateVolumeChanges = 0;
   };
   std::vector<LeafResult> leafResults(groups);
   ProgressTracker tracker(options.progress, "warp volume", groups);
@@ -856,8 +861,11 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
         const double det = std::abs(glm::determinant(warp.jacobian(x)));
         if (!(det > 0.0) || !std::isfinite(det)) {
           ++out.failures;
+          ++out.degenerateVolumeChanges;
           return;
         }
+        out.minVolumeChange = std::min(out.minVolumeChange, det);
+        out.maxVolumeChange = std::max(out.maxVolumeChange, det);
         value = static_cast<ValueT>(static_cast<double>(value) / det);
       }
       if (toDistance) {
@@ -989,6 +997,13 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
     report.totalNewtonIterations += lr.iterations;
     report.maxNewtonIterations = std::max(report.maxNewtonIterations, lr.maxIterations);
     massAfter += lr.mass;
+    if (lr.maxVolumeChange > 0.0) {
+      report.minVolumeChange = report.maxVolumeChange == 0.0
+                                   ? lr.minVolumeChange
+                                   : std::min(report.minVolumeChange, lr.minVolumeChange);
+      report.maxVolumeChange = std::max(report.maxVolumeChange, lr.maxVolumeChange);
+    }
+    report.degenerateVolumeChanges += lr.degenerateVolumeChanges;
     if (lr.leaf) tree->addLeaf(lr.leaf.release());
   }
   typename GridT::Ptr grid = GridT::create(tree);

@@ -1,7 +1,7 @@
-#include <spacewarp/core/volume/warp_grid.h>
+#include <spacewarp/volume/warp_grid.h>
 
 #include <spacewarp/core/errors.h>
-#include <spacewarp/core/volume/warp_points.h>
+#include <spacewarp/volume/warp_points.h>
 
 namespace spacewarp {
 

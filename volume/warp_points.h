@@ -5,7 +5,7 @@
 
 #include <openvdb/points/PointDataGrid.h>
 
-#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/volume/warp_volume.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {

@@ -1,4 +1,4 @@
-#include <spacewarp/core/volume/warp_points.h>
+#include <spacewarp/volume/warp_points.h>
 
 #include <sstream>
 #include <string>

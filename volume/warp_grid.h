@@ -6,7 +6,7 @@
 
 #include <openvdb/openvdb.h>
 
-#include <spacewarp/core/volume/warp_volume.h>
+#include <spacewarp/volume/warp_volume.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
