@@ -15,6 +15,7 @@
 
 #include <spacewarp/coords/cage.h>
 #include <spacewarp/coords/properties.h>
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/atomic_file.h>
 #include <spacewarp/core/progress.h>
@@ -41,32 +42,60 @@ struct Method {
       std::shared_ptr<const Cage>, const CageMethodOptions&, const ProgressCallback&)>
       make;
   bool cageControls = true;
+  // The coordinates' own peak memory (bytes; precomputation and per-thread scratch) and their
+  // column count, known before they are made.
+  std::function<double(const Cage&, const CageMethodOptions&)> memory;
+  std::function<std::size_t(const Cage&)> columns;
 };
+
+// The lattice of the "ffd" method.
+constexpr int kFfdResolution = 4;
+// Weights of the slice's pixels are formed this many values (32 MB) at a time, and at least one
+// row.
+constexpr std::size_t kBindBlockValues = std::size_t{1} << 22;
 
 std::map<std::string, Method> methodTable() {
   std::map<std::string, Method> table;
   for (const std::string& name : cageMethods()) {
-    table[name] = {name + " cage coordinates",
-                   [name](auto cage, const auto& options, const auto& progress) {
-                     return cageCoordinates(name, cage, options, progress);
-                   }};
+    Method& method = table[name];
+    method.description = name + " cage coordinates";
+    method.make = [name](auto cage, const auto& options, const auto& progress) {
+      return cageCoordinates(name, cage, options, progress);
+    };
+    method.memory = [name](const Cage& cage, const CageMethodOptions& options) {
+      return cageCoordinatesMemory(name, cage, options);
+    };
+    // Green coordinates have a column per face besides the vertices'.
+    method.columns = [name](const Cage& cage) {
+      return cage.vertexCount() + (name == "green" ? cage.triangleCount() : 0);
+    };
   }
-  table["rbf"] = {"triharmonic RBF coordinates, one handle per cage vertex",
-                  [](auto cage, const auto&, const auto&) {
-                    return std::make_shared<RbfCoordinates>(cage->vertices());
-                  }};
-  table["ffd"] = {"Bernstein FFD lattice (4 x 4 x 4) around the cage, padded by 5%",
-                  [](auto cage, const auto&, const auto&) {
-                    const BoundingBox box = boundingBox(cage->vertices());
-                    const Vec3 pad(0.05 * cage->diagonal());
-                    LatticeParams params;
-                    params.origin = box.min - pad;
-                    params.extents = box.max - box.min + 2.0 * pad;
-                    params.resolution = {4, 4, 4};
-                    params.basis = LatticeBasis::Bernstein;
-                    return std::make_shared<LatticeCoordinates>(Lattice(params));
-                  },
-                  false};
+  Method& rbf = table["rbf"];
+  rbf.description = "triharmonic RBF coordinates, one handle per cage vertex";
+  rbf.make = [](auto cage, const auto&, const auto&) {
+    return std::make_shared<RbfCoordinates>(cage->vertices());
+  };
+  rbf.memory = [](const Cage& cage, const CageMethodOptions&) {
+    return RbfCoordinates::memoryEstimate(cage.vertexCount());
+  };
+  rbf.columns = [](const Cage& cage) { return cage.vertexCount(); };
+  Method& ffd = table["ffd"];
+  ffd.description = "Bernstein FFD lattice (4 x 4 x 4) around the cage, padded by 5%";
+  ffd.make = [](auto cage, const auto&, const auto&) {
+    const BoundingBox box = boundingBox(cage->vertices());
+    const Vec3 pad(0.05 * cage->diagonal());
+    LatticeParams params;
+    params.origin = box.min - pad;
+    params.extents = box.max - box.min + 2.0 * pad;
+    params.resolution = {kFfdResolution, kFfdResolution, kFfdResolution};
+    params.basis = LatticeBasis::Bernstein;
+    return std::make_shared<LatticeCoordinates>(Lattice(params));
+  };
+  ffd.cageControls = false;
+  ffd.memory = [](const Cage&, const CageMethodOptions&) { return 1e6; };  // 64 control points
+  ffd.columns = [](const Cage&) -> std::size_t {
+    return kFfdResolution * kFfdResolution * kFfdResolution;
+  };
   return table;
 }
 
@@ -144,6 +173,7 @@ Slice makeSlice(const Cage& cage, const Vec3& point, const Vec3& normal, int res
 
 // The kind of a method's failure, for the report.
 std::string errorType(const std::exception& e) {
+  if (dynamic_cast<const OutOfMemory*>(&e)) return "OutOfMemory";  // a SolverError
   if (dynamic_cast<const InvalidInput*>(&e)) return "InvalidInput";
   if (dynamic_cast<const SolverError*>(&e)) return "SolverError";
   if (dynamic_cast<const IoError*>(&e)) return "IoError";
@@ -230,6 +260,39 @@ std::string markdown(const json& report) {
   return md.str();
 }
 
+// Refuses, before any work, a comparison that cannot fit in the memory available, naming the
+// first method that does not fit. The methods run one after the other, so the peak is what all
+// of them share (the pixels, the samples, every method's values and image) plus one method's
+// own: its coordinates (precomputation, per-thread scratch), a block of pixel weights and the
+// property kit's blocks.
+void checkComparisonMemory(const CompareRequest& request,
+                           const std::map<std::string, Method>& table,
+                           const std::vector<std::string>& methods, const Cage& cage,
+                           const Slice& slice) {
+  const double pixels = static_cast<double>(slice.width) * static_cast<double>(slice.height);
+  const double count = static_cast<double>(methods.size());
+  // Besides, about 16 MB of working memory: PNG encoding, the reports, the threads' own.
+  const double shared =
+      pixels * (1.0 + sizeof(Vec3) + sizeof(std::size_t)) +    // inside flags, points, indices
+      pixels * count * (sizeof(double) + 2.0 * sizeof(Rgb)) +  // values, panel, side by side
+      static_cast<double>(request.samples) * sizeof(Vec3) + 16e6;
+  for (const std::string& name : methods) {
+    const Method& method = table.at(name);
+    const std::size_t m = method.columns(cage);
+    const double own = method.memory(cage, request.cageOptions) +
+                       sizeof(double) * static_cast<double>(std::max(kBindBlockValues, m)) +
+                       measurePropertiesMemory(m, method.cageControls ? cage.triangleCount() : 0);
+    // Harmonic coordinates grow with the tet count: name it when it was given.
+    const std::string tets =
+        name == "harmonic" && request.cageOptions.harmonicTets > 0
+            ? " with --tets " + std::to_string(request.cageOptions.harmonicTets)
+            : "";
+    detail::checkMemory(shared + own, request.cage.string() + ": comparing method '" + name + "'" +
+                                          tets + " on this " + std::to_string(cage.vertexCount()) +
+                                          "-vertex cage");
+  }
+}
+
 // compare replaces its output folder as a whole: it may only hold what compare writes (from
 // any earlier run, whatever its methods), so that nothing else is lost with it.
 void checkOutputFolder(const fs::path& folder) {
@@ -286,6 +349,7 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
                        " is out of range (the cage has " + std::to_string(cage->vertexCount()) +
                        " vertices)");
   const Slice slice = makeSlice(*cage, request.planePoint, request.planeNormal, request.resolution);
+  checkComparisonMemory(request, table, methods, *cage, slice);
 
   // Pixels inside the cage: the only places where every method is defined. The winding
   // number costs one atan2 per cage triangle, so rows go in parallel.
@@ -339,7 +403,7 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
 
       // The weights of every inside pixel, in blocks to bound memory: the bind.
       const std::size_t m = coordinates->columnCount();
-      const std::size_t block = std::max<std::size_t>(1, (std::size_t{1} << 22) / m);
+      const std::size_t block = std::max<std::size_t>(1, kBindBlockValues / m);
       std::vector<double> rows;
       r.values.resize(inside.size());
       const auto bindStart = Clock::now();

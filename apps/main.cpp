@@ -1,6 +1,8 @@
 // The spacewarp command-line tool. Exit codes (DESIGN.md): 0 success, 2 usage, 3 bad input
-// (including a file that cannot be read or written: a full disk, a file size limit), 4
-// numerical failure, 1 anything else; a run interrupted by SIGINT, SIGTERM or SIGHUP removes
+// (including a file that cannot be read or written: a full disk, a file size limit; and a job
+// too large for the memory: refused up front, or one line "out of memory while ..." however the
+// memory ran out, apps/out_of_memory.h), 4 numerical failure, 1 anything else; a run
+// interrupted by SIGINT, SIGTERM or SIGHUP removes
 // the temporaries of the outputs it was writing and ends by that signal, which the shell
 // reports as 130, 143 or 129 (128 + the signal's number). Outputs are written atomically
 // (core/io/atomic_file.h), so a failure or an interruption never leaves a partial file behind
@@ -23,6 +25,7 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/atomic_file.h>
 #include "apps/commands.h"
+#include "apps/out_of_memory.h"
 
 using namespace spacewarp;
 using namespace spacewarp::cli;
@@ -92,10 +95,11 @@ void addGlobalOptions(CLI::App& app, CliContext& context, int cores) {
                "no progress display, no informational output (warnings and errors remain)");
 }
 
-// The subcommand being run, for the out-of-memory message.
+// The subcommand being run, for the messages.
 std::string running = "spacewarp";
 
 int run(int argc, char** argv) {
+  setActivity("running 'spacewarp'");
   CLI::App app{"spacewarp: space deformations and cage coordinates"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("spacewarp ") + SPACEWARP_VERSION,
@@ -134,17 +138,18 @@ int run(int argc, char** argv) {
   for (const Command& command : commands) {
     if (!command.app->parsed()) continue;
     running = "spacewarp " + command.app->get_name();
+    setActivity("running '" + running + "'");
     command.run();
   }
   return kOk;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  installSignalHandling();
+// run()'s exit code, with every exception it throws reported in one line.
+int exitCode(int argc, char** argv) {
   try {
     return run(argc, argv);
+  } catch (const OutOfMemory& e) {  // a SolverError: TetGen or CHOLMOD ran out of memory
+    return reportOutOfMemory(printable(e.what()).c_str());
   } catch (const IoError& e) {
     std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
     return kBadInput;
@@ -159,12 +164,14 @@ int main(int argc, char** argv) {
     return kOther;
   } catch (const std::bad_alloc&) {
     // The estimates (core/detail/memory_budget.h) catch most jobs too big for the machine
-    // before they start; this is the rest: still a clear one-line message and exit 3.
-    std::fprintf(stderr,
-                 "spacewarp: error: out of memory in '%s': the input is too large for "
-                 "the memory available\n",
-                 running.c_str());
-    return kBadInput;
+    // before they start; this is the rest: still a clear one-line message and exit 3. (Those
+    // that no handler can catch end the same way: apps/out_of_memory.h.)
+    return reportOutOfMemory();
+  } catch (const std::system_error& e) {
+    // std::thread's failure to start a thread, when memory (for its stack) ran out.
+    if (isOutOfResources(e.code())) return reportOutOfMemory(printable(e.what()).c_str());
+    std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
+    return kOther;
   } catch (const std::length_error&) {
     std::fprintf(stderr,
                  "spacewarp: error: in '%s': the input asks for an array larger than "
@@ -175,4 +182,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
     return kOther;
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  installSignalHandling();
+  const int code = exitCode(argc, argv);
+  // Static destructors and the libraries' finalisers run after this.
+  setActivity("exiting");
+  return code;
 }

@@ -38,6 +38,8 @@
 #include <spacewarp/coords/detail/harmonic_file.h>
 #include <spacewarp/coords/harmonic_warp.h>
 #include <spacewarp/coords/tet_locator.h>
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/detail/serial_blas.h>
 #include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
 
@@ -53,6 +55,34 @@ constexpr std::size_t kPointsPerTask = 256;
 // on the armadillo cage with radius-edge bound 2: 0.43 at 200k tets, ~0.3 for the small test
 // cages at 1k–10k tets).
 constexpr double kMeanVolumeFraction = 0.43;
+
+// Peak memory, fitted to the peak RSS of meshing and solving (cube and bar cages of 8 to 20
+// vertices at 10k to 2.6M tets, and TetGen alone on a 20,736-triangle cage). Each term bounds
+// its measurement by 1.1 to 1.5 times; with the mesh size predicted from the target (below),
+// the whole estimate came to 1.7 to 2.3 times the process's peak RSS (cage.obj of the demo at
+// 100k to 1.6M tets, a cube at 1.6M, a 602-vertex box at 50k), most for small meshes, where
+// OpenBLAS's buffer (address space, mostly untouched) weighs most:
+// - the mesh (TetGen's pools, then the TetMesh), the Laplacian's triplets and the point locator
+//   take about 250 bytes a tet, of which 160 after meshing;
+constexpr double kBytesPerTet = 250.0, kSolveBytesPerTet = 160.0;
+// - the supernodal Cholesky factor fills like tets^1.4: 1.2 GB at 1.3M tets, 3.1 GB at 2.6M;
+constexpr double kFactorBytes = 4.0, kFactorExponent = 1.4;
+// - TetGen's copy of the cage (one facet per triangle) about 4 kB a cage triangle;
+constexpr double kBytesPerCageTriangle = 4096.0;
+// - the values, right-hand sides and solution are three dense arrays of mesh vertices × cage
+//   vertices doubles, and OpenBLAS maps its work buffer.
+// Before meshing, the mesh's size follows from the volume bound: TetGen's quality bound adds
+// tets near small features (up to ~4 a cage triangle: 74k tets for that cage at any target
+// below that), and a mesh has 4 to 6 tets a vertex besides the cage's own vertices.
+double solveBytes(double tets, double meshVertices, double cageVertices) {
+  return kSolveBytesPerTet * tets + kFactorBytes * std::pow(tets, kFactorExponent) +
+         3.0 * sizeof(double) * meshVertices * cageVertices +
+         static_cast<double>(detail::blasWorkBufferBytes());
+}
+
+double expectedTets(const Cage& cage, double volumeBound) {
+  return cage.volume() / (kMeanVolumeFraction * volumeBound) + 4.0 * cage.triangleCount();
+}
 
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
@@ -232,6 +262,13 @@ void HarmonicCoordinates::Impl::nearestRow(const Vec3& world, std::span<double> 
   row[triangles[best].z] += bestW[2];
 }
 
+double HarmonicCoordinates::memoryEstimate(const Cage& cage, const HarmonicOptions& options) {
+  const double tets = expectedTets(cage, tetVolumeBound(cage, options));
+  const double k = static_cast<double>(cage.vertexCount());
+  return kBytesPerCageTriangle * static_cast<double>(cage.triangleCount()) +
+         (kBytesPerTet - kSolveBytesPerTet) * tets + solveBytes(tets, tets / 4.0 + k, k);
+}
+
 double HarmonicCoordinates::tetVolumeBound(const Cage& cage, const HarmonicOptions& options) {
   if (options.maxTetVolume > 0.0) return options.maxTetVolume * cage.volume();
   return cage.volume() / (kMeanVolumeFraction * static_cast<double>(options.targetTetCount));
@@ -370,6 +407,12 @@ void projectNegativeRows(std::vector<double>& values, const Cage& cage, const Te
 std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonNegative,
                                 const ProgressCallback& progress) {
   const std::size_t n = mesh.vertices.size(), k = cage.vertexCount();
+  // The mesh is made; the solve is the larger part, now known exactly.
+  detail::checkMemory(solveBytes(static_cast<double>(mesh.tets.size()), static_cast<double>(n),
+                                 static_cast<double>(k)),
+                      "HarmonicCoordinates: solving for " + std::to_string(k) +
+                          " cage vertices on a mesh of " + std::to_string(n) + " vertices (" +
+                          std::to_string(mesh.tets.size()) + " tets)");
   std::vector<double> values(n * k, 0.0);
   // Interior numbering.
   std::vector<int> interior(n, -1);
@@ -428,6 +471,14 @@ HarmonicCoordinates::HarmonicCoordinates(std::shared_ptr<const Cage> cage,
   impl->cage = std::move(cage);
   impl->options = options;
   impl->volumeBound = tetVolumeBound(*impl->cage, options);
+  // Before meshing: an absurd target (a billion tets) is refused at once, not after TetGen has
+  // filled the memory.
+  detail::checkMemory(
+      memoryEstimate(*impl->cage, options),
+      "HarmonicCoordinates: meshing the cage (" + std::to_string(impl->cage->vertexCount()) +
+          " vertices) into about " +
+          std::to_string(std::llround(expectedTets(*impl->cage, impl->volumeBound))) +
+          " tets and solving");
   impl->mesh =
       tetrahedraliseCage(*impl->cage, {options.radiusEdgeRatio, impl->volumeBound}, progress);
   impl->values = solveValues(*impl->cage, impl->mesh, options.nonNegative, progress);

@@ -67,6 +67,13 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
 PropertyReport measureProperties(const Coordinates& coordinates, std::span<const Vec3> samples,
                                  double diagonal, const PropertyOptions& options = {});
 
+/// The memory (bytes) measureProperties() allocates for coordinates of `columns` columns and,
+/// with a cage, its `cageTriangles` triangles (0 for the overload without one): the weight rows
+/// are formed in blocks of about 32 MB (at least 256 rows), so this does not grow with the
+/// number of samples. The coordinates' own working memory (per-thread scratch) is not counted.
+double measurePropertiesMemory(std::size_t columns, std::size_t cageTriangles,
+                               const PropertyOptions& options = {});
+
 /// `count` points drawn uniformly inside `cage` (rejection sampling in its bounding box with the
 /// winding number), deterministic for a given seed: the sample set the comparison report uses.
 std::vector<Vec3> interiorSamples(const Cage& cage, std::size_t count, std::uint64_t seed = 1);

@@ -86,7 +86,8 @@ void run(const std::string& switches, tetgenio& in, tetgenio& out) {
     tetrahedralize(buffer.data(), &in, &out);
   } catch (int code) {
     const std::string what = "tetrahedralising the cage: TetGen failed: " + reasonOf(code);
-    if (code == 1 || code == 2) throw SolverError(what);
+    if (code == 1) throw OutOfMemory(what);
+    if (code == 2) throw SolverError(what);
     throw InvalidInput(what);
   }
 }

@@ -54,7 +54,7 @@ struct TetMesh {
 /// Throws InvalidInput for out-of-range options, for a self-intersecting cage (naming two of
 /// the intersecting triangles; checked first, since TetGen cannot mesh such input) and for
 /// any other input TetGen rejects, with TetGen's reason; SolverError if TetGen fails
-/// internally or runs out of memory.
+/// internally, OutOfMemory (a SolverError) if it runs out of memory.
 TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options = {},
                            const ProgressCallback& progress = {});
 

@@ -21,6 +21,15 @@ class SolverError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Memory that ran out inside a library that reports it by a status code rather than by
+/// std::bad_alloc (TetGen, CHOLMOD); the message names the step. A SolverError, since the method
+/// produced no result; the command line reports it as it does std::bad_alloc (exit 3, "out of
+/// memory while ...").
+class OutOfMemory : public SolverError {
+ public:
+  using SolverError::SolverError;
+};
+
 /// A file that could not be read or written, or whose content is malformed.
 class IoError : public std::runtime_error {
  public:
@@ -36,15 +45,18 @@ std::string printable(std::string_view text);
 /// `what` with "<name>: " in front, unless it already starts with `name`.
 std::string prefixed(const std::string& name, const std::string& what);
 
-/// Runs `work` and rethrows the typed errors it throws (InvalidInput, SolverError, IoError) with
-/// `name` (usually a file) in front of their message, so that errors from the library, which does
-/// not know where its input came from, name the file at fault.
+/// Runs `work` and rethrows the typed errors it throws (InvalidInput, SolverError, OutOfMemory,
+/// IoError) as the same type with `name` (usually a file) in front of their message, so that
+/// errors from the library, which does not know where its input came from, name the file at
+/// fault.
 template <typename Work>
 decltype(auto) namingFile(const std::string& name, Work&& work) {
   try {
     return work();
   } catch (const InvalidInput& e) {
     throw InvalidInput(prefixed(name, e.what()));
+  } catch (const OutOfMemory& e) {  // before its base, SolverError
+    throw OutOfMemory(prefixed(name, e.what()));
   } catch (const SolverError& e) {
     throw SolverError(prefixed(name, e.what()));
   } catch (const IoError& e) {

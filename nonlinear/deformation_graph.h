@@ -173,7 +173,8 @@ class DeformationGraph {
   /// that no handle's nodes reach keep A = I, t = 0 and are listed in the report. Throws
   /// InvalidInput for mismatched sizes, non-finite points, handles beyond ±1e150 or invalid
   /// options; SolverError if the energy overflows (targets too far for double precision) or
-  /// the normal equations cannot be factorised (also when CHOLMOD runs out of memory).
+  /// the normal equations cannot be factorised (OutOfMemory, a SolverError, when CHOLMOD runs
+  /// out of memory).
   ///
   /// The result is bit-identical for any TBB or BLAS thread count: the assembly is serial and
   /// the sparse Cholesky runs its BLAS single-threaded (OpenBLAS's process-wide thread count

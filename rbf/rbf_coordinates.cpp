@@ -2,11 +2,18 @@
 
 #include <string>
 
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rbf/detail/rbf_system.h>
 #include <spacewarp/rbf/rbf_warp.h>
 
 namespace spacewarp {
+
+double RbfCoordinates::memoryEstimate(std::size_t centres, std::size_t fixed) {
+  const double n = static_cast<double>(centres) + static_cast<double>(fixed);
+  const double handles = static_cast<double>(centres);
+  return sizeof(double) * (n * n + 4.0 * n * handles) + 4e6;
+}
 
 RbfCoordinates::RbfCoordinates(std::span<const Vec3> centres, const RbfOptions& options)
     : RbfCoordinates(centres, {}, options) {}
@@ -17,6 +24,10 @@ RbfCoordinates::RbfCoordinates(std::span<const Vec3> centres, std::span<const Ve
       handles_(centres.begin(), centres.end()),
       fixed_(fixed.begin(), fixed.end()) {
   const std::string who = "RbfCoordinates";
+  detail::checkMemory(
+      memoryEstimate(centres.size(), fixed.size()),
+      who + ": the solve for " + std::to_string(centres.size()) + " handles" +
+          (fixed.empty() ? "" : " and " + std::to_string(fixed.size()) + " fixed centres"));
   const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, nullptr, fixed, options);
   const detail::RbfSystem system(who, c.unique, options);
   centres_ = c.unique;

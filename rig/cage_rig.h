@@ -41,6 +41,14 @@ std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
                                                    const CageMethodOptions& options = {},
                                                    const ProgressCallback& progress = {});
 
+/// The peak memory (bytes) that making the coordinates of `method` for `cage` and evaluating
+/// them on every worker thread takes, weight rows aside: for mvc and green their precomputation
+/// and per-thread scratch (a few hundred bytes a cage vertex and triangle), for harmonic
+/// HarmonicCoordinates::memoryEstimate() (a solve, even when options.harmonicCache holds one).
+/// An upper bound within a small factor. Throws InvalidInput for an unknown method.
+double cageCoordinatesMemory(const std::string& method, const Cage& cage,
+                             const CageMethodOptions& options = {});
+
 /// The rig of `method` with the rest cage and posed cage read from files: a CoordinateWarp
 /// and its coordinates.
 Rig cageRig(const std::string& method, const std::filesystem::path& cage,

@@ -8,7 +8,9 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/rbf/detail/rbf_system.h>
 #include <spacewarp/rbf/rbf_coordinates.h>
 #include <spacewarp/rbf/rbf_warp.h>
 
@@ -106,6 +108,11 @@ Rig rbfRig(RigReader& r) {
     std::snprintf(value, sizeof value, "%.3g", options.scale);
     r.fail("scale", value + std::string(defaultScale ? " (the default) " : " ") + problem);
   }
+  // The warp's dense system (RbfWarp checks it too, without the key's name); in `info` too,
+  // which refuses what deform would.
+  checkMemory(RbfSystem::memoryEstimate(centres.size() + fixed.size()),
+              "'centers' (" + std::to_string(centres.size()) + " centres" +
+                  (fixed.empty() ? "" : " and " + std::to_string(fixed.size()) + " fixed") + ")");
   if (r.checking()) {
     RbfWarp::check(centres, targets, fixed, options);  // what the fit would refuse, without it
     return {};

@@ -69,7 +69,10 @@ class VdbReader : public openvdb::io::Archive {
       try {
         throw;
       } catch (const std::bad_alloc&) {
-        fail(stage_ + ": a size in it is too large");
+        // The grids do not fit in the memory available, or a corrupt size field asks for more
+        // memory than there is: the two cannot be told apart here.
+        throw IoError(name_ + ": out of memory while reading " + stage_ +
+                      " (or a size in it is corrupt and too large)");
       } catch (const openvdb::Exception& e) {
         fail(stage_ + ": " + shortened(e.what()));
       } catch (const std::exception& e) {

@@ -21,8 +21,10 @@ struct VdbFile {
 /// regular file, not an OpenVDB file, or truncated or corrupt ("<path>: truncated or corrupt
 /// OpenVDB file: ..."): a file that ends before what it declares (even when only its header is
 /// read, since every grid's recorded end must lie within the file), and whatever OpenVDB throws
-/// on malformed bytes (its own exceptions, stream failures, allocations that corrupt sizes make
-/// impossible). Never returns an empty or partial grid in place of a missing one.
+/// on malformed bytes (its own exceptions, stream failures). An allocation that fails (the
+/// grids do not fit in memory, or a corrupt size asks for too much) is "<path>: out of memory
+/// while reading <what> (or a size in it is corrupt and too large)". Never returns an empty or
+/// partial grid in place of a missing one.
 VdbFile readVdbFile(const std::filesystem::path& path, bool headerOnly = false);
 
 }  // namespace spacewarp

@@ -2,6 +2,8 @@
 
 #include <dlfcn.h>
 
+#include <spacewarp/core/detail/memory_budget.h>
+
 namespace spacewarp::detail {
 
 namespace {
@@ -30,9 +32,26 @@ std::mutex& blasMutex() {
   return m;
 }
 
+// Whether a SerialBlas scope has run on this thread (so OpenBLAS's buffer for it exists, or
+// another BLAS needs none).
+thread_local bool blasBufferMapped = false;
+
 }  // namespace
 
+std::size_t blasWorkBufferBytes() {
+  // OpenBLAS's BUFFER_SIZE (32 << 22 bytes on x86-64) and a page, which malloc serves by an
+  // mmap rounded up to 1 MiB (measured: a 135,266,304-byte mapping).
+  constexpr std::size_t kOpenBlasBuffer = (std::size_t{128} + 1) << 20;
+  return blas().openblasGet ? kOpenBlasBuffer : 0;
+}
+
 SerialBlas::SerialBlas() : lock_(blasMutex()) {
+  if (!blasBufferMapped) {
+    if (const std::size_t bytes = blasWorkBufferBytes(); bytes > 0)
+      checkMemory(static_cast<double>(bytes),
+                  "the BLAS work buffer of the sparse Cholesky factorisation (OpenBLAS)");
+    blasBufferMapped = true;
+  }
   const Api& api = blas();
   if (api.openblasGet && api.openblasSet) {
     openblasPrevious_ = api.openblasGet();

@@ -7,13 +7,24 @@
 // process-wide mutex serialises the scopes, so two solves on two threads do not restore each
 // other's setting mid-factorisation. The BLAS is looked up at run time (dlsym), so nothing
 // links against a particular BLAS.
+//
+// OpenBLAS maps a work buffer of 128 MiB for a thread on its first level-3 call there, and when
+// that allocation fails it retries forever (a hang, not an error). So the first scope on each
+// thread checks that the buffer fits (detail::checkMemory) before any BLAS call can make it.
 
+#include <cstddef>
 #include <mutex>
 
 namespace spacewarp::detail {
 
+/// The memory OpenBLAS maps for a thread's BLAS work buffer (BUFFER_SIZE, 128 MiB on x86-64,
+/// plus malloc's rounding) when OpenBLAS is the BLAS of this process; 0 for any other BLAS.
+std::size_t blasWorkBufferBytes();
+
 class SerialBlas {
  public:
+  /// Throws InvalidInput (detail::checkMemory) if this is the thread's first scope and
+  /// blasWorkBufferBytes() exceed the memory available.
   SerialBlas();
   ~SerialBlas();
   SerialBlas(const SerialBlas&) = delete;

@@ -29,8 +29,9 @@ struct SparseCholesky::Impl {
     }
   }
 
-  // Throws SolverError unless CHOLMOD's last call (`step`) succeeded. Positive statuses are
-  // warnings (e.g. not positive definite), reported through the factor instead.
+  // Throws SolverError (OutOfMemory when CHOLMOD ran out of memory) unless CHOLMOD's last call
+  // (`step`) succeeded. Positive statuses are warnings (e.g. not positive definite), reported
+  // through the factor instead.
   void require(const char* step) {
     const int status = llt.cholmod().status;
     if (status >= CHOLMOD_OK) return;
@@ -48,6 +49,7 @@ struct SparseCholesky::Impl {
     std::string message =
         options.caller + ": the sparse Cholesky " + step + " failed (" + why + ")";
     if (!options.advice.empty()) message += "; " + options.advice;
+    if (status == CHOLMOD_OUT_OF_MEMORY) throw OutOfMemory(message);
     throw SolverError(message);
   }
 

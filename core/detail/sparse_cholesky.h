@@ -6,7 +6,8 @@
 // Why a wrapper rather than Eigen's CholmodSupernodalLLT at each use:
 //  - every CHOLMOD status is checked (Eigen's wrapper ignores it: a failed analysis leaves a
 //    null factor that its factorize() dereferences, and a factorisation that ran out of memory
-//    reports success) and turned into a SolverError naming the caller, with advice;
+//    reports success) and turned into a SolverError naming the caller, with advice (an
+//    OutOfMemory, which the command line reports as out of memory, when CHOLMOD ran out);
 //  - the BLAS runs single-threaded inside every call (detail::SerialBlas), so results do not
 //    depend on OPENBLAS_NUM_THREADS and no caller can forget it;
 //  - CHOLMOD never prints (print = 0): failures come back as exceptions;
@@ -44,7 +45,9 @@ struct SparseCholeskyOptions {
 };
 
 /// A supernodal sparse Cholesky factor A = L Lᵀ. Matrices are n × n, compressed, holding the
-/// lower triangle (diagonal included) of A; the upper triangle is not read.
+/// lower triangle (diagonal included) of A; the upper triangle is not read. Where a method
+/// throws SolverError because CHOLMOD ran out of memory, it is an OutOfMemory; any call may
+/// also throw InvalidInput when the thread's BLAS work buffer would not fit (SerialBlas).
 class SparseCholesky {
  public:
   explicit SparseCholesky(SparseCholeskyOptions options = {});

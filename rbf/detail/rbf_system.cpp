@@ -13,6 +13,7 @@
 #include <tbb/parallel_for.h>
 #include <Eigen/Eigenvalues>
 
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp::detail {
@@ -134,6 +135,11 @@ Eigen::MatrixXd polynomialBlock(std::span<const Vec3> centres, const Vec3& origi
 
 }  // namespace
 
+double RbfSystem::memoryEstimate(std::size_t n) {
+  const double entries = static_cast<double>(n) * static_cast<double>(n);
+  return 2.25 * sizeof(double) * entries + 4e6;
+}
+
 void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centres) {
   const std::size_t n = centres.size();
   const std::string needs =
@@ -154,6 +160,8 @@ void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centres) {
 RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centres,
                      const RbfOptions& options)
     : n_(centres.size()) {
+  checkMemory(memoryEstimate(n_),
+              who + ": the RBF system of " + std::to_string(n_) + " distinct centres");
   sigma_ = options.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
   checkRbfPolynomial(who, centres);
   std::tie(origin_, length_) = polynomialFrame(centres);

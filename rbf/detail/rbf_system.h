@@ -52,8 +52,14 @@ void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centres);
 /// q(x) = [1, (x − origin) / length], centred and scaled for conditioning.
 class RbfSystem {
  public:
-  /// Throws InvalidInput (fewer than 4 affinely independent centres) or SolverError (a system
-  /// that is numerically singular after all).
+  /// The peak memory (bytes) of building the system for n centres: two dense n × n matrices at
+  /// once (the kernel matrix, then the reduced matrix and its Cholesky factor), measured at
+  /// 16.6 to 18.8 n² bytes for 1,000 to 4,000 centres.
+  static double memoryEstimate(std::size_t n);
+
+  /// Throws InvalidInput (fewer than 4 affinely independent centres, or a system larger than
+  /// the memory available: memoryEstimate(), detail::checkMemory) or SolverError (a system that
+  /// is numerically singular after all).
   RbfSystem(const std::string& who, std::span<const Vec3> centres, const RbfOptions& options);
 
   std::size_t size() const { return n_; }

@@ -2,6 +2,7 @@
 // of a file, keeping grid names and metadata; bad files exit 3 with a message naming them and
 // leave no output behind.
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -14,6 +15,7 @@
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/points/PointCount.h>
 #include <openvdb/tools/LevelSetSphere.h>
+#include <tbb/info.h>
 
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
@@ -393,6 +395,66 @@ TEST_F(VolumeCliTest, VectorGridsAreRotatedUnlessKept) {
   const CliResult bad =
       deformVolume("--rig " + (dir_ / "turn.json").string() + " --vectors sideways");
   EXPECT_EQ(bad.exitCode, 2);
+}
+
+// Running out of memory while warping a volume (no estimate guards it) ends in one line and
+// exit 3 at every limit: a std::bad_alloc thrown while grids were being destroyed (OpenVDB's
+// Tree::clear() allocates) used to abort the process (exit 134, "terminate called after
+// throwing an instance of 'std::bad_alloc'"), and the 128 MiB buffer of OpenBLAS's worker
+// thread made that happen under 300 MB already.
+TEST_F(VolumeCliTest, RunningOutOfMemoryIsOneLineAndExit3AtAnyLimit) {
+#ifdef SPACEWARP_SANITIZED
+  GTEST_SKIP() << "an address-space limit cannot apply to a sanitizer build";
+#endif
+  openvdb::initialize();
+  openvdb::FloatGrid::Ptr sphere = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
+      1.0f, openvdb::Vec3f(0.0f), 0.02f, 3.0f);
+  sphere->setName("surface");
+  {
+    openvdb::io::File file((dir_ / "in.vdb").string());
+    file.write({sphere});
+    file.close();
+  }
+  write(
+      "ffd.json", R"({"method": "ffd", "basis": "bernstein", "origin": [-1.2, -1.2, -1.2],
+                        "size": [2.4, 2.4, 2.4], "resolution": [3, 3, 3],
+                        "controlPoints": [)" +
+                      [] {
+                        std::string points;
+                        for (int k = 0; k < 3; ++k)
+                          for (int j = 0; j < 3; ++j)
+                            for (int i = 0; i < 3; ++i) {
+                              const double x = -1.2 + 1.2 * i, y = -1.2 + 1.2 * j,
+                                           z = -1.2 + 1.2 * k;
+                              points += std::string(points.empty() ? "" : ", ") + "[" +
+                                        std::to_string(x + 0.2 * z) + ", " + std::to_string(y) +
+                                        ", " + std::to_string(z) + "]";
+                            }
+                        return points;
+                      }() +
+                      "]}");
+  // At most 2 worker threads: each one's stack takes address space.
+  const std::string threads =
+      "--threads " + std::to_string(std::min(2, tbb::info::default_concurrency())) + " ";
+  for (const long limit : {160000L, 180000L, 200000L, 250000L, 300000L, 400000L}) {
+    const std::string what = "ulimit -v " + std::to_string(limit);
+    const CliResult r = run(threads + "deform --rig " + (dir_ / "ffd.json").string() + " " +
+                                (dir_ / "in.vdb").string() + " -o " + (dir_ / "out.vdb").string(),
+                            what + "; timeout 120 ");
+    EXPECT_TRUE(r.exitCode == 0 || r.exitCode == 3)
+        << what << ": exit " << r.exitCode << ": " << r.err;
+    if (r.exitCode == 3) {
+      EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << what << ": " << r.err;
+      EXPECT_THAT(r.err, HasSubstr("out of memory while ")) << what;
+      expectNoOutput();
+    }
+    fs::remove(dir_ / "out.vdb");
+  }
+  // And with room enough it is done.
+  const CliResult r = run(threads + "deform --rig " + (dir_ / "ffd.json").string() + " " +
+                              (dir_ / "in.vdb").string() + " -o " + (dir_ / "out.vdb").string(),
+                          "ulimit -v 1500000; timeout 120 ");
+  EXPECT_EQ(r.exitCode, 0) << r.err;
 }
 
 TEST_F(VolumeCliTest, UnknownSamplerIsAUsageError) {

@@ -3,10 +3,12 @@
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <ostream>
@@ -25,6 +27,7 @@
 #include <spacewarp/coords/tet_mesh.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
@@ -242,6 +245,34 @@ TEST(HarmonicCoordinates, RejectsANullCageAndBadOptions) {
   options.radiusEdgeRatio = 0.5;
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { HarmonicCoordinates h(cage, options); }),
               HasSubstr("radiusEdgeRatio"));
+}
+
+// The memory estimate grows with the tet count and the cage, and refuses before meshing: a
+// billion tets would take TetGen hours and terabytes.
+TEST(HarmonicCoordinates, RefusesAMeshTooLargeForTheMemoryBeforeMeshing) {
+  const CagePtr cage = makeCage(test::icosphere(1), "icosphere");
+  HarmonicOptions small, large, absurd;
+  small.targetTetCount = kTets;
+  large.targetTetCount = 2000000;
+  absurd.targetTetCount = 1000000000;
+  const double smallBytes = HarmonicCoordinates::memoryEstimate(*cage, small);
+  EXPECT_GT(smallBytes, 1e6);
+  EXPECT_LT(smallBytes, 2e8);  // with OpenBLAS's 135 MB work buffer
+  EXPECT_GT(HarmonicCoordinates::memoryEstimate(*cage, large), 2e9);
+  EXPECT_GT(HarmonicCoordinates::memoryEstimate(*cage, absurd), 1e13);
+  const auto start = std::chrono::steady_clock::now();
+  const std::string message =
+      test::messageOf<InvalidInput>([&] { HarmonicCoordinates h(cage, absurd); });
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
+  EXPECT_THAT(message, HasSubstr("HarmonicCoordinates: meshing the cage (42 vertices) into about "
+                                 "1000000"));
+  EXPECT_THAT(message, HasSubstr("TB of memory, more than the"));
+  // Under a cap, a mesh that fits runs and one that does not is refused.
+  detail::setMemoryCap(std::size_t{400} << 20);
+  EXPECT_NO_THROW(HarmonicCoordinates(cage, small));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { HarmonicCoordinates h(cage, large); }),
+              HasSubstr("needs about"));
+  detail::setMemoryCap(std::numeric_limits<std::size_t>::max());
 }
 
 TEST(HarmonicCoordinates, MaxTetVolumeControlsTheResolution) {

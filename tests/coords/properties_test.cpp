@@ -1,5 +1,7 @@
 #include <spacewarp/coords/properties.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <random>
 #include <string_view>
@@ -97,6 +99,67 @@ TEST(Properties, DetectsBrokenInterpolation) {
   EXPECT_NEAR(r.lagrange, 1.0, 1e-14);
   EXPECT_GT(r.faceInterpolation, 0.1);
   EXPECT_GT(r.linearReproduction, 0.01);
+}
+
+// TetBarycentric with `extra` more columns whose weights and column controls are zero (like
+// Green coordinates' face columns, in number): the figures are the same, but a weight row is
+// long, so the kit has to form the rows in blocks. It records the largest batch it is given.
+class Padded final : public Coordinates {
+ public:
+  Padded(const Coordinates& inner, std::size_t extra) : inner_(inner), extra_(extra) {}
+  std::size_t controlPointCount() const override { return inner_.controlPointCount(); }
+  std::span<const Vec3> restControlPoints() const override { return inner_.restControlPoints(); }
+  std::size_t columnCount() const override { return inner_.columnCount() + extra_; }
+  void weights(const Vec3& x, std::span<double> row) const override {
+    checkWeightsArguments(x, row.size());
+    std::fill(row.begin(), row.end(), 0.0);
+    inner_.weights(x, row.first(inner_.columnCount()));
+  }
+  void columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const override {
+    std::fill(out.begin(), out.end(), Vec3(0.0));
+    inner_.columnControls(posed, out.first(inner_.columnCount()));
+  }
+  mutable std::atomic<std::size_t> largestBatch{0};
+
+ protected:
+  // `points` is the whole batch that weightsBatch() was given.
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override {
+    std::size_t seen = largestBatch.load();
+    while (points.size() > seen && !largestBatch.compare_exchange_weak(seen, points.size())) {
+    }
+    return Coordinates::weightsRange(points, rows, begin, end);
+  }
+
+ private:
+  const Coordinates& inner_;
+  std::size_t extra_;
+};
+
+// With 20,000 columns, the 600 samples' rows (96 MB) and the 1,200 face samples' rows
+// (192 MB) used to be formed at once; now in blocks of 256 rows (41 MB), with the same report.
+TEST(Properties, WeightRowsAreFormedInBoundedBlocks) {
+  const Cage cage(test::tetrahedron());
+  const TetBarycentric exact(cage);
+  const Padded padded(exact, 20000);
+  const auto samples = samplesInBox(Vec3(-1), Vec3(2), 600);
+  PropertyOptions options;
+  options.faceSamplesPerTriangle = 300;
+  const PropertyReport expected = measureProperties(exact, cage, samples, options);
+  const PropertyReport r = measureProperties(padded, cage, samples, options);
+  EXPECT_EQ(padded.largestBatch.load(), 256u);
+  EXPECT_GE(measurePropertiesMemory(padded.columnCount(), cage.triangleCount(), options),
+            256.0 * 20004 * sizeof(double));
+  EXPECT_LT(measurePropertiesMemory(padded.columnCount(), cage.triangleCount(), options), 50e6);
+  EXPECT_EQ(r.sampleCount, expected.sampleCount);
+  EXPECT_EQ(r.partitionOfUnity, expected.partitionOfUnity);
+  EXPECT_EQ(r.linearReproduction, expected.linearReproduction);
+  EXPECT_EQ(r.similarityReproduction, expected.similarityReproduction);
+  EXPECT_EQ(r.minWeight, expected.minWeight);
+  EXPECT_EQ(r.negativeFraction, expected.negativeFraction);
+  EXPECT_EQ(r.samplesWithNegative, expected.samplesWithNegative);
+  EXPECT_EQ(r.lagrange, expected.lagrange);
+  EXPECT_EQ(r.faceInterpolation, expected.faceInterpolation);
 }
 
 TEST(Properties, RejectsMismatchedCageAndEmptySamples) {

@@ -752,6 +752,8 @@ TEST(DeformationGraph, CholmodFailuresAreSolverErrors) {
     } catch (const SolverError& e) {
       ++failures;
       EXPECT_THAT(e.what(), HasSubstr("sparse Cholesky")) << budget;
+      // Every failure here is an allocation: reported as such (exit 3 in the command line).
+      EXPECT_NE(dynamic_cast<const OutOfMemory*>(&e), nullptr) << budget << ": " << e.what();
     }
     cholmodAllocationsLeft = -1;
   }

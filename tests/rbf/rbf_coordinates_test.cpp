@@ -4,6 +4,7 @@
 #include <spacewarp/rbf/rbf_coordinates.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <random>
 #include <vector>
@@ -14,7 +15,9 @@
 #include <spacewarp/coords/properties.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/coordinate_warp.h>
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/primitives.h>
 #include <spacewarp/rbf/rbf_warp.h>
 #include "placement.h"
 #include "rbf_test_data.h"
@@ -138,6 +141,26 @@ TEST(RbfCoordinates, RejectsDegenerateInput) {
   const RbfCoordinates ok(tet);
   std::vector<double> shortRow(3);
   EXPECT_THROW(ok.weights(Vec3(0.0), shortRow), InvalidInput);
+}
+
+// Five dense (handles × handles) arrays at the peak: measured 34 to 40 n² bytes; the estimate
+// bounds that, and a cap below it refuses the coordinates before the system is formed (the
+// warp's smaller system too).
+TEST(RbfCoordinates, RefusesHandlesTooManyForTheMemory) {
+  EXPECT_GE(RbfCoordinates::memoryEstimate(4000), 40.0 * 4000 * 4000);
+  EXPECT_LE(RbfCoordinates::memoryEstimate(4000), 50.0 * 4000 * 4000);
+  EXPECT_GT(RbfCoordinates::memoryEstimate(1000, 1000), RbfCoordinates::memoryEstimate(1000));
+  const std::vector<Vec3> centres = makeRandomPoints(Vec3(0.0), Vec3(1.0), 2000, 3).positions;
+  detail::setMemoryCap(std::size_t{100} << 20);
+  const std::string coordinates = test::messageOf<InvalidInput>([&] { RbfCoordinates c(centres); });
+  const std::vector<Vec3> more = makeRandomPoints(Vec3(0.0), Vec3(1.0), 3000, 4).positions;
+  const std::string warp = test::messageOf<InvalidInput>([&] { RbfWarp w(more, more); });
+  const std::vector<Vec3> few(centres.begin(), centres.begin() + 500);
+  EXPECT_NO_THROW(RbfCoordinates c(few));
+  detail::setMemoryCap(std::numeric_limits<std::size_t>::max());
+  EXPECT_THAT(coordinates,
+              HasSubstr("RbfCoordinates: the solve for 2000 handles needs about 164 MB of memory"));
+  EXPECT_THAT(warp, HasSubstr("RbfWarp: the RBF system of 3000 distinct centres needs about"));
 }
 
 // Issue 12: handles far from the origin and of any size (the fit's conditioning at offset 1e6

@@ -158,7 +158,7 @@ void rethrowAsIoError(const std::string& name) {
   } catch (const IoError&) {
     throw;
   } catch (const std::bad_alloc&) {
-    throw IoError(name + ": out of memory");
+    throw IoError(name + ": out of memory while reading it");
   } catch (const std::exception& e) {
     throw IoError(name + ": " + e.what());
   }

@@ -92,8 +92,9 @@ class TextLines {
 };
 
 /// For a reader's `catch (...)`: rethrows the exception in flight as an IoError naming `name`.
-/// An IoError passes unchanged, std::bad_alloc becomes "<name>: out of memory", any other
-/// std::exception "<name>: <what()>"; anything not derived from std::exception passes unchanged.
+/// An IoError passes unchanged, std::bad_alloc becomes "<name>: out of memory while reading it",
+/// any other std::exception "<name>: <what()>"; anything not derived from std::exception passes
+/// unchanged.
 [[noreturn]] void rethrowAsIoError(const std::string& name);
 
 // ---------------------------------------------------------------------------------------------

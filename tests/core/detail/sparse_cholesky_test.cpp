@@ -1,6 +1,7 @@
 // Tests of the sparse Cholesky wrapper (core/detail/sparse_cholesky.h): solves with one and
 // several right-hand sides under both orderings, refactorisation on a kept analysis, a matrix
-// that is not positive definite, CHOLMOD failures as SolverError, and misuse.
+// that is not positive definite, CHOLMOD failures as SolverError (OutOfMemory when memory ran
+// out), and misuse.
 
 #include <spacewarp/core/detail/sparse_cholesky.h>
 
@@ -159,6 +160,8 @@ TEST(SparseCholesky, CholmodFailuresAreSolverErrors) {
       const std::string message = e.what();
       EXPECT_THAT(message, HasSubstr("SparseCholeskyTest: the sparse Cholesky ")) << budget;
       EXPECT_THAT(message, HasSubstr("(out of memory); try something smaller")) << budget;
+      // Every failure here is an allocation: reported as such (exit 3 in the command line).
+      EXPECT_NE(dynamic_cast<const OutOfMemory*>(&e), nullptr) << budget << ": " << message;
       for (const char* step : {"analysis", "factorisation", "solve"})
         if (message.find(std::string("Cholesky ") + step + " failed") != std::string::npos &&
             (steps.empty() || steps.back() != step))
