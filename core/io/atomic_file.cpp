@@ -341,12 +341,25 @@ void writeFileAtomically(const std::filesystem::path& requested,
   const std::filesystem::path path = linkTarget(requested);
 
   struct stat old {};
-  const bool replacing = ::stat(path.c_str(), &old) == 0 && S_ISREG(old.st_mode);
+  const bool exists = ::stat(path.c_str(), &old) == 0;
+  // Replacing is what makes the write atomic; a FIFO, device or socket would be replaced by a
+  // plain file, and a write-protected file would be replaced where open() would refuse.
+  if (exists && S_ISDIR(old.st_mode)) fail(path, "is a directory");
+  if (exists && !S_ISREG(old.st_mode))
+    fail(path, "not a regular file (a FIFO, device or socket): only files are written");
+  if (exists && ::access(path.c_str(), W_OK) != 0)
+    fail(path, std::string("the existing file cannot be written: ") + std::strerror(errno));
+  const bool replacing = exists;
 
   Temporary temporary(path);
   if (replacing && ::fchmod(temporary.fd(), old.st_mode & 07777) != 0)
     fail(path, std::string("cannot give the new file the old one's permissions: ") +
                    std::strerror(errno));
+  // As root, keep the replaced file's owner (a user's file stays theirs); others cannot.
+  if (replacing && ::geteuid() == 0 && (old.st_uid != 0 || old.st_gid != 0) &&
+      ::fchown(temporary.fd(), old.st_uid, old.st_gid) != 0)
+    fail(path,
+         std::string("cannot give the new file the old one's owner: ") + std::strerror(errno));
   {
     DescriptorBuffer buffer(temporary.fd());
     std::ostream out(&buffer);

@@ -23,9 +23,11 @@ namespace spacewarp {
 ///   fails) throws IoError naming `path` and the system's reason;
 /// - any exception thrown by `write` is rethrown unchanged after the temporary is removed.
 ///
-/// A file that is replaced keeps its permission bits; a new file gets those of a newly
-/// created file (0666 minus the umask). While it exists, the temporary is listed for
-/// removeAtomicTemporaries().
+/// A file that is replaced keeps its permission bits (and, when running as root, its owner);
+/// a new file gets those of a newly created file (0666 minus the umask). An existing `path`
+/// that is not a regular file (a folder, FIFO, device, socket) or that this process may not
+/// write (access(W_OK)) is refused with IoError before anything is written. While it exists, the
+/// temporary is listed for removeAtomicTemporaries().
 void writeFileAtomically(const std::filesystem::path& path,
                          const std::function<void(std::ostream&)>& write);
 

@@ -2,6 +2,7 @@
 
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <csignal>
@@ -217,7 +218,7 @@ TEST(AtomicFileTest, ConcurrentWritersNeverProduceAMixedFile) {
 TEST(AtomicFileTest, ReplacedFileKeepsItsPermissions) {
   TempDir dir;
   const fs::path path = dir.path() / "out.txt";
-  for (const mode_t mode : {0600, 0640, 0755, 0444}) {
+  for (const mode_t mode : {0600, 0640, 0755}) {
     writeFileAtomically(path, [](std::ostream& out) { out << "old"; });
     ASSERT_EQ(::chmod(path.c_str(), mode), 0);
     writeFileAtomically(path, [](std::ostream& out) { out << "new"; });
@@ -225,6 +226,35 @@ TEST(AtomicFileTest, ReplacedFileKeepsItsPermissions) {
     EXPECT_EQ(readFile(path), "new");
     ASSERT_EQ(::chmod(path.c_str(), 0644), 0);
   }
+}
+
+// A FIFO, a device or a file this process may not write is not replaced behind its back: the
+// write is refused before anything is written (as open() would refuse the last).
+TEST(AtomicFileTest, RefusesWhatItWouldNotReplaceFaithfully) {
+  TempDir dir;
+  const fs::path fifo = dir.path() / "fifo.ply";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  try {
+    writeFileAtomically(fifo, [](std::ostream& out) { out << "x"; });
+    ADD_FAILURE() << "no IoError for a FIFO";
+  } catch (const IoError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("not a regular file"));
+  }
+  EXPECT_TRUE(fs::is_fifo(fifo));
+  EXPECT_THROW(writeFileAtomically("/dev/null", [](std::ostream& out) { out << "x"; }), IoError);
+
+  const fs::path locked = dir.path() / "locked.txt";
+  writeFileAtomically(locked, [](std::ostream& out) { out << "old"; });
+  ASSERT_EQ(::chmod(locked.c_str(), 0444), 0);
+  if (::access(locked.c_str(), W_OK) == 0) {
+    // Root may write any file, so it may replace this one too; the mode stays.
+    writeFileAtomically(locked, [](std::ostream& out) { out << "new"; });
+    EXPECT_EQ(permissionsOf(locked), 0444);
+  } else {
+    EXPECT_THROW(writeFileAtomically(locked, [](std::ostream& out) { out << "new"; }), IoError);
+    EXPECT_EQ(readFile(locked), "old");
+  }
+  EXPECT_EQ(listDirectory(dir.path()), (std::set<std::string>{"fifo.ply", "locked.txt"}));
 }
 
 TEST(AtomicFileTest, NewFileGetsTheUmasksPermissions) {
