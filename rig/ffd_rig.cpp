@@ -1,5 +1,6 @@
 #include <spacewarp/rig/detail/ffd_rig.h>
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -87,6 +88,8 @@ Rig ffdRig(RigReader& r) {
     constraints.finish();
     LatticeFitOptions options;
     options.smoothness = r.number("smoothness", options.smoothness);
+    if (!(std::isfinite(options.smoothness) && options.smoothness >= 0.0))
+      r.fail("smoothness", "must be finite and >= 0");
     if (r.checking()) return {};  // the fit is the expensive part
     try {
       posed = fitControlPoints(lattice, from, to, options).controlPoints;

@@ -4,6 +4,9 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include <spacewarp/core/bend.h>
 #include <spacewarp/core/combinators.h>
@@ -218,7 +221,14 @@ json parseRigJson(std::string_view text, const std::string& where) {
   try {
     return json::parse(text.begin(), text.end(), callback);
   } catch (const json::parse_error& e) {
-    throw IoError(printable(where + ": not valid JSON: " + e.what()));
+    // nlohmann's text is "[json.exception.parse_error.101] parse error at line 1, column 2:
+    // ..."; the user needs only the position and the reason.
+    std::string why = e.what();
+    for (const std::string prefix : {"] ", "parse error at ", "parse error: "}) {
+      if (const std::size_t at = why.find(prefix); at != std::string::npos && at < 40)
+        why.erase(0, at + prefix.size());
+    }
+    throw IoError(printable(where + ": not valid JSON: " + why));
   } catch (const json::out_of_range&) {
     // The only range error of the parser: a number too large for a double (406).
     throw located("is a number outside the range of double");
@@ -240,14 +250,24 @@ json readRigFile(const std::filesystem::path& path) {
     throw IoError(where + ": is a directory, not a rig file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(where + ": cannot open the rig file");
-  std::ostringstream text;
-  try {
-    text << in.rdbuf();
-  } catch (const std::ios_base::failure& e) {
-    throw IoError(where + ": cannot read the rig file: " + e.what());
+  // Read in blocks, so that binary or endless input (/dev/zero, a FIFO that never ends) is
+  // refused at its first block or at the size limit instead of growing without bound.
+  constexpr std::size_t kMaxRigBytes = std::size_t{1} << 30;
+  std::string text;
+  std::vector<char> block(std::size_t{1} << 16);
+  while (in) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    const std::string_view got(block.data(), static_cast<std::size_t>(in.gcount()));
+    if (const std::size_t nul = got.find('\0'); nul != std::string_view::npos) {
+      throw IoError(where + ": not a rig file: a NUL byte at byte offset " +
+                    std::to_string(text.size() + nul) + " (a rig is JSON text)");
+    }
+    if (text.size() + got.size() > kMaxRigBytes)
+      throw IoError(where + ": too large for a rig file (over 1 GiB)");
+    text.append(got);
   }
   if (in.bad()) throw IoError(where + ": cannot read the rig file");
-  return parseRigJson(text.view(), where);
+  return parseRigJson(text, where);
 }
 
 Rig loadRig(const std::filesystem::path& path) {

@@ -86,7 +86,12 @@ INSTANTIATE_TEST_SUITE_P(
                    "resolution": [3, 3, 3], "smoothness": 0,
                    "constraints": {"from": [[0.1, 0.1, 0.1]], "to": [[0.2, 0.1, 0.1]]}})",
                "'smoothness' is 0 and the fit is singular"}
-            .atSolve()),
+            .atSolve(),
+        BadRig{"FfdNegativeSmoothness",
+               R"({"method": "ffd", "basis": "trilinear", "origin": [0, 0, 0], "size": [1, 1, 1],
+                   "resolution": [3, 3, 3], "smoothness": -1,
+                   "constraints": {"from": [[0.1, 0.1, 0.1]], "to": [[0.2, 0.1, 0.1]]}})",
+               "'smoothness' must be finite and >= 0"}),
     test::badRigName);
 
 class RigErrorsCliTest : public test::CliFixture {
@@ -148,6 +153,20 @@ TEST_F(RigErrorsCliTest, AFolderAsTheRigIsNamed) {
   const test::CliResult r = deform("rigs.json");
   expectRefused(r, dir_ / "out.ply");
   EXPECT_THAT(r.err, HasSubstr("rigs.json: is a directory"));
+}
+
+// Binary or endless input as a rig fails at its first block, not after reading it all; a
+// syntax error gives the position and reason without the JSON library's own labels.
+TEST_F(RigErrorsCliTest, BinaryRigsAndSyntaxErrorsAreOneClearLine) {
+  fs::create_symlink("/dev/zero", dir_ / "zero.json");
+  test::CliResult r = deform("zero.json");
+  expectRefused(r, dir_ / "out.ply");
+  EXPECT_THAT(r.err, HasSubstr("zero.json: not a rig file: a NUL byte at byte offset 0"));
+  write("broken.json", "{\"method\": \"twist\",\n \"rate\": }");
+  r = deform("broken.json");
+  expectRefused(r, dir_ / "out.ply");
+  EXPECT_THAT(r.err, HasSubstr("broken.json: not valid JSON: line 2, column 10: "));
+  EXPECT_THAT(r.err, ::testing::Not(HasSubstr("json.exception")));
 }
 
 TEST_F(RigErrorsCliTest, AGraphTooLargeForTheMemoryLimitIsRefusedNamingTheSpacing) {
