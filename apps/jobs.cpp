@@ -24,6 +24,11 @@ void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path
   WriteOptions options;
   if (ascii) options.plyEncoding = PlyEncoding::Ascii;
   writeSoup(soup, output, options);
+  if (!soup.notKept.empty()) {
+    std::string line = input.string() + ": spacewarp does not keep the input's ";
+    for (std::size_t k = 0; k < soup.notKept.size(); ++k) line += (k ? "; " : "") + soup.notKept[k];
+    context.warn(line + "; they are not in the output");
+  }
   if (const auto lost = unstoredContent(soup, formatFromPath(output)); !lost.empty()) {
     std::string line = output.string() + ": the format cannot store the input's ";
     for (std::size_t k = 0; k < lost.size(); ++k) line += (k ? "; " : "") + lost[k];

@@ -82,6 +82,10 @@ struct PolygonSoup : PointSet {
   /// OBJ groups, objects, smoothing groups and materials, in file order (other formats drop
   /// them).
   std::vector<ObjStatement> objStatements;
+  /// What the reader read through but does not keep, one short phrase per kind, in file order
+  /// ("OBJ line elements (l)", "PLY element 'edge'"): for a warning that they are not in the
+  /// output. Empty for a soup made in memory; never written.
+  std::vector<std::string> notKept;
 
   std::size_t polygonCount() const { return faceOffsets.size() - 1; }
 

@@ -148,6 +148,11 @@ struct Scan {
   std::vector<std::uint32_t> faceSizes;
   std::uint64_t cornerCount = 0;
   std::string forwarded;
+  std::vector<std::string> notKept;  ///< PolygonSoup::notKept
+
+  void drop(const std::string& what) {
+    if (std::find(notKept.begin(), notKept.end(), what) == notKept.end()) notKept.push_back(what);
+  }
 };
 
 /// One pass over the lines, read as they come (see detail::TextLines): binary or endless input
@@ -170,6 +175,7 @@ Scan scanLines(std::istream& in, const std::string& name) {
       if (static_cast<std::int64_t>(scan.positions.size()) >= kMaxVertices)
         error.fail("too many vertices");
       scan.positions.push_back(parseTriple(tokens, error, "vertex"));
+      if (tokens.size() >= 7) scan.drop("vertex colours");
     } else if (keyword == "vn") {
       if (static_cast<std::int64_t>(scan.normals.size()) >= kMaxVertices)
         error.fail("too many normals");
@@ -199,6 +205,11 @@ Scan scanLines(std::istream& in, const std::string& name) {
           statement.text += tokens[t];
         }
         scan.statements.push_back(std::move(statement));
+      } else if (keyword == "l" || keyword == "p") {
+        scan.drop(keyword == "l" ? "line elements (l)" : "point elements (p)");
+      } else if (keyword.front() != '#') {
+        // Free-form geometry (vp, curv, surf, ...), display attributes and the like.
+        scan.drop(detail::quotedToken(keyword) + " statements");
       }
       scan.forwarded += '\n';  // Not needed by tinyobjloader: comments, groups, materials, ...
       continue;
@@ -328,6 +339,7 @@ PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
   }
   assignNormals(soup, std::move(scan.normals), cornerNormals);
   soup.objStatements = std::move(scan.statements);
+  soup.notKept = std::move(scan.notKept);
   if (anyTexcoord) {
     soup.texcoords = cornerAttribute(std::move(scan.texcoords), cornerTexcoords);
     soup.texcoordDimension = scan.texcoordDimension;

@@ -717,6 +717,27 @@ void readFaces(const Element& face, std::uint64_t vertexCount, ValueReader& read
   }
 }
 
+/// What the elements of `header` hold that a soup does not keep (PolygonSoup::notKept): list
+/// properties other than the face index list, elements other than vertex and face.
+std::vector<std::string> notKept(const Header& header) {
+  std::vector<std::string> lost;
+  for (const Element& element : header.elements) {
+    if (element.count == 0) continue;
+    if (element.name != "vertex" && element.name != "face") {
+      lost.push_back("element " + detail::quotedToken(element.name));
+      continue;
+    }
+    for (const Property& property : element.properties) {
+      const bool indexList = element.name == "face" &&
+                             (property.name == "vertex_indices" ||
+                              (property.name == "vertex_index" && !element.find("vertex_indices")));
+      if (property.isList && !indexList)
+        lost.push_back(element.name + " list property " + detail::quotedToken(property.name));
+    }
+  }
+  return lost;
+}
+
 PolygonSoup readPlyImpl(std::istream& in, const std::string& name) {
   Input input(in, name);
   const Header header = parseHeader(input, name);
@@ -731,6 +752,7 @@ PolygonSoup readPlyImpl(std::istream& in, const std::string& name) {
   }
 
   PolygonSoup soup;
+  soup.notKept = notKept(header);
   ValueReader reader(input, name, header.encoding);
   for (const Element& element : header.elements) {
     if (element.name == "vertex") {

@@ -254,6 +254,21 @@ TEST_F(CliFrictionTest, ThreadsOutOfRangeNamesTheRange) {
   EXPECT_THAT(many.out, HasSubstr("vertices:   8"));
 }
 
+// What the input holds but spacewarp does not keep is one counted warning naming it; the
+// output is still written.
+TEST_F(CliFrictionTest, WhatTheInputLosesIsOneWarning) {
+  write("shift.json", kShift);
+  write("lines.obj", "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nf 1 2 3\nl 1 2\np 3\n");
+  const CliResult r =
+      run("deform --rig " + path("shift.json") + " " + path("lines.obj") + " -o " + path("o.obj"));
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(r.err, "spacewarp: warning: " + path("lines.obj") +
+                       ": spacewarp does not keep the input's vertex colours; line elements (l); "
+                       "point elements (p); they are not in the output\n");
+  EXPECT_THAT(r.out, HasSubstr(", 1 warning\n"));
+  EXPECT_TRUE(fs::exists(dir_ / "o.obj"));
+}
+
 TEST_F(CliFrictionTest, DeformEndsWithASummaryUnlessQuiet) {
   writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {1, 1, 1}), dir_ / "box.obj");
   writeCloud(Vec3(-1), Vec3(1), 1234, 1);

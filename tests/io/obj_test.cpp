@@ -34,6 +34,16 @@ std::string errorOf(const std::string& text) {
   return test::messageOf<IoError>([&] { readText(text); });
 }
 
+// What a soup does not keep is named once per kind, in file order, so that the CLI can say it.
+TEST(ObjTest, NamesWhatItReadsButDoesNotKeep) {
+  const PolygonSoup soup = readText(
+      "# comment\nv 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 1\nv 1 1 1\nf 1 2 3\nl 1 4\n"
+      "p 4\nl 2 4\ncurv 0 1 1 2\ng part\n");
+  EXPECT_EQ(soup.notKept, (std::vector<std::string>{"vertex colours", "line elements (l)",
+                                                    "point elements (p)", "'curv' statements"}));
+  EXPECT_TRUE(readText("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\ng a\ns 1\n").notKept.empty());
+}
+
 TEST(ObjTest, RoundTripMixedPolygonsIsExact) {
   test::expectExactRoundTrips(
       roundTrip, {.firstSeed = 1, .lastSeed = 5, .vertexCount = 200, .polygonCount = 150});

@@ -291,6 +291,21 @@ TEST(PlyTest, RoundTripWithFaceAttributesIsExact) {
   }
 }
 
+// What a soup does not keep is named (list properties but the face indices, other elements),
+// for the CLI's warning; empty elements drop nothing.
+TEST(PlyTest, NamesWhatItReadsButDoesNotKeep) {
+  const PolygonSoup soup = readBytes(
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nproperty list uchar int neighbours\nelement face 1\n"
+      "property list uchar int vertex_indices\nproperty list uchar float texcoord\n"
+      "element edge 1\nproperty int vertex1\nproperty int vertex2\nelement material 0\n"
+      "property float shine\nend_header\n0 0 0 0\n1 0 0 0\n0 1 0 0\n3 0 1 2 0\n0 1\n");
+  EXPECT_EQ(soup.polygonCount(), 1u);
+  EXPECT_EQ(soup.notKept,
+            (std::vector<std::string>{"vertex list property 'neighbours'",
+                                      "face list property 'texcoord'", "element 'edge'"}));
+}
+
 // A point cloud read from a file whose face element is empty keeps that element's
 // properties as face attributes without values; writing it must keep them (found by fuzz_ply).
 TEST(PlyTest, RoundTripKeepsFaceAttributesOfAnEmptyFaceElement) {
