@@ -48,6 +48,73 @@ std::vector<std::string> split(const std::string& list) {
   return parts;
 }
 
+// The --methods check: known names, none twice. `known` is the comma-separated list.
+std::string checkMethodList(const std::string& list, const std::string& known) {
+  const auto names = split(list);
+  if (list.empty()) return "expected a comma-separated list of methods";
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    if (("," + known + ",").find("," + names[k] + ",") == std::string::npos)
+      return "unknown method '" + names[k] + "' (one of: " + known + ")";
+    // Twice the same panel is a typo, not a comparison: say so rather than guess.
+    if (std::find(names.begin(), names.begin() + k, names[k]) != names.begin() + k)
+      return "method '" + names[k] + "' is listed twice";
+  }
+  return {};
+}
+
+// --slice, or --point with --normal: the plane of the images.
+void addPlaneOptions(CLI::App* cmd, CompareArgs& args) {
+  auto* sliceOption =
+      cmd->add_option("--slice", args.slice, "axis-aligned plane, e.g. z=0.5 (world units)")
+          ->check([](const std::string& text) -> std::string {
+            int axis;
+            double value;
+            return parseSlice(text, axis, value) ? "" : "expected AXIS=VALUE with AXIS x, y or z";
+          });
+  auto* pointOption = cmd->add_option("--point", args.point, "a point of the plane: X,Y,Z")
+                          ->delimiter(',')
+                          ->expected(3);
+  auto* normalOption = cmd->add_option("--normal", args.normal, "the plane's normal: X,Y,Z")
+                           ->delimiter(',')
+                           ->expected(3);
+  sliceOption->excludes(pointOption)->excludes(normalOption);
+  pointOption->needs(normalOption);
+  normalOption->needs(pointOption);
+}
+
+// The request the parsed options describe.
+CompareRequest compareRequest(const CompareArgs& args) {
+  CompareRequest request = args.request;
+  request.cage = args.cage;
+  request.methods = split(args.methods);
+  request.output = args.output;
+  if (!args.slice.empty()) {
+    int axis = 0;
+    double value = 0.0;
+    parseSlice(args.slice, axis, value);
+    request.planeNormal = Vec3(0.0);
+    request.planeNormal[axis] = 1.0;
+    request.planePoint = Vec3(0.0);
+    request.planePoint[axis] = value;
+  } else {
+    request.planePoint = Vec3(args.point[0], args.point[1], args.point[2]);
+    request.planeNormal = Vec3(args.normal[0], args.normal[1], args.normal[2]);
+  }
+  return request;
+}
+
+void runCompare(const CompareArgs& args, const CliContext& context) {
+  const CompareRequest request = compareRequest(args);
+  const nlohmann::json report = runComparison(request, context);
+  const std::size_t failed = report["failedMethods"].size();
+  if (failed == report["methods"].size())
+    throw SolverError("compare: every method failed; the reasons are in " +
+                      (request.output / "report.md").string());
+  context.say("compare: wrote " + std::to_string(report["methods"].size()) + " heat maps (" +
+              std::to_string(failed) + " failed), compare.png, report.md and report.json to " +
+              request.output.string());
+}
+
 }  // namespace
 
 Command addCompareCommand(CLI::App& app, const CliContext& context) {
@@ -62,34 +129,8 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
   cmd->add_option("--cage", args->cage, "rest cage (closed mesh)")->required();
   cmd->add_option("--methods", args->methods,
                   "comma-separated methods (default: all of " + known + ")")
-      ->check([known](const std::string& list) -> std::string {
-        const auto names = split(list);
-        if (list.empty()) return "expected a comma-separated list of methods";
-        for (std::size_t k = 0; k < names.size(); ++k) {
-          if (("," + known + ",").find("," + names[k] + ",") == std::string::npos)
-            return "unknown method '" + names[k] + "' (one of: " + known + ")";
-          // Twice the same panel is a typo, not a comparison: say so rather than guess.
-          if (std::find(names.begin(), names.begin() + k, names[k]) != names.begin() + k)
-            return "method '" + names[k] + "' is listed twice";
-        }
-        return {};
-      });
-  auto* sliceOption =
-      cmd->add_option("--slice", args->slice, "axis-aligned plane, e.g. z=0.5 (world units)")
-          ->check([](const std::string& text) -> std::string {
-            int axis;
-            double value;
-            return parseSlice(text, axis, value) ? "" : "expected AXIS=VALUE with AXIS x, y or z";
-          });
-  auto* pointOption = cmd->add_option("--point", args->point, "a point of the plane: X,Y,Z")
-                          ->delimiter(',')
-                          ->expected(3);
-  auto* normalOption = cmd->add_option("--normal", args->normal, "the plane's normal: X,Y,Z")
-                           ->delimiter(',')
-                           ->expected(3);
-  sliceOption->excludes(pointOption)->excludes(normalOption);
-  pointOption->needs(normalOption);
-  normalOption->needs(pointOption);
+      ->check([known](const std::string& list) { return checkMethodList(list, known); });
+  addPlaneOptions(cmd, *args);
   cmd->add_option("--control", args->request.control, "cage vertex whose function is drawn")
       ->check(CLI::NonNegativeNumber)  // before the conversion to an unsigned index wraps -1
       ->capture_default_str();
@@ -107,34 +148,7 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
     if (args->slice.empty() && args->point.empty())
       throw CLI::RequiredError("--slice or --point and --normal");
   });
-
-  return {cmd, [args, &context] {
-            CompareRequest request = args->request;
-            request.cage = args->cage;
-            request.methods = split(args->methods);
-            request.output = args->output;
-            if (!args->slice.empty()) {
-              int axis = 0;
-              double value = 0.0;
-              parseSlice(args->slice, axis, value);
-              request.planeNormal = Vec3(0.0);
-              request.planeNormal[axis] = 1.0;
-              request.planePoint = Vec3(0.0);
-              request.planePoint[axis] = value;
-            } else {
-              request.planePoint = Vec3(args->point[0], args->point[1], args->point[2]);
-              request.planeNormal = Vec3(args->normal[0], args->normal[1], args->normal[2]);
-            }
-            const nlohmann::json report = runComparison(request, context);
-            const std::size_t failed = report["failedMethods"].size();
-            if (failed == report["methods"].size())
-              throw SolverError("compare: every method failed; the reasons are in " +
-                                (request.output / "report.md").string());
-            context.say("compare: wrote " + std::to_string(report["methods"].size()) +
-                        " heat maps (" + std::to_string(failed) +
-                        " failed), compare.png, report.md and report.json to " +
-                        request.output.string());
-          }};
+  return {cmd, [args, &context] { runCompare(*args, context); }};
 }
 
 }  // namespace spacewarp::cli

@@ -3,6 +3,7 @@
 // with every method through rigs written next to them (exactly as `spacewarp deform --rig`
 // would), and compares the cage coordinate functions on a slice.
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -40,26 +41,48 @@ Vec3 sway(const Vec3& p) {
               std::sin(angle) * p.x + std::cos(angle) * p.y, p.z);
 }
 
-void runDemo(const fs::path& dir, const CliContext& context) {
-  const auto start = std::chrono::steady_clock::now();
-  createOutputFolder(dir / "compare");
-  const Vec3 lo(-0.5, -0.5, -2.0), hi(0.5, 0.5, 2.0);
-  const PolygonSoup bar = makeBoxSurface(lo, hi, {24, 24, 96});
-  const PointSet cloud = makeRandomPoints(lo, hi, 20000, 7);
-  PolygonSoup cloudSoup;
-  static_cast<PointSet&>(cloudSoup) = cloud;
-  writeSoup(bar, dir / "bar.obj");
-  writeSoup(cloudSoup, dir / "cloud.ply");
-  std::vector<std::string> inputs = {"bar.obj", "cloud.ply"};
-  if (volumesSupported()) {
-    writeMeshLevelSet(bar, 0.04, dir / "bar.vdb");  // the bar's level set, 0.04 voxels
-    inputs.push_back("bar.vdb");
-  }
+// The procedural inputs every rig deforms: a detailed bar (polygon soup), a point cloud in the
+// same box and, where volumes are supported, the bar's level set.
+struct DemoInputs {
+  PolygonSoup bar;
+  PointSet cloud;
+  std::vector<std::string> files;  // file names in the demo folder
+};
 
+// The controls around the inputs, all posed by sway().
+struct DemoControls {
+  PolygonSoup cage;
+  Vec3 boxLo, boxHi;  // the lattice's box
+  std::array<int, 3> resolution{3, 3, 5};
+  std::vector<Vec3> lattice;  // posed control points
+  std::vector<Vec3> handles, targets;
+};
+
+const Vec3 kBarLo(-0.5, -0.5, -2.0), kBarHi(0.5, 0.5, 2.0);
+
+DemoInputs writeInputs(const fs::path& dir) {
+  DemoInputs inputs;
+  inputs.bar = makeBoxSurface(kBarLo, kBarHi, {24, 24, 96});
+  inputs.cloud = makeRandomPoints(kBarLo, kBarHi, 20000, 7);
+  PolygonSoup cloudSoup;
+  static_cast<PointSet&>(cloudSoup) = inputs.cloud;
+  writeSoup(inputs.bar, dir / "bar.obj");
+  writeSoup(cloudSoup, dir / "cloud.ply");
+  inputs.files = {"bar.obj", "cloud.ply"};
+  if (volumesSupported()) {
+    writeMeshLevelSet(inputs.bar, 0.04, dir / "bar.vdb");  // the bar's level set, 0.04 voxels
+    inputs.files.push_back("bar.vdb");
+  }
+  return inputs;
+}
+
+DemoControls writeControls(const fs::path& dir) {
+  DemoControls controls;
   // A cage around the bar with a pinched waist (so it is concave, where coordinate functions
   // differ most), and its swayed pose. It clears the volume's narrow band (3 voxels of 0.04)
   // everywhere, so every voxel is warped by the cage's interior coordinates.
-  PolygonSoup cage = makeBoxSurface(lo - 0.2, hi + 0.2, {1, 1, 4});
+  PolygonSoup& cage = controls.cage;
+  cage = makeBoxSurface(kBarLo - 0.2, kBarHi + 0.2, {1, 1, 4});
   for (Vec3& p : cage.positions)
     if (std::abs(p.z) < 1e-9) p.x *= 0.9, p.y *= 0.9;
   PolygonSoup pose = cage;
@@ -68,19 +91,26 @@ void runDemo(const fs::path& dir, const CliContext& context) {
   writeSoup(pose, dir / "cage_pose.obj");
 
   // A Bernstein lattice around the cage and handles at the cage's vertices, swayed alike.
-  const Vec3 boxLo = lo - 0.25, boxHi = hi + 0.25;
-  const std::array<int, 3> resolution{3, 3, 5};
-  std::vector<Vec3> lattice;
+  controls.boxLo = kBarLo - 0.25;
+  controls.boxHi = kBarHi + 0.25;
+  const std::array<int, 3>& resolution = controls.resolution;
   for (int k = 0; k < resolution[2]; ++k)
     for (int j = 0; j < resolution[1]; ++j)
       for (int i = 0; i < resolution[0]; ++i)
-        lattice.push_back(sway(boxLo + (boxHi - boxLo) * Vec3(i / (resolution[0] - 1.0),
-                                                              j / (resolution[1] - 1.0),
-                                                              k / (resolution[2] - 1.0))));
-  std::vector<Vec3> handles(cage.positions.begin(), cage.positions.end()), targets;
-  for (const Vec3& h : handles) targets.push_back(sway(h));
+        controls.lattice.push_back(
+            sway(controls.boxLo + (controls.boxHi - controls.boxLo) *
+                                      Vec3(i / (resolution[0] - 1.0), j / (resolution[1] - 1.0),
+                                           k / (resolution[2] - 1.0))));
+  controls.handles.assign(cage.positions.begin(), cage.positions.end());
+  for (const Vec3& h : controls.handles) controls.targets.push_back(sway(h));
+  return controls;
+}
 
+// One rig per method, by name: the analytic warps, the lattice, the handle-based warps and
+// every cage method.
+std::map<std::string, json> demoRigs(const DemoControls& controls) {
   const double pi = std::numbers::pi;
+  const Vec3 boxLo = controls.boxLo, boxHi = controls.boxHi;
   std::map<std::string, json> rigs = {
       {"twist",
        {{"method", "twist"}, {"origin", {0, 0, 0}}, {"axis", {0, 0, 1}}, {"rate", pi / 4}}},
@@ -101,19 +131,22 @@ void runDemo(const fs::path& dir, const CliContext& context) {
         {"basis", "bernstein"},
         {"origin", {boxLo.x, boxLo.y, boxLo.z}},
         {"size", {boxHi.x - boxLo.x, boxHi.y - boxLo.y, boxHi.z - boxLo.z}},
-        {"resolution", resolution},
-        {"controlPoints", points(lattice)}}},
-      {"rbf", {{"method", "rbf"}, {"centers", points(handles)}, {"targets", points(targets)}}},
+        {"resolution", controls.resolution},
+        {"controlPoints", points(controls.lattice)}}},
+      {"rbf",
+       {{"method", "rbf"},
+        {"centers", points(controls.handles)},
+        {"targets", points(controls.targets)}}},
       {"mls",
        {{"method", "mls"},
         {"mode", "rigid"},
-        {"handles", points(handles)},
-        {"targets", points(targets)}}},
+        {"handles", points(controls.handles)},
+        {"targets", points(controls.targets)}}},
       {"graph",
        {{"method", "graph"},
         {"spacing", 0.5},
-        {"handles", points(handles)},
-        {"targets", points(targets)}}},
+        {"handles", points(controls.handles)},
+        {"targets", points(controls.targets)}}},
   };
   for (const std::string& method : cageMethods())
     rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
@@ -123,7 +156,13 @@ void runDemo(const fs::path& dir, const CliContext& context) {
     rigs["harmonic"]["outside"] = "nearest";
     rigs["harmonic"]["tets"] = 100000;
   }
+  return rigs;
+}
 
+// Writes each rig next to the inputs and deforms every input with it, printing the command
+// that reproduces each result.
+void deformWithEveryRig(const fs::path& dir, const std::map<std::string, json>& rigs,
+                        const std::vector<std::string>& inputs, const CliContext& context) {
   for (const auto& [name, rig] : rigs) {
     const fs::path rigPath = dir / (name + ".json");
     writeJsonFile(rig, rigPath);
@@ -142,9 +181,11 @@ void runDemo(const fs::path& dir, const CliContext& context) {
                   out.string());
     }
   }
+}
 
-  // The coordinate functions of one vertex of the waist, on the diagonal plane x = y through
-  // the bar's axis and that vertex.
+// The coordinate functions of one vertex of the waist, on the diagonal plane x = y through
+// the bar's axis and that vertex.
+void compareWaistVertex(const fs::path& dir, const PolygonSoup& cage, const CliContext& context) {
   CompareRequest request;
   request.cage = dir / "cage.obj";
   request.planePoint = Vec3(0.0);
@@ -160,14 +201,24 @@ void runDemo(const fs::path& dir, const CliContext& context) {
   context.say("spacewarp compare --cage " + request.cage.string() +
               " --point 0,0,0 --normal 1,-1,0 --control " + std::to_string(request.control) +
               " --resolution 400 -o " + request.output.string());
+}
+
+void runDemo(const fs::path& dir, const CliContext& context) {
+  const auto start = std::chrono::steady_clock::now();
+  createOutputFolder(dir / "compare");
+  const DemoInputs inputs = writeInputs(dir);
+  const DemoControls controls = writeControls(dir);
+  const std::map<std::string, json> rigs = demoRigs(controls);
+  deformWithEveryRig(dir, rigs, inputs.files, context);
+  compareWaistVertex(dir, controls.cage, context);
 
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   char summary[160];
   std::snprintf(summary, sizeof summary,
                 "demo: %zu-vertex bar, %zu-point cloud%s deformed by %zu rigs in %.1f s",
-                bar.size(), cloud.size(), volumesSupported() ? " and level-set volume" : "",
-                rigs.size(), seconds);
+                inputs.bar.size(), inputs.cloud.size(),
+                volumesSupported() ? " and level-set volume" : "", rigs.size(), seconds);
   context.say(summary);
   context.say("look at: " + dir.string() + " (bar_<method>.obj, cloud_<method>.ply" +
               (volumesSupported() ? ", bar_<method>.vdb" : "") + ") and " +

@@ -37,28 +37,7 @@ class Describer {
       throw InvalidInput(where_ + ": a rig must be a JSON object with a string \"method\"");
     const std::string method = rig_["method"].get<std::string>();
     if (method == "twist" || method == "bend" || method == "taper") {
-      line("method", method);
-      line("origin", get("origin"));
-      line("axis", get("axis"));
-      if (method == "bend") line("direction", get("direction"));
-      line("rate", get("rate"));
-      line("limits", get("limits", "none"));
-      const std::string clamp = rig_.contains("limits") ? ", with s clamped to the limits" : "";
-      if (method == "twist")
-        line("does",
-             "rotates each point about the axis through origin by rate * s radians, s "
-             "its signed distance along the axis from origin" +
-                 clamp);
-      else if (method == "bend")
-        line("does",
-             "bends the spine through origin along the axis into a circular arc of "
-             "curvature rate (radians per unit) towards direction" +
-                 clamp);
-      else
-        line("does",
-             "scales the components perpendicular to the axis by 1 + rate * s, s the "
-             "signed distance along the axis from origin" +
-                 clamp);
+      analytic(method);
     } else if (method == "affine") {
       line("method", "affine");
       line("matrix", get("matrix"));
@@ -66,29 +45,7 @@ class Describer {
     } else if (method == "mvc" || method == "green" || method == "harmonic") {
       cage(method);
     } else if (method == "ffd") {
-      line("method", "ffd (" + get("basis") + " lattice)");
-      line("origin", get("origin"));
-      line("size", get("size"));
-      const std::string resolution = get("resolution");
-      std::string controls = "?";
-      if (rig_.contains("resolution") && rig_["resolution"].is_array()) {
-        std::size_t n = 1;
-        for (const json& v : rig_["resolution"])
-          n *= v.is_number_integer() && v.get<long long>() >= 1 && v.get<long long>() <= 1 << 20
-                   ? static_cast<std::size_t>(v.get<long long>())
-                   : 0;
-        if (n > 0) controls = groupDigits(n);
-      }
-      line("controls", resolution + " = " + controls + " control points");
-      if (rig_.contains("constraints"))
-        line("posed by", "least-squares fit to " + count(rig_["constraints"], "from") +
-                             " point constraints (smoothness " + get("smoothness", "1e-4") + ")");
-      else
-        line("posed by", count(rig_, "controlPoints") + " posed control points");
-      line("outside", get("outside", "identity"));
-      line("does",
-           "moves points inside the box by the lattice's displacement of its controls; "
-           "points outside follow 'outside'");
+      ffd();
     } else if (method == "rbf") {
       line("method", "rbf (" + get("kernel", "triharmonic") + " kernel)");
       line("centres", count(rig_, "centers") + ", moved to as many targets");
@@ -114,17 +71,7 @@ class Describer {
       line("does", "moves each point by its own best " + get("mode", "rigid") +
                        " transform of the handles onto the targets, weighted by distance");
     } else if (method == "compose") {
-      line("method", "compose");
-      if (!rig_.contains("warps") || !rig_["warps"].is_array())
-        throw InvalidInput(where_ + ": 'warps' must be a non-empty array");
-      const json& warps = rig_["warps"];
-      line("does", "applies the " + std::to_string(warps.size()) + " warps below in order");
-      for (std::size_t i = 0; i < warps.size(); ++i) {
-        out_ += indent_ + "warps[" + std::to_string(i) + "]:\n";
-        Describer(warps[i], baseDir_, where_ + ": warps[" + std::to_string(i) + "]", indent_ + "  ",
-                  out_)
-            .print();
-      }
+      compose();
     } else {
       std::string known;
       for (const std::string& m : rigMethods()) known += (known.empty() ? "" : ", ") + m;
@@ -146,6 +93,73 @@ class Describer {
   static std::string count(const json& object, const char* key) {
     if (!object.is_object() || !object.contains(key) || !object[key].is_array()) return "?";
     return groupDigits(object[key].size());
+  }
+
+  // Twist, bend and taper: their parameters and what they do with them.
+  void analytic(const std::string& method) const {
+    line("method", method);
+    line("origin", get("origin"));
+    line("axis", get("axis"));
+    if (method == "bend") line("direction", get("direction"));
+    line("rate", get("rate"));
+    line("limits", get("limits", "none"));
+    const std::string clamp = rig_.contains("limits") ? ", with s clamped to the limits" : "";
+    if (method == "twist")
+      line("does",
+           "rotates each point about the axis through origin by rate * s radians, s "
+           "its signed distance along the axis from origin" +
+               clamp);
+    else if (method == "bend")
+      line("does",
+           "bends the spine through origin along the axis into a circular arc of "
+           "curvature rate (radians per unit) towards direction" +
+               clamp);
+    else
+      line("does",
+           "scales the components perpendicular to the axis by 1 + rate * s, s the "
+           "signed distance along the axis from origin" +
+               clamp);
+  }
+
+  void ffd() const {
+    line("method", "ffd (" + get("basis") + " lattice)");
+    line("origin", get("origin"));
+    line("size", get("size"));
+    const std::string resolution = get("resolution");
+    std::string controls = "?";
+    if (rig_.contains("resolution") && rig_["resolution"].is_array()) {
+      std::size_t n = 1;
+      for (const json& v : rig_["resolution"])
+        n *= v.is_number_integer() && v.get<long long>() >= 1 && v.get<long long>() <= 1 << 20
+                 ? static_cast<std::size_t>(v.get<long long>())
+                 : 0;
+      if (n > 0) controls = groupDigits(n);
+    }
+    line("controls", resolution + " = " + controls + " control points");
+    if (rig_.contains("constraints"))
+      line("posed by", "least-squares fit to " + count(rig_["constraints"], "from") +
+                           " point constraints (smoothness " + get("smoothness", "1e-4") + ")");
+    else
+      line("posed by", count(rig_, "controlPoints") + " posed control points");
+    line("outside", get("outside", "identity"));
+    line("does",
+         "moves points inside the box by the lattice's displacement of its controls; "
+         "points outside follow 'outside'");
+  }
+
+  // The composed warps, each described below it, indented.
+  void compose() const {
+    line("method", "compose");
+    if (!rig_.contains("warps") || !rig_["warps"].is_array())
+      throw InvalidInput(where_ + ": 'warps' must be a non-empty array");
+    const json& warps = rig_["warps"];
+    line("does", "applies the " + std::to_string(warps.size()) + " warps below in order");
+    for (std::size_t i = 0; i < warps.size(); ++i) {
+      out_ += indent_ + "warps[" + std::to_string(i) + "]:\n";
+      Describer(warps[i], baseDir_, where_ + ": warps[" + std::to_string(i) + "]", indent_ + "  ",
+                out_)
+          .print();
+    }
   }
 
   // Cage rigs: the cage files are read (not solved) for their counts.

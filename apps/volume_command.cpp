@@ -141,15 +141,8 @@ std::string shortNumber(double value) {
   return text;
 }
 
-}  // namespace
-
-VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
-                               const std::filesystem::path& output, const VolumeCliOptions& options,
-                               const CliContext& context) {
-  OpenVdbMessages messages;
-  const VdbFile content = readVdbFile(input);
-  warnAbout(input, messages, context);
-
+// Refuses a file with no grid that can be warped, listing what it holds.
+void checkSupportedGrids(const VdbFile& content, const std::filesystem::path& input) {
   std::string found;
   std::size_t supported = 0;
   for (const openvdb::GridBase::Ptr& grid : content.grids) {
@@ -161,7 +154,9 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
                        ": no supported grid (float, double, vec3s or point data grids); found " +
                        (found.empty() ? std::string("no grids") : found));
   }
+}
 
+WarpVolumeOptions warpVolumeOptions(const VolumeCliOptions& options, const CliContext& context) {
   WarpVolumeOptions volumeOptions;
   volumeOptions.sampler =
       options.sampler == "triquadratic" ? VolumeSampler::Triquadratic : VolumeSampler::Trilinear;
@@ -171,6 +166,69 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
                           : options.vectors == "keep"   ? VectorTransform::Keep
                                                         : VectorTransform::Auto;
   volumeOptions.progress = context.progress();
+  return volumeOptions;
+}
+
+// The warnings of one grid's report: voxels or vectors lost, and mass that --conserve-mass
+// could not keep. `grid` is "'name'".
+void warnAboutReport(const std::filesystem::path& input, const std::string& grid,
+                     const WarpVolumeReport& r, const CliContext& context) {
+  const std::string where = input.string() + ": grid " + grid + ": ";
+  if (r.inverseFailures > 0) {
+    context.warn(where + "the inverse warp did not converge at " +
+                 std::to_string(r.inverseFailures) + " of " + std::to_string(r.solvedVoxels) +
+                 " voxels, which are left inactive (the warp folds space or is not invertible "
+                 "there)");
+  }
+  if (r.vectorFailures > 0) {
+    context.warn(where + std::to_string(r.vectorFailures) + " vectors could not be transformed (" +
+                 r.vectors + " with a singular Jacobian) and are left inactive");
+  }
+  if (hasExtremeVolumeChange(r)) {
+    // The densities were divided by |det J|: near a collapse the total is far off.
+    std::string range;
+    if (r.maxVolumeChange > 0.0)
+      range = "by factors from " + shortNumber(r.minVolumeChange) + " to " +
+              shortNumber(r.maxVolumeChange);
+    if (r.degenerateVolumeChanges > 0)
+      range += (range.empty() ? "" : ", and ") + std::string("by 0 or a non-finite factor at ") +
+               counted(r.degenerateVolumeChanges, "voxel") + " (left out)";
+    context.warn(where + "--conserve-mass: the warp changes volumes (|det J|) " + range +
+                 "; densities divided by such factors do not conserve the mass where space is "
+                 "squeezed below the voxel size (mass " +
+                 shortNumber(r.massBefore) + " -> " + shortNumber(r.massAfter) + ")");
+  }
+  if (r.unmappedVoxels > 0) {
+    context.warn(where + std::to_string(r.unmappedVoxels) +
+                 " input voxels could not be mapped (the warp is not finite or singular there) "
+                 "and are missing from the output");
+  }
+}
+
+// The line that says what became of one grid.
+std::string gridLine(const openvdb::GridBase& grid, const std::string& name,
+                     const WarpVolumeReport& r) {
+  if (grid.isType<openvdb::points::PointDataGrid>())
+    return "grid " + name + ": " + std::to_string(r.points) + " points moved";
+  std::string line = "grid " + name + ": " + std::to_string(r.inputActiveVoxels) + " -> " +
+                     std::to_string(r.outputActiveVoxels) + " active voxels, at most " +
+                     std::to_string(r.maxNewtonIterations) + " Newton iterations";
+  if (!r.vectors.empty()) line += ", vectors " + r.vectors;
+  if (r.massBefore != 0.0)
+    line += ", mass " + std::to_string(r.massBefore) + " -> " + std::to_string(r.massAfter);
+  return line;
+}
+
+}  // namespace
+
+VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
+                               const std::filesystem::path& output, const VolumeCliOptions& options,
+                               const CliContext& context) {
+  OpenVdbMessages messages;
+  const VdbFile content = readVdbFile(input);
+  warnAbout(input, messages, context);
+  checkSupportedGrids(content, input);
+  const WarpVolumeOptions volumeOptions = warpVolumeOptions(options, context);
 
   openvdb::GridCPtrVec warped;
   VolumeSummary summary;
@@ -188,50 +246,8 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
       throw InvalidInput(input.string() + ": " + e.what());
     }
     const WarpVolumeReport& r = result.report;
-    if (r.inverseFailures > 0) {
-      context.warn(input.string() + ": grid " + name + ": the inverse warp did not converge at " +
-                   std::to_string(r.inverseFailures) + " of " + std::to_string(r.solvedVoxels) +
-                   " voxels, which are left inactive (the warp folds space or is not invertible "
-                   "there)");
-    }
-    if (r.vectorFailures > 0) {
-      context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.vectorFailures) +
-                   " vectors could not be transformed (" + r.vectors +
-                   " with a singular Jacobian) and are left inactive");
-    }
-    if (hasExtremeVolumeChange(r)) {
-      // The densities were divided by |det J|: near a collapse the total is far off.
-      std::string range;
-      if (r.maxVolumeChange > 0.0)
-        range = "by factors from " + shortNumber(r.minVolumeChange) + " to " +
-                shortNumber(r.maxVolumeChange);
-      if (r.degenerateVolumeChanges > 0)
-        range += (range.empty() ? "" : ", and ") + std::string("by 0 or a non-finite factor at ") +
-                 counted(r.degenerateVolumeChanges, "voxel") + " (left out)";
-      context.warn(input.string() + ": grid " + name +
-                   ": --conserve-mass: the warp changes volumes (|det J|) " + range +
-                   "; densities divided by such factors do not conserve the mass where space is "
-                   "squeezed below the voxel size (mass " +
-                   shortNumber(r.massBefore) + " -> " + shortNumber(r.massAfter) + ")");
-    }
-    if (r.unmappedVoxels > 0) {
-      context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.unmappedVoxels) +
-                   " input voxels could not be mapped (the warp is not finite or singular there) "
-                   "and are missing from the output");
-    }
-    std::string line;
-    if (grid->isType<openvdb::points::PointDataGrid>()) {
-      line = "grid " + name + ": " + std::to_string(r.points) + " points moved";
-    } else {
-      line = "grid " + name + ": " + std::to_string(r.inputActiveVoxels) + " -> " +
-             std::to_string(r.outputActiveVoxels) + " active voxels, at most " +
-             std::to_string(r.maxNewtonIterations) + " Newton iterations";
-      if (!r.vectors.empty()) line += ", vectors " + r.vectors;
-      if (r.massBefore != 0.0) {
-        line += ", mass " + std::to_string(r.massBefore) + " -> " + std::to_string(r.massAfter);
-      }
-    }
-    context.say(line);
+    warnAboutReport(input, name, r, context);
+    context.say(gridLine(*grid, name, r));
     warped.push_back(result.grid);
     ++summary.grids;
     summary.points += r.points;

@@ -90,131 +90,189 @@ bool triangulatePolygon(std::span<const Vec3> p, std::vector<glm::uvec3>& out) {
   return true;
 }
 
-}  // namespace
+[[noreturn]] void fail(const std::string& cageName, const std::string& what) {
+  throw InvalidInput(cageName + ": " + what);
+}
 
-Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
-  auto fail = [&](const std::string& what) { throw InvalidInput(name_ + ": " + what); };
-
+// What the soup must be before it is triangulated: enough finite vertices, some faces, valid
+// indices.
+void checkSoup(const PolygonSoup& soup, const std::string& name) {
   if (soup.positions.size() < 4)
-    fail("a cage needs at least 4 vertices, this one has " + str(soup.positions.size()));
+    fail(name, "a cage needs at least 4 vertices, this one has " + str(soup.positions.size()));
   for (std::size_t i = 0; i < soup.positions.size(); ++i)
-    if (!isFinite(soup.positions[i])) fail("vertex " + str(i) + " has a non-finite coordinate");
-  if (soup.polygonCount() == 0) fail("a cage needs faces, this one has none");
+    if (!isFinite(soup.positions[i]))
+      fail(name, "vertex " + str(i) + " has a non-finite coordinate");
+  if (soup.polygonCount() == 0) fail(name, "a cage needs faces, this one has none");
   try {
     soup.validate();
   } catch (const InvalidInput& e) {
-    fail(e.what());
+    fail(name, e.what());
   }
-  vertices_ = soup.positions;
-  inputOffsets_ = soup.faceOffsets;
-  inputIndices_ = soup.faceIndices;
-  const BoundingBox box = boundingBox(vertices_);
-  diagonal_ = box.diagonal();
-  // The centre is the box's, rounded to a multiple of the (power-of-two) scale: then the
-  // frame of a cage around the origin is an exact power-of-two scaling (its TetGen mesh is the
-  // one of the world coordinates, scaled), while local coordinates stay within ~1 of zero.
-  frame_.scale = std::exp2(std::ceil(std::log2(diagonal_)));
-  frame_.centre = frame_.scale * glm::round(0.5 * (box.min + box.max) / frame_.scale);
-  // 6 × the signed volume of the cone from the box centre over triangle t. About the centre,
-  // not the origin: far from the origin the products of absolute coordinates cancel
-  // catastrophically (a unit box at 1e8 got a volume wrong by orders of magnitude).
-  auto coneVolume = [&](const Triangle& t) {
-    const Vec3 a = vertices_[t.x] - frame_.centre, b = vertices_[t.y] - frame_.centre,
-               c = vertices_[t.z] - frame_.centre;
-    return glm::dot(a, glm::cross(b, c));
-  };
+}
 
-  // Triangulate, recording each triangle's source polygon.
-  const double minArea = 1e-12 * diagonal_ * diagonal_;
+// The centre is the box's, rounded to a multiple of the (power-of-two) scale: then the frame
+// of a cage around the origin is an exact power-of-two scaling (its TetGen mesh is the one of
+// the world coordinates, scaled), while local coordinates stay within ~1 of zero.
+CageFrame cageFrame(const BoundingBox& box) {
+  CageFrame frame;
+  frame.scale = std::exp2(std::ceil(std::log2(box.diagonal())));
+  frame.centre = frame.scale * glm::round(0.5 * (box.min + box.max) / frame.scale);
+  return frame;
+}
+
+// 6 × the signed volume of the cone from `centre` (the box centre) over triangle t. About the
+// centre, not the origin: far from the origin the products of absolute coordinates cancel
+// catastrophically (a unit box at 1e8 got a volume wrong by orders of magnitude).
+double coneVolume(std::span<const Vec3> vertices, const Vec3& centre, const Triangle& t) {
+  const Vec3 a = vertices[t.x] - centre, b = vertices[t.y] - centre, c = vertices[t.z] - centre;
+  return glm::dot(a, glm::cross(b, c));
+}
+
+struct Triangulation {
+  std::vector<Triangle> triangles;
+  std::vector<std::uint32_t> source;  // the input polygon of each triangle
+};
+
+// Triangulates every face, refusing faces that cannot be triangulated or have zero area.
+Triangulation triangulateFaces(const PolygonSoup& soup, std::span<const Vec3> vertices,
+                               double diagonal, const std::string& name) {
+  const double minArea = 1e-12 * diagonal * diagonal;
+  Triangulation result;
   std::vector<glm::uvec3> local;
   std::vector<Vec3> corners;
   for (std::size_t f = 0; f < soup.polygonCount(); ++f) {
     const auto poly = soup.polygon(f);
     corners.clear();
-    for (std::uint32_t v : poly) corners.push_back(vertices_[v]);
+    for (std::uint32_t v : poly) corners.push_back(vertices[v]);
     local.clear();
     if (!triangulatePolygon(corners, local))
-      fail("face " + str(f) + " could not be triangulated (degenerate or self-intersecting)");
+      fail(name, "face " + str(f) + " could not be triangulated (degenerate or self-intersecting)");
     for (const glm::uvec3& t : local) {
       const Triangle tri(poly[t.x], poly[t.y], poly[t.z]);
       const Vec3 cross =
-          glm::cross(vertices_[tri.y] - vertices_[tri.x], vertices_[tri.z] - vertices_[tri.x]);
+          glm::cross(vertices[tri.y] - vertices[tri.x], vertices[tri.z] - vertices[tri.x]);
       if (0.5 * glm::length(cross) <= minArea)
-        fail("face " + str(f) + " has zero area (vertices " + str(tri.x) + ", " + str(tri.y) +
-             ", " + str(tri.z) + ")");
-      triangles_.push_back(tri);
-      triangleSource_.push_back(static_cast<std::uint32_t>(f));
+        fail(name, "face " + str(f) + " has zero area (vertices " + str(tri.x) + ", " + str(tri.y) +
+                       ", " + str(tri.z) + ")");
+      result.triangles.push_back(tri);
+      result.source.push_back(static_cast<std::uint32_t>(f));
     }
   }
+  return result;
+}
 
-  std::vector<bool> used(vertices_.size(), false);
-  for (const Triangle& t : triangles_) used[t.x] = used[t.y] = used[t.z] = true;
+void checkEveryVertexUsed(std::size_t vertexCount, std::span<const Triangle> triangles,
+                          const std::string& name) {
+  std::vector<bool> used(vertexCount, false);
+  for (const Triangle& t : triangles) used[t.x] = used[t.y] = used[t.z] = true;
   for (std::size_t i = 0; i < used.size(); ++i)
-    if (!used[i]) fail("vertex " + str(i) + " is not used by any face");
+    if (!used[i]) fail(name, "vertex " + str(i) + " is not used by any face");
+}
 
-  // Edge -> the triangles using it, with the direction each traverses it in.
-  struct Use {
-    std::uint32_t triangle;
-    bool forward;  // traverses the edge from its smaller to its larger vertex
-  };
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<Use>> edges;
-  for (std::uint32_t t = 0; t < triangles_.size(); ++t) {
+// A triangle using an edge, with the direction it traverses the edge in.
+struct EdgeUse {
+  std::uint32_t triangle;
+  bool forward;  // traverses the edge from its smaller to its larger vertex
+};
+using EdgeUses = std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<EdgeUse>>;
+
+// Edge (smaller vertex, larger vertex) -> the triangles using it; refuses open boundaries and
+// non-manifold edges, so that every edge has exactly two uses.
+EdgeUses manifoldEdges(std::span<const Triangle> triangles, const std::string& name) {
+  EdgeUses edges;
+  for (std::uint32_t t = 0; t < triangles.size(); ++t) {
     for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = triangles_[t][k], b = triangles_[t][(k + 1) % 3];
+      const std::uint32_t a = triangles[t][k], b = triangles[t][(k + 1) % 3];
       edges[{std::min(a, b), std::max(a, b)}].push_back({t, a < b});
     }
   }
   for (const auto& [edge, uses] : edges) {
     const std::string e = "edge (" + str(edge.first) + ", " + str(edge.second) + ")";
-    if (uses.size() == 1) fail("the cage is not closed: open boundary at " + e);
+    if (uses.size() == 1) fail(name, "the cage is not closed: open boundary at " + e);
     if (uses.size() > 2)
-      fail("non-manifold " + e + " is shared by " + str(uses.size()) + " triangles");
+      fail(name, "non-manifold " + e + " is shared by " + str(uses.size()) + " triangles");
   }
+  return edges;
+}
 
-  // Consistent orientation by a breadth-first walk over each component: neighbours across an
-  // edge must traverse it in opposite directions.
-  std::vector<std::vector<std::pair<std::uint32_t, bool>>> neighbours(triangles_.size());
+// Per triangle, its neighbours across its edges and whether the two traverse their shared edge
+// in the same direction (then one of them must flip).
+std::vector<std::vector<std::pair<std::uint32_t, bool>>> neighbours(const EdgeUses& edges,
+                                                                    std::size_t triangleCount) {
+  std::vector<std::vector<std::pair<std::uint32_t, bool>>> result(triangleCount);
   for (const auto& [edge, uses] : edges) {
-    const bool same = uses[0].forward == uses[1].forward;  // same direction: one must flip
-    neighbours[uses[0].triangle].push_back({uses[1].triangle, same});
-    neighbours[uses[1].triangle].push_back({uses[0].triangle, same});
+    const bool same = uses[0].forward == uses[1].forward;
+    result[uses[0].triangle].push_back({uses[1].triangle, same});
+    result[uses[1].triangle].push_back({uses[0].triangle, same});
   }
-  std::vector<int> flip(triangles_.size(), -1);  // -1 unvisited, 0 keep, 1 flip
+  return result;
+}
+
+// Which triangles to flip (1) so that all are oriented consistently and outwards: a breadth-
+// first walk over each component, in which neighbours across an edge must traverse it in
+// opposite directions, then the whole component is flipped if its signed volume is negative.
+std::vector<int> outwardFlips(std::span<const Triangle> triangles,
+                              std::span<const std::uint32_t> source, const EdgeUses& edges,
+                              std::span<const Vec3> vertices, const Vec3& centre,
+                              const std::string& name) {
+  const auto next = neighbours(edges, triangles.size());
+  std::vector<int> flip(triangles.size(), -1);  // -1 unvisited, 0 keep, 1 flip
   std::vector<std::uint32_t> component;
-  for (std::uint32_t seed = 0; seed < triangles_.size(); ++seed) {
+  for (std::uint32_t seed = 0; seed < triangles.size(); ++seed) {
     if (flip[seed] != -1) continue;
     component.assign(1, seed);
     flip[seed] = 0;
     for (std::size_t head = 0; head < component.size(); ++head) {
       const std::uint32_t t = component[head];
-      for (const auto& [u, differ] : neighbours[t]) {
+      for (const auto& [u, differ] : next[t]) {
         const int want = flip[t] ^ static_cast<int>(differ);
         if (flip[u] == -1) {
           flip[u] = want;
           component.push_back(u);
         } else if (flip[u] != want) {
-          fail("the cage is not orientable (triangles " + str(t) + " and " + str(u) + " of face " +
-               str(triangleSource_[u]) + " cannot agree)");
+          fail(name, "the cage is not orientable (triangles " + str(t) + " and " + str(u) +
+                         " of face " + str(source[u]) + " cannot agree)");
         }
       }
     }
     // Outward: the component's signed volume (after the consistent flips) must be positive.
     double signedVolume = 0.0;
     for (std::uint32_t t : component) {
-      const double v = coneVolume(triangles_[t]);
+      const double v = coneVolume(vertices, centre, triangles[t]);
       signedVolume += flip[t] ? -v : v;
     }
     if (signedVolume < 0.0)
       for (std::uint32_t t : component) flip[t] ^= 1;
   }
+  return flip;
+}
+
+}  // namespace
+
+Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
+  checkSoup(soup, name_);
+  vertices_ = soup.positions;
+  inputOffsets_ = soup.faceOffsets;
+  inputIndices_ = soup.faceIndices;
+  const BoundingBox box = boundingBox(vertices_);
+  diagonal_ = box.diagonal();
+  frame_ = cageFrame(box);
+
+  Triangulation triangulation = triangulateFaces(soup, vertices_, diagonal_, name_);
+  triangles_ = std::move(triangulation.triangles);
+  triangleSource_ = std::move(triangulation.source);
+  checkEveryVertexUsed(vertices_.size(), triangles_, name_);
+  const EdgeUses edges = manifoldEdges(triangles_, name_);
+  const std::vector<int> flip =
+      outwardFlips(triangles_, triangleSource_, edges, vertices_, frame_.centre, name_);
   for (std::size_t t = 0; t < triangles_.size(); ++t) {
     if (flip[t]) {
       std::swap(triangles_[t].y, triangles_[t].z);
       ++reorientedCount_;
     }
   }
-  for (const Triangle& t : triangles_) volume_ += coneVolume(t) / 6.0;
-  if (!(volume_ > 0.0)) fail("the cage encloses no volume");
+  for (const Triangle& t : triangles_) volume_ += coneVolume(vertices_, frame_.centre, t) / 6.0;
+  if (!(volume_ > 0.0)) fail(name_, "the cage encloses no volume");
 }
 
 Cage Cage::fromFile(const std::filesystem::path& path) {

@@ -265,10 +265,11 @@ struct Scratch {
   }
 };
 
-// The vertex and edge terms of the points in s.io[0..2]; the smallest squared distance from a
-// point to an edge goes to s.io[6].
-SPACEWARP_SIMD_CLONES void edgePass(const detail::GreenData& g, Scratch& s) {
-  const VD zero{};
+// The stages of edgePass() and facePass(), always inlined so that each clone compiles them for
+// its own target.
+
+// r = v − x and R = |r| of every vertex for the points in s.io[0..2].
+[[gnu::always_inline]] inline void vertexTerms(const detail::GreenData& g, Scratch& s) {
   const VD px = s.io[0], py = s.io[1], pz = s.io[2];
   VertexLanes* __restrict vl = s.vertices.data();
   for (std::size_t i = 0; i < g.vertices.size(); ++i) {
@@ -279,70 +280,84 @@ SPACEWARP_SIMD_CLONES void edgePass(const detail::GreenData& g, Scratch& s) {
     t.r[2] = v.z - pz;
     sqrtLanes(t.r[0] * t.r[0] + t.r[1] * t.r[1] + t.r[2] * t.r[2], t.length);
   }
+}
 
+// The terms of one edge (see EdgeLanes) from its end points' terms; dist2 is the squared
+// distance from x to the segment.
+[[gnu::always_inline]] inline void edgeTerms(const detail::GreenData::Edge& edge,
+                                             const VertexLanes& a, const VertexLanes& b,
+                                             EdgeLanes& out, VD& dist2) {
+  const VD zero{};
+  const double e[3] = {edge.direction.x, edge.direction.y, edge.direction.z};
+  const double len = edge.length;
+  const VD ra = a.length, rb = b.length;
+  const VD ta = e[0] * a.r[0] + e[1] * a.r[1] + e[2] * a.r[2];
+  const VD tb = e[0] * b.r[0] + e[1] * b.r[1] + e[2] * b.r[2];
+  // The perpendicular from x to the edge line, from the nearer end (its error is then relative
+  // to that end's distance).
+  const VI aNearer = ra <= rb;
+  const VD tn = aNearer ? ta : tb;
+  VD q[3];
+  for (int c = 0; c < 3; ++c) q[c] = (aNearer ? a.r[c] : b.r[c]) - tn * e[c];
+  const VD r02 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+  // L: when the foot of x is before a (ta ≥ 0) every R + t is a sum of non-negatives; after b
+  // (tb ≤ 0) R + t = R0² / (R − t) at both ends and R0² cancels; in between
+  // R_a + t_a = R0² / (R_a − t_a), with R0² from the perpendicular itself.
+  const VI before = ta >= 0.0, after = tb <= 0.0;
+  const VD rbtb = rb + tb, rata = ra - ta;
+  const VD num = before ? rbtb : (after ? rata : rbtb * rata);
+  const VD den = before ? ra + ta : (after ? rb - tb : r02);
+  dist2 = before ? ra * ra : (after ? rb * rb : r02);
+  // P and S as written are accurate unless r_a and r_b are far from each other's direction
+  // (1 + cos < 1/2, which needs the foot inside the segment); then the cancellation-free forms,
+  // computed in every lane when some lane needs them (about 1% of the edges for points inside
+  // a cage) and kept where needed.
+  const VD rarb = ra * rb;
+  const VD dot = a.r[0] * b.r[0] + a.r[1] * b.r[1] + a.r[2] * b.r[2];
+  const VD pFar = rarb + dot;
+  const VI close = ~(pFar >= 0.5 * rarb);
+  out.p = pFar;
+  for (int c = 0; c < 3; ++c) {
+    out.s[c] = ra * b.r[c] + rb * a.r[c];
+    out.q[c] = q[c];
+  }
+  out.closeness = zero + 2.0;
+  if (anyLane(close)) {
+    const VD d1 = rarb - dot;         // ≥ R_a R_b where close
+    const VD d2 = ra * tb - rb * ta;  // > 0 where close
+    const VD inv = 1.0 / (d1 * d2);
+    const VD pClose = len * len * r02 * d2 * inv;
+    const VD k = r02 * len * (ta + tb) * d1 * inv;
+    // q made orthogonal to e to round-off in |q|: a residual along e would enter S·r_c
+    // differently for the two triangles of the edge.
+    const VD qe = q[0] * e[0] + q[1] * e[1] + q[2] * e[2];
+    const VD rab = ra + rb;
+    out.p = close ? pClose : out.p;
+    for (int c = 0; c < 3; ++c) out.s[c] = close ? rab * (q[c] - qe * e[c]) + k * e[c] : out.s[c];
+    out.closeness = close ? pClose / rarb : out.closeness;
+  }
+  out.r02 = r02;
+  VD log;
+  logRatioLanes(num, den, log);
+  // Not finite only for x on the segment: every triangle using the edge then touches x and is
+  // a surface triangle, whose terms do not use L.
+  const VI finite = (num > 0.0) & (num < kInf) & (den > 0.0) & (den < kInf);
+  out.log = finite ? log : zero;
+}
+
+// The vertex and edge terms of the points in s.io[0..2]; the smallest squared distance from a
+// point to an edge goes to s.io[6].
+SPACEWARP_SIMD_CLONES void edgePass(const detail::GreenData& g, Scratch& s) {
+  const VD zero{};
+  vertexTerms(g, s);
+  const VertexLanes* __restrict vl = s.vertices.data();
   EdgeLanes* __restrict el = s.edges.data();
   VD* __restrict edgeDist2 = s.edgeDist2.data();
   VD minDist2 = zero + kInf;
   for (std::size_t index = 0; index < g.edges.size(); ++index) {
     const detail::GreenData::Edge& edge = g.edges[index];
-    const double e[3] = {edge.direction.x, edge.direction.y, edge.direction.z};
-    const double len = edge.length;
-    const VertexLanes& a = vl[edge.a];
-    const VertexLanes& b = vl[edge.b];
-    EdgeLanes& out = el[index];
-    const VD ra = a.length, rb = b.length;
-    const VD ta = e[0] * a.r[0] + e[1] * a.r[1] + e[2] * a.r[2];
-    const VD tb = e[0] * b.r[0] + e[1] * b.r[1] + e[2] * b.r[2];
-    // The perpendicular from x to the edge line, from the nearer end (its error is then relative
-    // to that end's distance).
-    const VI aNearer = ra <= rb;
-    const VD tn = aNearer ? ta : tb;
-    VD q[3];
-    for (int c = 0; c < 3; ++c) q[c] = (aNearer ? a.r[c] : b.r[c]) - tn * e[c];
-    const VD r02 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-    // L: when the foot of x is before a (ta ≥ 0) every R + t is a sum of non-negatives; after b
-    // (tb ≤ 0) R + t = R0² / (R − t) at both ends and R0² cancels; in between
-    // R_a + t_a = R0² / (R_a − t_a), with R0² from the perpendicular itself.
-    const VI before = ta >= 0.0, after = tb <= 0.0;
-    const VD rbtb = rb + tb, rata = ra - ta;
-    const VD num = before ? rbtb : (after ? rata : rbtb * rata);
-    const VD den = before ? ra + ta : (after ? rb - tb : r02);
-    const VD dist2 = before ? ra * ra : (after ? rb * rb : r02);
-    // P and S as written are accurate unless r_a and r_b are far from each other's direction
-    // (1 + cos < 1/2, which needs the foot inside the segment); then the cancellation-free forms,
-    // computed in every lane when some lane needs them (about 1% of the edges for points inside
-    // a cage) and kept where needed.
-    const VD rarb = ra * rb;
-    const VD dot = a.r[0] * b.r[0] + a.r[1] * b.r[1] + a.r[2] * b.r[2];
-    const VD pFar = rarb + dot;
-    const VI close = ~(pFar >= 0.5 * rarb);
-    out.p = pFar;
-    for (int c = 0; c < 3; ++c) {
-      out.s[c] = ra * b.r[c] + rb * a.r[c];
-      out.q[c] = q[c];
-    }
-    out.closeness = zero + 2.0;
-    if (anyLane(close)) {
-      const VD d1 = rarb - dot;         // ≥ R_a R_b where close
-      const VD d2 = ra * tb - rb * ta;  // > 0 where close
-      const VD inv = 1.0 / (d1 * d2);
-      const VD pClose = len * len * r02 * d2 * inv;
-      const VD k = r02 * len * (ta + tb) * d1 * inv;
-      // q made orthogonal to e to round-off in |q|: a residual along e would enter S·r_c
-      // differently for the two triangles of the edge.
-      const VD qe = q[0] * e[0] + q[1] * e[1] + q[2] * e[2];
-      const VD rab = ra + rb;
-      out.p = close ? pClose : out.p;
-      for (int c = 0; c < 3; ++c) out.s[c] = close ? rab * (q[c] - qe * e[c]) + k * e[c] : out.s[c];
-      out.closeness = close ? pClose / rarb : out.closeness;
-    }
-    out.r02 = r02;
-    VD log;
-    logRatioLanes(num, den, log);
-    // Not finite only for x on the segment: every triangle using the edge then touches x and is
-    // a surface triangle, whose terms do not use L.
-    const VI finite = (num > 0.0) & (num < kInf) & (den > 0.0) & (den < kInf);
-    out.log = finite ? log : zero;
+    VD dist2;
+    edgeTerms(edge, vl[edge.a], vl[edge.b], el[index], dist2);
     edgeDist2[index] = dist2;
     minDist2 = dist2 < minDist2 ? dist2 : minDist2;
   }
@@ -350,6 +365,45 @@ SPACEWARP_SIMD_CLONES void edgePass(const detail::GreenData& g, Scratch& s) {
 }
 
 constexpr int kOpposite[3] = {2, 0, 1};  // the corner opposite edge i
+
+// The solid angle Ω of face f seen from x (v: its corners' terms, e: its edges'), evaluated
+// around the edge with the smallest closeness (the first of equals): edge 0 unless some lane
+// is close to an edge.
+[[gnu::always_inline]] inline void faceSolidAngle(const detail::GreenData::Face& f,
+                                                  const VertexLanes* const (&v)[3],
+                                                  const EdgeLanes* const (&e)[3], VD& omega) {
+  const Vec3& n = f.normal;
+  const VI pick1 = e[1]->closeness < e[0]->closeness;
+  const VD closeness01 = pick1 ? e[1]->closeness : e[0]->closeness;
+  const VI pick2 = e[2]->closeness < closeness01;
+  VD p = e[0]->p, r02 = e[0]->r02, cLength = v[kOpposite[0]]->length;
+  VD sv[3], qv[3], c[3];
+  for (int i = 0; i < 3; ++i) {
+    sv[i] = e[0]->s[i];
+    qv[i] = e[0]->q[i];
+    c[i] = v[kOpposite[0]]->r[i];
+  }
+  if (anyLane(pick1 | pick2)) {
+    const VertexLanes& c1 = *v[kOpposite[1]];
+    const VertexLanes& c2 = *v[kOpposite[2]];
+    p = pick2 ? e[2]->p : (pick1 ? e[1]->p : p);
+    r02 = pick2 ? e[2]->r02 : (pick1 ? e[1]->r02 : r02);
+    cLength = pick2 ? c2.length : (pick1 ? c1.length : cLength);
+    for (int i = 0; i < 3; ++i) {
+      sv[i] = pick2 ? e[2]->s[i] : (pick1 ? e[1]->s[i] : sv[i]);
+      qv[i] = pick2 ? e[2]->q[i] : (pick1 ? e[1]->q[i] : qv[i]);
+      c[i] = pick2 ? c2.r[i] : (pick1 ? c1.r[i] : c[i]);
+    }
+  }
+  // det(r_a, r_b, r_c) = 2A h with h = n·q = n·r_c, from the shorter vector (its error is
+  // relative to its length): q close to the edge, r_c close to the opposite corner.
+  const VI useQ = r02 <= cLength * cLength;
+  const VD toPlane[3] = {useQ ? qv[0] : c[0], useQ ? qv[1] : c[1], useQ ? qv[2] : c[2]};
+  const VD num = f.twiceArea * (n.x * toPlane[0] + n.y * toPlane[1] + n.z * toPlane[2]);
+  const VD den = cLength * p + (sv[0] * c[0] + sv[1] * c[1] + sv[2] * c[2]);
+  angleLanes(num, den, omega);
+  omega = 2.0 * omega;
+}
 
 // Adds every triangle's φ and ψ terms (into s.phi, s.psi) for the points whose vertex and edge
 // terms edgePass() left; leaves the sum of the solid angles in s.io[4] and, in the regular pass,
@@ -372,8 +426,8 @@ SPACEWARP_SIMD_CLONES void facePass(const detail::GreenData& g, Scratch& s, bool
   VI nearPlane = surfaceLanes & 0;
   for (std::size_t j = 0; j < g.faces.size(); ++j) {
     const detail::GreenData::Face& f = g.faces[j];
-    const VertexLanes* v[3] = {&vl[f.vertex[0]], &vl[f.vertex[1]], &vl[f.vertex[2]]};
-    const EdgeLanes* e[3] = {&el[f.edge[0]], &el[f.edge[1]], &el[f.edge[2]]};
+    const VertexLanes* const v[3] = {&vl[f.vertex[0]], &vl[f.vertex[1]], &vl[f.vertex[2]]};
+    const EdgeLanes* const e[3] = {&el[f.edge[0]], &el[f.edge[1]], &el[f.edge[2]]};
     const Vec3& n = f.normal;
     VD h = n.x * v[0]->r[0] + n.y * v[0]->r[1] + n.z * v[0]->r[2];
     VD d[3];
@@ -386,40 +440,8 @@ SPACEWARP_SIMD_CLONES void facePass(const detail::GreenData& g, Scratch& s, bool
       fl[j].h = h;
       for (int i = 0; i < 3; ++i) fl[j].d[i] = d[i];
     }
-
-    // The solid angle around the edge with the smallest closeness (the first of equals): edge 0
-    // unless some lane is close to an edge.
-    const VI pick1 = e[1]->closeness < e[0]->closeness;
-    const VD closeness01 = pick1 ? e[1]->closeness : e[0]->closeness;
-    const VI pick2 = e[2]->closeness < closeness01;
-    VD p = e[0]->p, r02 = e[0]->r02, cLength = v[kOpposite[0]]->length;
-    VD sv[3], qv[3], c[3];
-    for (int i = 0; i < 3; ++i) {
-      sv[i] = e[0]->s[i];
-      qv[i] = e[0]->q[i];
-      c[i] = v[kOpposite[0]]->r[i];
-    }
-    if (anyLane(pick1 | pick2)) {
-      const VertexLanes& c1 = *v[kOpposite[1]];
-      const VertexLanes& c2 = *v[kOpposite[2]];
-      p = pick2 ? e[2]->p : (pick1 ? e[1]->p : p);
-      r02 = pick2 ? e[2]->r02 : (pick1 ? e[1]->r02 : r02);
-      cLength = pick2 ? c2.length : (pick1 ? c1.length : cLength);
-      for (int i = 0; i < 3; ++i) {
-        sv[i] = pick2 ? e[2]->s[i] : (pick1 ? e[1]->s[i] : sv[i]);
-        qv[i] = pick2 ? e[2]->q[i] : (pick1 ? e[1]->q[i] : qv[i]);
-        c[i] = pick2 ? c2.r[i] : (pick1 ? c1.r[i] : c[i]);
-      }
-    }
-    // det(r_a, r_b, r_c) = 2A h with h = n·q = n·r_c, from the shorter vector (its error is
-    // relative to its length): q close to the edge, r_c close to the opposite corner.
-    const VI useQ = r02 <= cLength * cLength;
-    const VD toPlane[3] = {useQ ? qv[0] : c[0], useQ ? qv[1] : c[1], useQ ? qv[2] : c[2]};
-    const VD num = f.twiceArea * (n.x * toPlane[0] + n.y * toPlane[1] + n.z * toPlane[2]);
-    const VD den = cLength * p + (sv[0] * c[0] + sv[1] * c[1] + sv[2] * c[2]);
     VD omega;
-    angleLanes(num, den, omega);
-    omega = 2.0 * omega;
+    faceSolidAngle(f, v, e, omega);
     if (surface) {
       // The squared distance from x to the triangle: to its plane if the projection is inside
       // it, else to the nearest edge the projection is outside of.

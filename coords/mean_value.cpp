@@ -163,17 +163,14 @@ struct Scratch {
   }
 };
 
-// The fast passes for the points in s.io[0..2] (x, y, z). Leaves acc (Σ of the accepted
-// triangle weights), io[3] (snap candidates), io[4] (reproduction error estimate) and flagged
-// (triangles for the careful path).
-SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
+// The stages of fastPass(), always inlined so that each clone compiles them for its own target.
+
+// Vertices: v = p − x, d = |v|, u = v / d; clears acc. Flags snap candidates (near a vertex).
+[[gnu::always_inline]] inline void vertexTerms(const CageData& cd, Scratch& s, VD& cand) {
   using V = VD;
   const V zero{}, one = zero + 1.0;
   const V X = s.io[0], Y = s.io[1], Z = s.io[2];
   const double snap2 = 2.0 * cd.snapLength;
-  V cand = zero, repro = zero, wsum = zero;
-
-  // Vertices: v = p − x, d = |v|, u = v / d.
   V* __restrict vx = s.vx.data();
   V* __restrict vy = s.vy.data();
   V* __restrict vz = s.vz.data();
@@ -200,8 +197,22 @@ SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
     acc[v] = zero;
     cand = dist <= snap2 ? one : cand;
   }
+}
 
-  // Edges, once for both of their triangles.
+// Edges, once for both of their triangles: C, θ / |C| and the error terms. Flags snap
+// candidates (near an edge).
+[[gnu::always_inline]] inline void edgeTerms(const CageData& cd, Scratch& s, VD& cand) {
+  using V = VD;
+  const V zero{}, one = zero + 1.0;
+  const double snap2 = 2.0 * cd.snapLength;
+  const V* __restrict vx = s.vx.data();
+  const V* __restrict vy = s.vy.data();
+  const V* __restrict vz = s.vz.data();
+  const V* __restrict ux = s.ux.data();
+  const V* __restrict uy = s.uy.data();
+  const V* __restrict uz = s.uz.data();
+  const V* __restrict dd = s.d.data();
+  const V* __restrict ii = s.inv.data();
   V* __restrict cx = s.cx.data();
   V* __restrict cy = s.cy.data();
   V* __restrict cz = s.cz.data();
@@ -244,8 +255,25 @@ SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
     ew[e] = 2.0 * alpha + f * cd.elen[e] * (aNear ? ii[b] : ii[a]);
     cand = cp <= snap2 * (ii[a] + ii[b]) + 8.0 * kEps ? one : cand;
   }
+}
 
-  // Triangles: weights and error estimates.
+// Triangles: weights and error estimates; sums the kept weights into wsum and Σ |w| d into
+// repro. Flags snap candidates (near a face's plane).
+[[gnu::always_inline]] inline void triangleWeights(const CageData& cd, Scratch& s, VD& cand,
+                                                   VD& wsum, VD& repro) {
+  using V = VD;
+  const V zero{}, one = zero + 1.0;
+  const double snap2 = 2.0 * cd.snapLength;
+  const V* __restrict vx = s.vx.data();
+  const V* __restrict vy = s.vy.data();
+  const V* __restrict vz = s.vz.data();
+  const V* __restrict dd = s.d.data();
+  const V* __restrict cx = s.cx.data();
+  const V* __restrict cy = s.cy.data();
+  const V* __restrict cz = s.cz.data();
+  const V* __restrict kk = s.k.data();
+  const V* __restrict cn = s.cn.data();
+  const V* __restrict ew = s.ew.data();
   V* __restrict tw0 = s.tw0.data();
   V* __restrict tw1 = s.tw1.data();
   V* __restrict tw2 = s.tw2.data();
@@ -295,8 +323,18 @@ SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
     const double area2 = cd.tarea2[t];
     cand = absDet <= area2 * snap2 + (8.0 * kEps * area2) * dmin ? one : cand;
   }
+}
 
-  // Acceptance against the weight sum, and accumulation per vertex.
+// Acceptance against the weight sum, and accumulation per vertex; the rejected triangles go to
+// s.flagged with the lanes that need the careful path.
+[[gnu::always_inline]] inline void acceptTriangles(const CageData& cd, Scratch& s, const VD& wsum) {
+  using V = VD;
+  const V zero{};
+  V* __restrict acc = s.acc.data();
+  const V* __restrict tw0 = s.tw0.data();
+  const V* __restrict tw1 = s.tw1.data();
+  const V* __restrict tw2 = s.tw2.data();
+  const V* __restrict terr = s.terr.data();
   const V threshold = kTauW * (wsum < 0.0 ? -wsum : wsum);
   s.flagged.clear();
   for (std::size_t t = 0; t < cd.nT; ++t) {
@@ -308,6 +346,18 @@ SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
     for (int l = 0; l < kLanes; ++l) mask |= static_cast<std::uint32_t>(ok[l] == 0) << l;
     if (mask != 0) s.flagged.emplace_back(static_cast<std::uint32_t>(t), mask);
   }
+}
+
+// The fast passes for the points in s.io[0..2] (x, y, z). Leaves acc (Σ of the accepted
+// triangle weights), io[3] (snap candidates), io[4] (reproduction error estimate) and flagged
+// (triangles for the careful path).
+SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
+  const VD zero{};
+  VD cand = zero, repro = zero, wsum = zero;
+  vertexTerms(cd, s, cand);
+  edgeTerms(cd, s, cand);
+  triangleWeights(cd, s, cand, wsum, repro);
+  acceptTriangles(cd, s, wsum);
   s.io[3] = cand;
   s.io[4] = repro;
 }

@@ -7,6 +7,7 @@
 #include <span>
 #include <vector>
 
+#include <spacewarp/core/geometry.h>
 #include <spacewarp/core/math.h>
 
 namespace spacewarp {
@@ -48,6 +49,10 @@ class TetLocator {
   double meanCellSize() const;
 
  private:
+  // Construction stages: the grid over the tets' box, then the tets of every cell.
+  void placeGrid(const BoundingBox& box, std::size_t tetCount);
+  void fillCells(std::span<const Vec3> vertices,
+                 std::span<const std::array<std::uint32_t, 4>> tets);
   std::size_t cellOf(const Vec3& x) const;
   std::array<std::size_t, 3> cellCoords(const Vec3& x) const;
 

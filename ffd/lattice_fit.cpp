@@ -62,11 +62,8 @@ double fitBytes(const Lattice& lattice, std::size_t constraints) {
   return 12.0 * (3.0 * normal + factor) + 16.0 * 12.0 * count;
 }
 
-}  // namespace
-
-ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> from,
-                                 std::span<const Vec3> to, const LatticeFitOptions& options) {
-  const std::string who = "fitControlPoints: ";
+void checkFitInput(std::span<const Vec3> from, std::span<const Vec3> to,
+                   const LatticeFitOptions& options, const std::string& who) {
   if (from.size() != to.size())
     throw InvalidInput(who + std::to_string(from.size()) + " points but " +
                        std::to_string(to.size()) + " targets");
@@ -79,29 +76,34 @@ ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> f
     if (!isFinite(to[k]))
       throw InvalidInput(who + "target " + std::to_string(k) + " is not finite");
   }
-  const std::size_t count = lattice.controlPointCount();
-  const auto [l, m, n] = lattice.resolution();
-  detail::checkMemory(fitBytes(lattice, from.size()),
-                      who + "the resolution " + std::to_string(l) + " x " + std::to_string(m) +
-                          " x " + std::to_string(n) + " (" + std::to_string(count) +
-                          " control points)");
-  const auto cols = static_cast<Eigen::Index>(count);
-  const double inverseK = 1.0 / static_cast<double>(from.size());
+}
 
-  // Normal equations (WᵀW / K + λ/E L) D = Wᵀ R / K with R_k = y_k − x_k.
+// The normal equations (WᵀW / K + λ/E L) D = Wᵀ R / K of the fit, with R_k = y_k − x_k, K the
+// constraint count, L the neighbour Laplacian and E its number of pairs.
+struct NormalEquations {
+  Eigen::SparseMatrix<double> matrix;
+  Eigen::MatrixXd rhs;  // count × 3
+};
+
+NormalEquations assembleNormalEquations(const Lattice& lattice, std::span<const Vec3> from,
+                                        std::span<const Vec3> to, double smoothness,
+                                        const std::string& who) {
+  const auto cols = static_cast<Eigen::Index>(lattice.controlPointCount());
+  const double inverseK = 1.0 / static_cast<double>(from.size());
   std::vector<Triplet> triplets;
   std::vector<Triplet> laplacian;
   const std::size_t pairs = addNeighbourLaplacian(lattice, 1.0, laplacian);
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(cols, 3);
+  NormalEquations equations{Eigen::SparseMatrix<double>(cols, cols),
+                            Eigen::MatrixXd::Zero(cols, 3)};
+  Eigen::MatrixXd& rhs = equations.rhs;
   std::vector<SparseWeight> row(lattice.maxNonZeros());
   bool reached = false;
   // WᵀW is summed in chunks of triplets so that dense (Bernstein) rows do not hold
   // K × rows² triplets at once.
-  Eigen::SparseMatrix<double> a(cols, cols);
   auto flush = [&] {
     Eigen::SparseMatrix<double> part(cols, cols);
     part.setFromTriplets(triplets.begin(), triplets.end());
-    a += part;
+    equations.matrix += part;
     triplets.clear();
   };
   for (std::size_t k = 0; k < from.size(); ++k) {
@@ -121,14 +123,18 @@ ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> f
     }
   }
   if (!reached) throw InvalidInput(who + "no constraint point lies where the lattice moves points");
-  const double lambda = pairs > 0 ? options.smoothness / static_cast<double>(pairs) : 0.0;
+  const double lambda = pairs > 0 ? smoothness / static_cast<double>(pairs) : 0.0;
   for (const Triplet& t : laplacian) triplets.emplace_back(t.row(), t.col(), lambda * t.value());
-
   flush();
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(a);
+  return equations;
+}
+
+// The displacements D (count × 3); SolverError if the equations are singular.
+Eigen::MatrixXd solveNormalEquations(const NormalEquations& equations, const std::string& who) {
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(equations.matrix);
   if (solver.info() != Eigen::Success)
     throw SolverError(who + "the normal equations could not be factorised");
-  const Eigen::MatrixXd d = solver.solve(rhs);
+  const Eigen::MatrixXd d = solver.solve(equations.rhs);
   if (solver.info() != Eigen::Success || !d.allFinite())
     throw SolverError(who +
                       "the normal equations are singular (raise the smoothness, or add "
@@ -140,14 +146,12 @@ ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> f
     throw SolverError(who +
                       "the normal equations are singular (raise the smoothness, or add "
                       "constraints near every control point)");
+  return d;
+}
 
-  ControlPointFit fit;
-  fit.controlPoints.resize(count);
-  const auto rest = lattice.restControlPoints();
-  for (std::size_t c = 0; c < count; ++c) {
-    const auto ci = static_cast<Eigen::Index>(c);
-    fit.controlPoints[c] = rest[c] + Vec3(d(ci, 0), d(ci, 1), d(ci, 2));
-  }
+// The largest and the RMS distance between the warped constraint points and their targets.
+void measureResiduals(const Lattice& lattice, std::span<const Vec3> from, std::span<const Vec3> to,
+                      ControlPointFit& fit) {
   const LatticeWarp warp(lattice, fit.controlPoints);
   std::vector<Vec3> moved(from.size());
   warp.applyBatch(from, moved);
@@ -157,7 +161,32 @@ ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> f
     sum += e * e;
     fit.maxResidual = std::max(fit.maxResidual, e);
   }
-  fit.rmsResidual = std::sqrt(sum * inverseK);
+  fit.rmsResidual = std::sqrt(sum * (1.0 / static_cast<double>(from.size())));
+}
+
+}  // namespace
+
+ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> from,
+                                 std::span<const Vec3> to, const LatticeFitOptions& options) {
+  const std::string who = "fitControlPoints: ";
+  checkFitInput(from, to, options, who);
+  const std::size_t count = lattice.controlPointCount();
+  const auto [l, m, n] = lattice.resolution();
+  detail::checkMemory(fitBytes(lattice, from.size()),
+                      who + "the resolution " + std::to_string(l) + " x " + std::to_string(m) +
+                          " x " + std::to_string(n) + " (" + std::to_string(count) +
+                          " control points)");
+  const Eigen::MatrixXd d = solveNormalEquations(
+      assembleNormalEquations(lattice, from, to, options.smoothness, who), who);
+
+  ControlPointFit fit;
+  fit.controlPoints.resize(count);
+  const auto rest = lattice.restControlPoints();
+  for (std::size_t c = 0; c < count; ++c) {
+    const auto ci = static_cast<Eigen::Index>(c);
+    fit.controlPoints[c] = rest[c] + Vec3(d(ci, 0), d(ci, 1), d(ci, 2));
+  }
+  measureResiduals(lattice, from, to, fit);
   return fit;
 }
 

@@ -151,11 +151,18 @@ struct Colours {
   }
 };
 
-PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
-  LineReader reader(in, name);
+/// The header: keyword and counts.
+struct Counts {
+  Header header;
+  std::int64_t vertices = 0;
+  std::int64_t faces = 0;
+};
+
+Counts readCounts(LineReader& reader, const std::string& name) {
+  Counts counts;
   if (!reader.next()) throw IoError(name + ": empty file, expected an 'OFF' header");
-  const Header header = parseKeyword(reader.tokens().front());
-  if (!header.valid) {
+  counts.header = parseKeyword(reader.tokens().front());
+  if (!counts.header.valid) {
     reader.fail("not an OFF file: expected 'OFF', found " +
                 detail::quotedToken(reader.tokens().front()));
   }
@@ -167,20 +174,22 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
   const std::size_t countTokens = reader.tokens().size() - firstCount;
   if (countTokens < 2 || countTokens > 3)
     reader.fail("expected the counts line 'vertices faces [edges]'");
-  const std::int64_t vertexCount = reader.integer(firstCount, "vertex count");
-  const std::int64_t faceCount = reader.integer(firstCount + 1, "face count");
+  counts.vertices = reader.integer(firstCount, "vertex count");
+  counts.faces = reader.integer(firstCount + 1, "face count");
   if (countTokens == 3) reader.integer(firstCount + 2, "edge count");
-  if (vertexCount < 0 || faceCount < 0) reader.fail("negative count");
-  if (vertexCount > std::numeric_limits<std::uint32_t>::max())
+  if (counts.vertices < 0 || counts.faces < 0) reader.fail("negative count");
+  if (counts.vertices > std::numeric_limits<std::uint32_t>::max())
     reader.fail("too many vertices for 32-bit indices");
+  return counts;
+}
 
-  PolygonSoup soup;
+/// The vertex lines: positions, normals (NOFF) and colours (COFF).
+void readVertices(LineReader& reader, const Counts& counts, PolygonSoup& soup, Colours& colours) {
+  const Header& header = counts.header;
   const std::size_t valuesPerVertex = header.normals ? 6 : 3;
-  Colours vertexColours;
-  Colours faceColours;
-  for (std::int64_t v = 0; v < vertexCount; ++v) {
+  for (std::int64_t v = 0; v < counts.vertices; ++v) {
     if (!reader.next()) {
-      reader.fail("unexpected end of file: declared " + std::to_string(vertexCount) +
+      reader.fail("unexpected end of file: declared " + std::to_string(counts.vertices) +
                   " vertices, found " + std::to_string(v));
     }
     const auto& tokens = reader.tokens();
@@ -195,7 +204,7 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
     }
     if (header.colours) {
       const std::size_t extra = tokens.size() - valuesPerVertex;
-      vertexColours.add(reader, valuesPerVertex, std::min<std::size_t>(extra, 4), "vertex", v);
+      colours.add(reader, valuesPerVertex, std::min<std::size_t>(extra, 4), "vertex", v);
     }
     const Vec3 position(values[0], values[1], values[2]);
     if (!isFinite(position))
@@ -208,11 +217,14 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
       soup.normals.push_back(normal);
     }
   }
+}
 
+/// The face lines: "k i_1 ... i_k [colour]".
+void readFaces(LineReader& reader, const Counts& counts, PolygonSoup& soup, Colours& colours) {
   std::vector<std::uint32_t> polygon;
-  for (std::int64_t f = 0; f < faceCount; ++f) {
+  for (std::int64_t f = 0; f < counts.faces; ++f) {
     if (!reader.next()) {
-      reader.fail("unexpected end of file: declared " + std::to_string(faceCount) +
+      reader.fail("unexpected end of file: declared " + std::to_string(counts.faces) +
                   " faces, found " + std::to_string(f));
     }
     const auto& tokens = reader.tokens();
@@ -226,25 +238,34 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
     polygon.clear();
     for (std::size_t t = 1; t <= static_cast<std::size_t>(k); ++t) {
       const std::int64_t index = reader.integer(t, "face", f);
-      if (index < 0 || index >= vertexCount) {
+      if (index < 0 || index >= counts.vertices) {
         reader.fail(face() + ": vertex index " + std::to_string(index) + " is out of range (" +
-                    std::to_string(vertexCount) + " vertices)");
+                    std::to_string(counts.vertices) + " vertices)");
       }
       polygon.push_back(static_cast<std::uint32_t>(index));
     }
     const std::size_t colourStart = static_cast<std::size_t>(k) + 1;
     for (std::size_t t = colourStart; t < tokens.size(); ++t) reader.number(t, "face", f);
-    faceColours.add(reader, colourStart, tokens.size() - colourStart, "face", f);
+    colours.add(reader, colourStart, tokens.size() - colourStart, "face", f);
     if (soup.faceIndices.size() + polygon.size() > std::numeric_limits<std::uint32_t>::max())
       reader.fail("too many face indices for 32-bit offsets");
     soup.addPolygon(polygon);
   }
+}
 
+PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
+  LineReader reader(in, name);
+  const Counts counts = readCounts(reader, name);
+  PolygonSoup soup;
+  Colours vertexColours;
+  Colours faceColours;
+  readVertices(reader, counts, soup, vertexColours);
+  readFaces(reader, counts, soup, faceColours);
   if (reader.next()) {
-    reader.fail("unexpected content after the last of the " + std::to_string(faceCount) +
+    reader.fail("unexpected content after the last of the " + std::to_string(counts.faces) +
                 " declared faces");
   }
-  if (header.colours && !vertexColours.consistent) {
+  if (counts.header.colours && !vertexColours.consistent) {
     throw IoError(name +
                   ": COFF vertices need 3 or 4 colour values each, the same count on "
                   "every vertex");
