@@ -321,8 +321,12 @@ std::vector<std::string> compareMethods() {
   return names;
 }
 
-json runComparison(const CompareRequest& request, const CliContext& context) {
-  const std::map<std::string, Method> table = methodTable();
+namespace {
+
+/// The methods to run, in order: the request's, checked, or every one. Also checks the
+/// request's other settings, before any work.
+std::vector<std::string> checkRequest(const CompareRequest& request,
+                                      const std::map<std::string, Method>& table) {
   const std::vector<std::string> methods =
       request.methods.empty() ? compareMethods() : request.methods;
   for (std::size_t k = 0; k < methods.size(); ++k) {
@@ -340,125 +344,130 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
   if (!isFinite(request.planePoint) || !isFinite(request.planeNormal) ||
       glm::length(request.planeNormal) == 0.0)
     throw InvalidInput("the slice plane needs a finite point and a non-zero normal");
+  return methods;
+}
 
-  checkOutputFolder(request.output);  // before the work, and again before the write
+/// The pixels of the slice inside the cage: the only places where every method is defined.
+struct InsidePixels {
+  std::vector<Vec3> points;        ///< pixel centres, world units
+  std::vector<std::size_t> pixel;  ///< their index in the image, row-major
+};
 
-  auto cage = std::make_shared<const Cage>(Cage::fromFile(request.cage));
-  if (request.control >= cage->vertexCount())
-    throw InvalidInput(request.cage.string() + ": control " + std::to_string(request.control) +
-                       " is out of range (the cage has " + std::to_string(cage->vertexCount()) +
-                       " vertices)");
-  const Slice slice = makeSlice(*cage, request.planePoint, request.planeNormal, request.resolution);
-  checkComparisonMemory(request, table, methods, *cage, slice);
-
-  // Pixels inside the cage: the only places where every method is defined. The winding
-  // number costs one atan2 per cage triangle, so rows go in parallel.
+InsidePixels insidePixels(const Cage& cage, const Slice& slice) {
+  // The winding number costs one atan2 per cage triangle, so rows go in parallel.
   std::vector<char> isInside(std::size_t(slice.width) * slice.height);
   tbb::parallel_for(0, slice.height, [&](int j) {
     for (int i = 0; i < slice.width; ++i)
-      isInside[std::size_t(j) * slice.width + i] = cage->contains(slice.pixelCentre(i, j));
+      isInside[std::size_t(j) * slice.width + i] = cage.contains(slice.pixelCentre(i, j));
   });
-  std::vector<Vec3> inside;
-  std::vector<std::size_t> insidePixel;
+  InsidePixels inside;
   for (int j = 0; j < slice.height; ++j)
     for (int i = 0; i < slice.width; ++i)
       if (isInside[std::size_t(j) * slice.width + i]) {
-        inside.push_back(slice.pixelCentre(i, j));
-        insidePixel.push_back(std::size_t(j) * slice.width + i);
+        inside.points.push_back(slice.pixelCentre(i, j));
+        inside.pixel.push_back(std::size_t(j) * slice.width + i);
       }
-  if (inside.empty())
-    throw InvalidInput(request.cage.string() + ": the slice plane does not cut the cage");
-  const std::vector<Vec3> samples = interiorSamples(*cage, request.samples, request.seed);
+  return inside;
+}
 
-  struct Result {
-    std::string name;
-    std::size_t control = 0, controlCount = 0;
-    std::vector<double> values;  // per inside pixel
-    bool failed = false;
-    json entry;
-  };
-  std::vector<Result> results;
-  const ProgressCallback progress = context.progress();
-  for (const std::string& name : methods) {
-    const Method& method = table.at(name);
-    Result r;
-    r.name = name;
-    // A method that cannot handle this cage (a tet mesh that misses interior points, a
-    // singular fit, a bad cache file) is reported as failed; the others still run.
-    // Cancellation stops the whole comparison.
-    try {
-      const auto start = Clock::now();
-      const auto coordinates = method.make(cage, request.cageOptions, progress);
-      const double setup = std::chrono::duration<double>(Clock::now() - start).count();
+/// One method's outcome: its control's weight at every inside pixel and its report entry.
+struct Result {
+  std::string name;
+  std::size_t control = 0, controlCount = 0;
+  std::vector<double> values;  // per inside pixel
+  bool failed = false;
+  json entry;
+};
 
-      r.controlCount = coordinates->controlPointCount();
-      r.control = request.control;
-      if (!method.cageControls) {
-        const Vec3 target = cage->vertices()[request.control];
-        const auto controls = coordinates->restControlPoints();
-        double best = std::numeric_limits<double>::infinity();
-        for (std::size_t c = 0; c < controls.size(); ++c)
-          if (const double d = glm::length(controls[c] - target); d < best) best = d, r.control = c;
-      }
+/// Runs one method. A method that cannot handle this cage (a tet mesh that misses interior
+/// points, a singular fit, a bad cache file) is reported as failed; the others still run.
+/// Cancellation stops the whole comparison.
+Result runMethod(const std::string& name, const Method& method,
+                 const std::shared_ptr<const Cage>& cage, const CompareRequest& request,
+                 const std::vector<Vec3>& inside, const std::vector<Vec3>& samples,
+                 const ProgressCallback& progress) {
+  Result r;
+  r.name = name;
+  try {
+    const auto start = Clock::now();
+    const auto coordinates = method.make(cage, request.cageOptions, progress);
+    const double setup = std::chrono::duration<double>(Clock::now() - start).count();
 
-      // The weights of every inside pixel, in blocks to bound memory: the bind.
-      const std::size_t m = coordinates->columnCount();
-      const std::size_t block = std::max<std::size_t>(1, kBindBlockValues / m);
-      std::vector<double> rows;
-      r.values.resize(inside.size());
-      const auto bindStart = Clock::now();
-      ProgressTracker tracker(progress, "bind " + name, inside.size());
-      forEachBlock(inside.size(), block, tracker, [&](std::size_t begin, std::size_t count) {
-        rows.resize(count * m);
-        coordinates->weightsBatch(std::span(inside).subspan(begin, count), rows);
-        for (std::size_t k = 0; k < count; ++k) r.values[begin + k] = rows[k * m + r.control];
-      });
-      const double bind = std::chrono::duration<double>(Clock::now() - bindStart).count();
-
-      const PropertyReport properties =
-          method.cageControls ? measureProperties(*coordinates, *cage, samples)
-                              : measureProperties(*coordinates, samples, cage->diagonal());
-      const auto [lo, hi] = std::minmax_element(r.values.begin(), r.values.end());
-      const auto negative =
-          std::count_if(r.values.begin(), r.values.end(), [](double v) { return v < 0.0; });
-      r.entry = {{"name", name},
-                 {"description", method.description},
-                 {"status", "ok"},
-                 {"controlIndex", r.control},
-                 {"controlCount", r.controlCount},
-                 {"columns", m},
-                 {"setupSeconds", setup},
-                 {"bindSeconds", bind},
-                 {"bindPoints", inside.size()},
-                 {"bindPointsPerSecond", bind > 0.0 ? inside.size() / bind : 0.0},
-                 {"slice", {{"min", *lo}, {"max", *hi}, {"negativePixels", negative}}},
-                 {"properties", propertiesJson(properties)},
-                 {"image", name + ".png"}};
-    } catch (const Cancelled&) {
-      throw;
-    } catch (const std::exception& e) {
-      r.failed = true;
-      r.values.clear();
-      r.entry = {{"name", name},       {"description", method.description},
-                 {"status", "failed"}, {"errorType", errorType(e)},
-                 {"error", e.what()},  {"image", name + ".png"}};
+    r.controlCount = coordinates->controlPointCount();
+    r.control = request.control;
+    if (!method.cageControls) {
+      const Vec3 target = cage->vertices()[request.control];
+      const auto controls = coordinates->restControlPoints();
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t c = 0; c < controls.size(); ++c)
+        if (const double d = glm::length(controls[c] - target); d < best) best = d, r.control = c;
     }
-    results.push_back(std::move(r));
-  }
 
+    // The weights of every inside pixel, in blocks to bound memory: the bind.
+    const std::size_t m = coordinates->columnCount();
+    const std::size_t block = std::max<std::size_t>(1, kBindBlockValues / m);
+    std::vector<double> rows;
+    r.values.resize(inside.size());
+    const auto bindStart = Clock::now();
+    ProgressTracker tracker(progress, "bind " + name, inside.size());
+    forEachBlock(inside.size(), block, tracker, [&](std::size_t begin, std::size_t count) {
+      rows.resize(count * m);
+      coordinates->weightsBatch(std::span(inside).subspan(begin, count), rows);
+      for (std::size_t k = 0; k < count; ++k) r.values[begin + k] = rows[k * m + r.control];
+    });
+    const double bind = std::chrono::duration<double>(Clock::now() - bindStart).count();
+
+    const PropertyReport properties =
+        method.cageControls ? measureProperties(*coordinates, *cage, samples)
+                            : measureProperties(*coordinates, samples, cage->diagonal());
+    const auto [lo, hi] = std::minmax_element(r.values.begin(), r.values.end());
+    const auto negative =
+        std::count_if(r.values.begin(), r.values.end(), [](double v) { return v < 0.0; });
+    r.entry = {{"name", name},
+               {"description", method.description},
+               {"status", "ok"},
+               {"controlIndex", r.control},
+               {"controlCount", r.controlCount},
+               {"columns", m},
+               {"setupSeconds", setup},
+               {"bindSeconds", bind},
+               {"bindPoints", inside.size()},
+               {"bindPointsPerSecond", bind > 0.0 ? inside.size() / bind : 0.0},
+               {"slice", {{"min", *lo}, {"max", *hi}, {"negativePixels", negative}}},
+               {"properties", propertiesJson(properties)},
+               {"image", name + ".png"}};
+  } catch (const Cancelled&) {
+    throw;
+  } catch (const std::exception& e) {
+    r.failed = true;
+    r.values.clear();
+    r.entry = {{"name", name},       {"description", method.description},
+               {"status", "failed"}, {"errorType", errorType(e)},
+               {"error", e.what()},  {"image", name + ".png"}};
+  }
+  return r;
+}
+
+/// One colour scale for every method: from min(0, lowest) to the highest value (1 if none is
+/// positive).
+ColourScale commonScale(const std::vector<Result>& results) {
   ColourScale scale{0.0, 0.0};
   for (const Result& r : results)
     for (double v : r.values)
       scale.min = std::min(scale.min, v), scale.max = std::max(scale.max, v);
   if (scale.max <= 0.0) scale.max = 1.0;
+  return scale;
+}
 
-  // Images: one per method (a grey panel saying "failed" for a failed one), then all side by
-  // side under their names, with the labelled colour bar underneath.
-  const auto segments = crossSection(*cage, slice);
-  const Vec3 controlPoint = cage->vertices()[request.control];
+/// One image per method: its values, the cage's cross-section, the control vertex marked when
+/// near the plane; a grey panel saying "failed" for a failed method.
+std::vector<Image> methodImages(const std::vector<Result>& results, const Cage& cage,
+                                const CompareRequest& request, const Slice& slice,
+                                const std::vector<std::size_t>& insidePixel,
+                                const ColourScale& scale, int textScale) {
+  const auto segments = crossSection(cage, slice);
+  const Vec3 controlPoint = cage.vertices()[request.control];
   const double controlDistance = glm::dot(controlPoint - slice.origin, slice.normal);
-  // Text at twice the font's size once panels are wide enough for the longer names.
-  const int textScale = slice.width >= 192 ? 2 : 1;
   std::vector<Image> images;
   for (const Result& r : results) {
     Image image(slice.width, slice.height, r.failed ? kFailed : kOutside);
@@ -473,20 +482,33 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
       image.text((slice.width - textWidth("failed", textScale)) / 2,
                  (slice.height - textHeight(textScale)) / 2, "failed", textScale,
                  Rgb{255, 255, 255});
-    } else if (std::abs(controlDistance) <= 0.05 * cage->diagonal()) {
-      // Mark the control vertex when it lies near the plane.
+    } else if (std::abs(controlDistance) <= 0.05 * cage.diagonal()) {
       const auto [cx, cy] = slice.toPixel(controlPoint - controlDistance * slice.normal);
       image.line(cx - 4, cy, cx + 4, cy, Rgb{255, 255, 255});
       image.line(cx, cy - 4, cx, cy + 4, Rgb{255, 255, 255});
     }
     images.push_back(std::move(image));
   }
+  return images;
+}
+
+/// compare.png: the method images side by side under their names, the labelled colour bar
+/// underneath; `layout` says where things are, pixels from its top-left corner.
+struct SideBySide {
+  Image image{1, 1, Rgb{255, 255, 255}};
+  json layout;
+  std::vector<double> labelled;  ///< the colour bar's labelled ticks
+};
+
+SideBySide sideBySide(const std::vector<Result>& results, const std::vector<Image>& images,
+                      const Slice& slice, const ColourScale& scale, int textScale) {
   const int gap = 8, barHeight = 16;
   const int titleHeight = textHeight(textScale) + gap;
   const int totalWidth = static_cast<int>(results.size()) * (slice.width + gap) - gap;
   const LabelledBar bar = labelledColourBar(scale, totalWidth, barHeight, textScale);
   const int barTop = titleHeight + slice.height + gap;
-  Image strip(totalWidth, barTop + bar.image.height + gap / 2, Rgb{255, 255, 255});
+  SideBySide out;
+  out.image = Image(totalWidth, barTop + bar.image.height + gap / 2, Rgb{255, 255, 255});
   json panels = json::array();
   for (std::size_t k = 0; k < images.size(); ++k) {
     const int left = static_cast<int>(k) * (slice.width + gap);
@@ -495,17 +517,32 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
     Image title(slice.width, titleHeight, Rgb{255, 255, 255});
     title.text(std::max(0, (slice.width - textWidth(results[k].name, textScale)) / 2), gap / 2,
                results[k].name, textScale, Rgb{0, 0, 0});
-    strip.paste(title, left, 0);
-    strip.paste(images[k], left, titleHeight);
+    out.image.paste(title, left, 0);
+    out.image.paste(images[k], left, titleHeight);
     panels.push_back({{"name", results[k].name}, {"left", left}, {"top", titleHeight}});
   }
-  strip.paste(bar.image, 0, barTop);
+  out.image.paste(bar.image, 0, barTop);
+  out.layout = {{"titleHeight", titleHeight},
+                {"panels", panels},
+                {"panelSize", {slice.width, slice.height}},
+                {"bar",
+                 {{"left", bar.barLeft},
+                  {"top", barTop},
+                  {"width", bar.barWidth},
+                  {"height", bar.barHeight},
+                  {"labelTop", barTop + bar.labelTop}}}};
+  out.labelled = bar.labelled;
+  return out;
+}
 
+json reportJson(const CompareRequest& request, const Cage& cage, const Slice& slice,
+                std::size_t insideCount, const ColourScale& scale, const SideBySide& strip,
+                std::size_t sampleCount, const std::vector<Result>& results) {
   json report = {
       {"cage", request.cage.string()},
-      {"cageVertices", cage->vertexCount()},
-      {"cageTriangles", cage->triangleCount()},
-      {"diagonal", cage->diagonal()},
+      {"cageVertices", cage.vertexCount()},
+      {"cageTriangles", cage.triangleCount()},
+      {"diagonal", cage.diagonal()},
       {"control", request.control},
       {"slice",
        {{"point", vec(slice.origin)},
@@ -515,29 +552,53 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
         {"uRange", {slice.uMin, slice.uMax}},
         {"vRange", {slice.vMin, slice.vMax}}}},
       {"resolution", {slice.width, slice.height}},
-      {"insidePixels", inside.size()},
-      {"colourScale", {{"min", scale.min}, {"max", scale.max}, {"labelledTicks", bar.labelled}}},
-      {"samples", {{"count", samples.size()}, {"seed", request.seed}}},
+      {"insidePixels", insideCount},
+      {"colourScale", {{"min", scale.min}, {"max", scale.max}, {"labelledTicks", strip.labelled}}},
+      {"samples", {{"count", sampleCount}, {"seed", request.seed}}},
       {"images",
-       {{"sideBySide", "compare.png"},
-        {"colourBar", "colour_bar.png"},
-        // Where things are in compare.png, pixels from its top-left corner.
-        {"layout",
-         {{"titleHeight", titleHeight},
-          {"panels", panels},
-          {"panelSize", {slice.width, slice.height}},
-          {"bar",
-           {{"left", bar.barLeft},
-            {"top", barTop},
-            {"width", bar.barWidth},
-            {"height", bar.barHeight},
-            {"labelTop", barTop + bar.labelTop}}}}}}},
+       {{"sideBySide", "compare.png"}, {"colourBar", "colour_bar.png"}, {"layout", strip.layout}}},
       {"methods", json::array()}};
   report["failedMethods"] = json::array();
   for (const Result& r : results) {
     report["methods"].push_back(r.entry);
     if (r.failed) report["failedMethods"].push_back(r.name);
   }
+  return report;
+}
+
+}  // namespace
+
+json runComparison(const CompareRequest& request, const CliContext& context) {
+  const std::map<std::string, Method> table = methodTable();
+  const std::vector<std::string> methods = checkRequest(request, table);
+  checkOutputFolder(request.output);  // before the work, and again before the write
+
+  auto cage = std::make_shared<const Cage>(Cage::fromFile(request.cage));
+  if (request.control >= cage->vertexCount())
+    throw InvalidInput(request.cage.string() + ": control " + std::to_string(request.control) +
+                       " is out of range (the cage has " + std::to_string(cage->vertexCount()) +
+                       " vertices)");
+  const Slice slice = makeSlice(*cage, request.planePoint, request.planeNormal, request.resolution);
+  checkComparisonMemory(request, table, methods, *cage, slice);
+  const InsidePixels inside = insidePixels(*cage, slice);
+  if (inside.points.empty())
+    throw InvalidInput(request.cage.string() + ": the slice plane does not cut the cage");
+  const std::vector<Vec3> samples = interiorSamples(*cage, request.samples, request.seed);
+
+  std::vector<Result> results;
+  const ProgressCallback progress = context.progress();
+  for (const std::string& name : methods)
+    results.push_back(
+        runMethod(name, table.at(name), cage, request, inside.points, samples, progress));
+
+  const ColourScale scale = commonScale(results);
+  // Text at twice the font's size once panels are wide enough for the longer names.
+  const int textScale = slice.width >= 192 ? 2 : 1;
+  const std::vector<Image> images =
+      methodImages(results, *cage, request, slice, inside.pixel, scale, textScale);
+  const SideBySide strip = sideBySide(results, images, slice, scale, textScale);
+  const json report = reportJson(request, *cage, slice, inside.points.size(), scale, strip,
+                                 samples.size(), results);
 
   // Everything is computed: only now touch the output folder, replaced as a whole, so that a
   // failure or an interruption leaves the previous comparison complete.
@@ -545,7 +606,7 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
   writeFolderAtomically(request.output, [&](const fs::path& folder) {
     for (std::size_t k = 0; k < images.size(); ++k)
       writePng(images[k], folder / (results[k].name + ".png"));
-    writePng(strip, folder / "compare.png");
+    writePng(strip.image, folder / "compare.png");
     writePng(labelledColourBar(scale, 512, 24, 2).image, folder / "colour_bar.png");
     writeJsonFile(report, folder / "report.json");
     const std::string md = markdown(report);
