@@ -2,6 +2,8 @@
 
 #include <dlfcn.h>
 
+#include <vector>
+
 #include <spacewarp/core/detail/memory_budget.h>
 
 namespace spacewarp::detail {
@@ -36,6 +38,23 @@ std::mutex& blasMutex() {
 // another BLAS needs none).
 thread_local bool blasBufferMapped = false;
 
+// Makes OpenBLAS map this thread's work buffer now, while checkMemory says it fits, and not
+// inside a factorisation whose own allocations may leave no room for it (OpenBLAS would then
+// retry the mapping forever). OpenBLAS keeps the buffer for the thread's later calls. The
+// product is 128 x 128 x 128: past OpenBLAS's small-matrix path, which needs no buffer.
+void mapBlasWorkBuffer() {
+  using Dgemm = void (*)(const char*, const char*, const int*, const int*, const int*,
+                         const double*, const double*, const int*, const double*, const int*,
+                         const double*, double*, const int*);
+  static const auto dgemm = reinterpret_cast<Dgemm>(dlsym(RTLD_DEFAULT, "dgemm_"));
+  if (dgemm == nullptr) return;
+  constexpr int n = 128;
+  const std::vector<double> a(std::size_t(n) * n, 0.0);
+  std::vector<double> c(std::size_t(n) * n, 0.0);
+  const double one = 1.0, zero = 0.0;
+  dgemm("N", "N", &n, &n, &n, &one, a.data(), &n, a.data(), &n, &zero, c.data(), &n);
+}
+
 }  // namespace
 
 std::size_t blasWorkBufferBytes() {
@@ -46,18 +65,18 @@ std::size_t blasWorkBufferBytes() {
 }
 
 SerialBlas::SerialBlas() : lock_(blasMutex()) {
-  if (!blasBufferMapped) {
-    if (const std::size_t bytes = blasWorkBufferBytes(); bytes > 0)
-      checkMemory(static_cast<double>(bytes),
-                  "the BLAS work buffer of the sparse Cholesky factorisation (OpenBLAS)");
-    blasBufferMapped = true;
-  }
+  const std::size_t bufferBytes = blasBufferMapped ? 0 : blasWorkBufferBytes();
+  if (bufferBytes > 0)
+    checkMemory(static_cast<double>(bufferBytes),
+                "the BLAS work buffer of the sparse Cholesky factorisation (OpenBLAS)");
   const Api& api = blas();
   if (api.openblasGet && api.openblasSet) {
     openblasPrevious_ = api.openblasGet();
     if (openblasPrevious_ != 1) api.openblasSet(1);
   }
   if (api.mklSetLocal) mklPrevious_ = api.mklSetLocal(1);
+  if (bufferBytes > 0) mapBlasWorkBuffer();  // single-threaded now: this thread's buffer only
+  blasBufferMapped = true;
 }
 
 SerialBlas::~SerialBlas() {

@@ -10,7 +10,8 @@
 //
 // OpenBLAS maps a work buffer of 128 MiB for a thread on its first level-3 call there, and when
 // that allocation fails it retries forever (a hang, not an error). So the first scope on each
-// thread checks that the buffer fits (detail::checkMemory) before any BLAS call can make it.
+// thread checks that the buffer fits (detail::checkMemory) and has OpenBLAS map it at once, so
+// that it exists before the factorisation's own allocations can take its room.
 
 #include <cstddef>
 #include <mutex>
