@@ -74,45 +74,4 @@ Vec3 transformVector(const Warp& warp, const Vec3& x, const Vec3& v) {
   return warp.jacobian(x) * v;
 }
 
-InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options) {
-  if (!isFinite(y)) throw InvalidInput("inverse: the target point is not finite");
-  const Vec3 fy = warp.apply(y);
-  const double scale = options.lengthScale > 0.0 ? options.lengthScale
-                                                 : std::max({maxAbs(y), maxAbs(fy - y), 1e-300});
-  const double tolerance = options.tolerance * scale;
-
-  InverseResult result;
-  result.x = y - (fy - y);
-  double residual = glm::length(warp.apply(result.x) - y);
-  if (!std::isfinite(residual)) {  // the seed left the warp's domain: start from y instead
-    result.x = y;
-    residual = glm::length(fy - y);
-  }
-  for (;;) {
-    result.residual = residual;
-    if (residual <= tolerance) {
-      result.converged = true;
-      return result;
-    }
-    if (result.iterations >= options.maxIterations) return result;
-    const Mat3 j = warp.jacobian(result.x);
-    if (isSingularJacobian(j)) return result;
-    const Vec3 dx = -(glm::inverse(j) * (warp.apply(result.x) - y));
-    // Backtracking: halve the step until the residual decreases.
-    bool accepted = false;
-    for (double t = 1.0; t > 1e-10; t *= 0.5) {
-      const Vec3 candidate = result.x + t * dx;
-      const double r = glm::length(warp.apply(candidate) - y);
-      if (r < residual) {
-        result.x = candidate;
-        residual = r;
-        accepted = true;
-        break;
-      }
-    }
-    ++result.iterations;
-    if (!accepted) return result;  // stalled: report the best point found
-  }
-}
-
 }  // namespace spacewarp
