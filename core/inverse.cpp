@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <spacewarp/core/errors.h>
 
@@ -189,8 +190,8 @@ InverseResult continueInverse(const Warp& warp, const Vec3& y, const InverseAnch
                                                  : std::max({maxAbs(y), maxAbs(y - y0), 1e-300});
   const double tolerance = options.tolerance * scale;
   // The longest step: the length scale, else a sixteenth of the path (and never zero).
-  const double voxel = options.lengthScale > 0.0 ? options.lengthScale
-                                                 : std::max(distance / 16.0, tolerance);
+  const double voxel =
+      options.lengthScale > 0.0 ? options.lengthScale : std::max(distance / 16.0, tolerance);
   double at = 0.0;
   const double maxStep = distance > voxel ? voxel / distance : 1.0;
   double step = maxStep;
@@ -222,6 +223,15 @@ InverseResult continueInverse(const Warp& warp, const Vec3& y, const InverseAnch
 InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options,
                       const InverseHint& hint) {
   if (!isFinite(y)) throw InvalidInput("inverse: the target point is not finite");
+  if (options.closedForm && options.maxIterations > 0) {
+    if (const std::optional<Vec3> exact = warp.exactInverse(y); exact && isFinite(*exact)) {
+      InverseResult result;
+      result.x = *exact;
+      result.converged = true;
+      result.residual = glm::length(warp.apply(result.x) - y);
+      return result;
+    }
+  }
   // warp(y) is needed only for the default seed and scale: callers that give both skip it.
   Vec3 fy(0.0);
   if (!hint.seed || !(options.lengthScale > 0.0)) fy = warp.apply(y);

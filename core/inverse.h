@@ -25,6 +25,10 @@ struct InverseOptions {
   /// Whether a point that Newton could not invert gets the continuation fallback (see
   /// continueInverse()). Default on.
   bool continuation = true;
+  /// Whether the warp's closed-form inverse (Warp::exactInverse()) is used where it has one:
+  /// the result is then that point, reported converged with its residual measured and no
+  /// iterations. Default on. Not used when maxIterations is 0 (the seed alone is evaluated).
+  bool closedForm = true;
 };
 
 /// What inverse() found. `converged` is false when the iterations ran out, the Jacobian was
@@ -64,10 +68,11 @@ struct InverseHint {
   std::optional<InverseAnchor> anchor;
 };
 
-/// Finds x with warp(x) = y: damped Newton (backtracking on the residual) from the hint's seed
-/// (after chord steps if the hint has a chord matrix), then, if that fails and
-/// options.continuation is on, continueInverse() from the hint's anchor. Never throws for
-/// non-convergence: it reports it. Throws InvalidInput if y is not finite.
+/// Finds x with warp(x) = y: the warp's closed form if it has one (options.closedForm), else damped
+/// Newton (backtracking on the residual) from the hint's seed (after chord steps if the hint has a
+/// chord matrix), then, if that fails and options.continuation is on, continueInverse() from the
+/// hint's anchor. Never throws for non-convergence: it reports it. Throws InvalidInput if y is not
+/// finite.
 InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options = {},
                       const InverseHint& hint = {});
 

@@ -38,6 +38,8 @@ Mat3 Warp::jacobian(const Vec3& x) const {
   return j;
 }
 
+std::optional<Vec3> Warp::exactInverse(const Vec3&) const { return std::nullopt; }
+
 void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
   detail::requireSameSize("Warp::applyBatch", in.size(), out.size());
   const UnmappedPoints unmapped = detail::forEachRange(

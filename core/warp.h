@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <span>
 
 #include <spacewarp/core/math.h>
@@ -53,6 +54,13 @@ class Warp {
   /// smooth warps);
   /// warps whose math allows it override this with the analytic Jacobian.
   virtual Mat3 jacobian(const Vec3& x) const;
+
+  /// The preimage of y in closed form, for warps that have one (twist, taper, bend within its
+  /// range, affine, compositions of these): inverse() then returns it instead of iterating.
+  /// Empty (the default) where there is none, or where y has no preimage the warp can name
+  /// (e.g. a singular affine map). What it returns is not checked here: inverse() measures
+  /// its residual.
+  virtual std::optional<Vec3> exactInverse(const Vec3& y) const;
 
   /// out[i] = apply(in[i]) for every i, in parallel (TBB): [0, n) is cut into ranges of
   /// batchGrain() points, each warped by applyRange(). The ranges depend only on n, so the

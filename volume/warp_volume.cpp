@@ -990,6 +990,9 @@ WarpedGrid<GridT> resampleGrid(const Warp& exactWarp, const GridT& in,
   inverseOptions.lengthScale = plan.frame.voxelSize;
   InverseOptions firstSolve = inverseOptions;
   firstSolve.continuation = false;  // the second chance runs apart, after every first solve
+  // The seeded solve takes 1–3 steps on smooth warps; closed forms are not used, so volumes
+  // do not depend on which warps have one.
+  firstSolve.closedForm = false;
 
   std::vector<LeafResult<typename GridPlan<GridT>::LeafT>> leafResults(plan.groups());
   ProgressTracker tracker(options.progress, "warp volume", plan.groups());

@@ -116,6 +116,7 @@ struct WarpVolumeOptions {
   /// voxels, far below the sampling error). `lengthScale` is ignored: warpVolume() sets it to
   /// the voxel size, which is also the continuation's step. `continuation` is honoured (default
   /// on): off, voxels where the first solve fails are counted as inverse failures.
+  /// `closedForm` is not used: every voxel is solved from its seed, whatever the warp.
   InverseOptions inverse{.maxIterations = 20, .tolerance = 1e-4};
 
   /// Edge of the coarse seeding cells, in input voxels (≥ 1). The warp and its Jacobian are
