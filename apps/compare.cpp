@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <new>
+#include <set>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
@@ -229,6 +230,26 @@ std::string markdown(const json& report) {
   return md.str();
 }
 
+// compare replaces its output folder as a whole: it may only hold what compare writes (from
+// any earlier run, whatever its methods), so that nothing else is lost with it.
+void checkOutputFolder(const fs::path& folder) {
+  std::error_code error;
+  if (!fs::exists(folder, error)) return;
+  if (!fs::is_directory(folder, error))
+    throw IoError(folder.string() + ": the output folder exists and is not a folder");
+  std::set<std::string> ours = {"compare.png", "colour_bar.png", "report.json", "report.md"};
+  for (const std::string& name : compareMethods()) ours.insert(name + ".png");
+  fs::directory_iterator entries(folder, error);
+  if (error) throw IoError(folder.string() + ": cannot list the output folder: " + error.message());
+  for (const fs::directory_entry& entry : entries) {
+    const std::string name = entry.path().filename().string();
+    if (!ours.count(name) || !entry.is_regular_file(error))
+      throw IoError(entry.path().string() +
+                    ": not an output of compare, and compare replaces the output folder " +
+                    folder.string() + " as a whole: move it away or give another folder");
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> compareMethods() {
@@ -256,6 +277,8 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
   if (!isFinite(request.planePoint) || !isFinite(request.planeNormal) ||
       glm::length(request.planeNormal) == 0.0)
     throw InvalidInput("the slice plane needs a finite point and a non-zero normal");
+
+  checkOutputFolder(request.output);  // before the work, and again before the write
 
   auto cage = std::make_shared<const Cage>(Cage::fromFile(request.cage));
   if (request.control >= cage->vertexCount())
@@ -452,15 +475,18 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
     if (r.failed) report["failedMethods"].push_back(r.name);
   }
 
-  // Everything is computed: only now touch the output folder.
-  createOutputFolder(request.output);
-  for (std::size_t k = 0; k < images.size(); ++k)
-    writePng(images[k], request.output / (results[k].name + ".png"));
-  writePng(strip, request.output / "compare.png");
-  writePng(labelledColourBar(scale, 512, 24, 2).image, request.output / "colour_bar.png");
-  writeJsonFile(report, request.output / "report.json");
-  const std::string md = markdown(report);
-  writeFileAtomically(request.output / "report.md", [&](std::ostream& out) { out << md; });
+  // Everything is computed: only now touch the output folder, replaced as a whole, so that a
+  // failure or an interruption leaves the previous comparison complete.
+  checkOutputFolder(request.output);
+  writeFolderAtomically(request.output, [&](const fs::path& folder) {
+    for (std::size_t k = 0; k < images.size(); ++k)
+      writePng(images[k], folder / (results[k].name + ".png"));
+    writePng(strip, folder / "compare.png");
+    writePng(labelledColourBar(scale, 512, 24, 2).image, folder / "colour_bar.png");
+    writeJsonFile(report, folder / "report.json");
+    const std::string md = markdown(report);
+    writeFileAtomically(folder / "report.md", [&](std::ostream& out) { out << md; });
+  });
   // Even with --quiet: a missing result is not information to hide (demo calls this too).
   for (const Result& r : results)
     if (r.failed)

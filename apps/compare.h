@@ -32,9 +32,15 @@ struct CompareRequest {
   std::filesystem::path output;      ///< folder for the images and reports
 };
 
-/// Computes every method, then writes into `request.output`: <method>.png per method,
+/// Computes every method, then writes the folder `request.output`: <method>.png per method,
 /// compare.png (all side by side under their names, the colour bar with its numbers
 /// underneath), colour_bar.png, report.md and report.json. Returns the JSON report.
+///
+/// The folder is written as a whole (writeFolderAtomically): a failed write or an interruption
+/// leaves the previous folder exactly as it was, and no temporary; a successful run replaces
+/// it, so files of an earlier run with other methods do not linger. An existing folder may
+/// therefore hold only files compare writes (any method's image, the reports): anything else is
+/// an IoError naming it, before any work.
 ///
 /// A method that throws while it is set up, bound or measured (e.g. harmonic coordinates whose
 /// tet mesh misses some interior points) does not stop the others: its report entry has

@@ -34,25 +34,25 @@ void printSoupInfo(const std::filesystem::path& path) {
   }
 }
 
-void printInfo(const std::filesystem::path& path) {
+void printInfo(const std::filesystem::path& path, const CliContext& context) {
   if (lowerExtension(path) == ".json")
     printRigInfo(path);
   else if (fileKind(path) == FileKind::Volume)
-    printVolumeInfo(path);
+    printVolumeInfo(path, context);
   else
     printSoupInfo(path);
 }
 
 }  // namespace
 
-Command addInfoCommand(CLI::App& app, const CliContext&) {
+Command addInfoCommand(CLI::App& app, const CliContext& context) {
   auto path = std::make_shared<std::string>();
   CLI::App* info = app.add_subcommand(
       "info",
       "Describe a file: a soup or point cloud (counts, bounding box), a volume (grids, types, "
       "voxel size, active voxels, metadata) or a rig (method, controls, what it will do)");
   info->add_option("FILE", *path, "OBJ, OFF, PLY, VDB or JSON rig file")->required();
-  return {info, [path] { printInfo(*path); }};
+  return {info, [path, &context] { printInfo(*path, context); }};
 }
 
 }  // namespace spacewarp::cli

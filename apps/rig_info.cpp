@@ -24,11 +24,13 @@ std::string text(const json& value) {
 // Reads the keys of one rig loosely, for display: what is missing or odd is shown, not judged.
 class Describer {
  public:
-  Describer(const json& rig, std::filesystem::path baseDir, std::string where, std::string indent)
+  Describer(const json& rig, std::filesystem::path baseDir, std::string where, std::string indent,
+            std::string& out)
       : rig_(rig),
         baseDir_(std::move(baseDir)),
         where_(std::move(where)),
-        indent_(std::move(indent)) {}
+        indent_(std::move(indent)),
+        out_(out) {}
 
   void print() const {
     if (!rig_.is_object() || !rig_.contains("method") || !rig_["method"].is_string())
@@ -118,8 +120,9 @@ class Describer {
       const json& warps = rig_["warps"];
       line("does", "applies the " + std::to_string(warps.size()) + " warps below in order");
       for (std::size_t i = 0; i < warps.size(); ++i) {
-        std::printf("%swarps[%zu]:\n", indent_.c_str(), i);
-        Describer(warps[i], baseDir_, where_ + ": warps[" + std::to_string(i) + "]", indent_ + "  ")
+        out_ += indent_ + "warps[" + std::to_string(i) + "]:\n";
+        Describer(warps[i], baseDir_, where_ + ": warps[" + std::to_string(i) + "]", indent_ + "  ",
+                  out_)
             .print();
       }
     } else {
@@ -131,7 +134,9 @@ class Describer {
 
  private:
   void line(const std::string& label, const std::string& value) const {
-    std::printf("%s%-11s %s\n", indent_.c_str(), (label + ":").c_str(), value.c_str());
+    char head[64];
+    std::snprintf(head, sizeof head, "%-11s ", (label + ":").c_str());
+    out_ += indent_ + head + value + "\n";
   }
 
   std::string get(const char* key, const std::string& fallback = "(missing)") const {
@@ -179,14 +184,19 @@ class Describer {
   const json& rig_;
   std::filesystem::path baseDir_;
   std::string where_, indent_;
+  std::string& out_;
 };
 
 }  // namespace
 
 void printRigInfo(const std::filesystem::path& path) {
   const json rig = readRigFile(path);
-  std::printf("file:       %s\n", path.string().c_str());
-  Describer(rig, path.parent_path(), path.string(), "").print();
+  // Refused exactly as `deform` refuses it (the same checks, without the solves), and before
+  // anything is printed: a failed info prints nothing on stdout.
+  checkRig(rig, path.parent_path(), printable(path.string()));
+  std::string text = "file:       " + path.string() + "\n";
+  Describer(rig, path.parent_path(), path.string(), "", text).print();
+  std::fputs(text.c_str(), stdout);
 }
 
 }  // namespace spacewarp::cli

@@ -8,10 +8,11 @@ namespace spacewarp::cli {
 
 /// Prints the rig's method, its controls (counts of cage vertices and faces, lattice
 /// resolution, handles, centres, nodes; the cage files are read for their counts) and a
-/// sentence of what it will do; the warps of a "compose" rig are described in turn. Keys are
-/// not validated as `deform` validates them. Throws IoError naming the file if it cannot be
-/// read or is not JSON (or a cage file cannot be read), InvalidInput naming it for a rig
-/// without a known "method".
+/// sentence of what it will do; the warps of a "compose" rig are described in turn. The rig
+/// is first checked as `deform` checks it (checkRig: the same code, without the solves), so
+/// info refuses what deform refuses, with the same message, and prints nothing then. Throws
+/// IoError naming the file if it cannot be read or is not JSON (or a cage file cannot be
+/// read), InvalidInput naming it and the key at fault as rigFromJson() does.
 void printRigInfo(const std::filesystem::path& path);
 
 }  // namespace spacewarp::cli

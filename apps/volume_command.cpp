@@ -21,6 +21,7 @@
 #include <spacewarp/volume/read_vdb.h>
 #include <spacewarp/volume/warp_grid.h>
 #include <spacewarp/volume/warp_points.h>
+#include "apps/openvdb_messages.h"
 #endif
 
 namespace spacewarp::cli {
@@ -55,7 +56,9 @@ void checkVolumeFile(const std::filesystem::path& path) {
   throw InvalidInput(path.string() + ": volumes are not supported by this build");
 }
 
-void printVolumeInfo(const std::filesystem::path& path) { checkVolumeFile(path); }
+void printVolumeInfo(const std::filesystem::path& path, const CliContext&) {
+  checkVolumeFile(path);
+}
 
 VolumeSummary deformVolumeFile(const Warp&, const std::filesystem::path& input,
                                const std::filesystem::path&, const VolumeCliOptions&,
@@ -117,16 +120,35 @@ void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
   writeVdbAtomically(path, {grid}, openvdb::MetaMap());
 }
 
+/// Prints what OpenVDB logged about `file` as warnings of the tool.
+void warnAbout(const std::filesystem::path& file, OpenVdbMessages& messages,
+               const CliContext& context) {
+  for (const std::string& message : messages.take()) context.warn(file.string() + ": " + message);
+}
+
 void checkVolumeFile(const std::filesystem::path& path) {
-  openvdb::initialize();
+  // What OpenVDB says about the header is said again when deformVolumeFile reads the file.
+  const OpenVdbMessages dropped;
   readVdbFile(path, /*headerOnly=*/true);
 }
+
+namespace {
+
+// "2.5e-06", "0.5", "1.23e+04": three significant digits, for the lines people read.
+std::string shortNumber(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
+}
+
+}  // namespace
 
 VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                                const std::filesystem::path& output, const VolumeCliOptions& options,
                                const CliContext& context) {
-  openvdb::initialize();
+  OpenVdbMessages messages;
   const VdbFile content = readVdbFile(input);
+  warnAbout(input, messages, context);
 
   std::string found;
   std::size_t supported = 0;
@@ -177,6 +199,21 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
                    " vectors could not be transformed (" + r.vectors +
                    " with a singular Jacobian) and are left inactive");
     }
+    if (hasExtremeVolumeChange(r)) {
+      // The densities were divided by |det J|: near a collapse the total is far off.
+      std::string range;
+      if (r.maxVolumeChange > 0.0)
+        range = "by factors from " + shortNumber(r.minVolumeChange) + " to " +
+                shortNumber(r.maxVolumeChange);
+      if (r.degenerateVolumeChanges > 0)
+        range += (range.empty() ? "" : ", and ") + std::string("by 0 or a non-finite factor at ") +
+                 counted(r.degenerateVolumeChanges, "voxel") + " (left out)";
+      context.warn(input.string() + ": grid " + name +
+                   ": --conserve-mass: the warp changes volumes (|det J|) " + range +
+                   "; densities divided by such factors do not conserve the mass where space is "
+                   "squeezed below the voxel size (mass " +
+                   shortNumber(r.massBefore) + " -> " + shortNumber(r.massAfter) + ")");
+    }
     if (r.unmappedVoxels > 0) {
       context.warn(input.string() + ": grid " + name + ": " + std::to_string(r.unmappedVoxels) +
                    " input voxels could not be mapped (the warp is not finite or singular there) "
@@ -202,7 +239,9 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
     if (!grid->isType<openvdb::points::PointDataGrid>())
       summary.activeVoxels += r.outputActiveVoxels;
   }
+  warnAbout(input, messages, context);
   writeVdbAtomically(output, warped, *content.metadata);
+  warnAbout(output, messages, context);
   return summary;
 }
 
@@ -234,9 +273,10 @@ const char* className(openvdb::GridClass c) {
 
 }  // namespace
 
-void printVolumeInfo(const std::filesystem::path& path) {
-  openvdb::initialize();
+void printVolumeInfo(const std::filesystem::path& path, const CliContext& context) {
+  OpenVdbMessages messages;
   const VdbFile content = readVdbFile(path);
+  warnAbout(path, messages, context);
   std::printf("file:       %s\n", path.string().c_str());
   std::printf("grids:      %zu\n", content.grids.size());
   printMetadata("metadata:   ", *content.metadata);

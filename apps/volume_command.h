@@ -42,24 +42,26 @@ struct VolumeSummary {
   std::size_t inverseFailures = 0;  ///< voxels left inactive because the inverse failed
 };
 
-/// Throws IoError naming `path` unless it is an existing OpenVDB file (only its header is
-/// read), InvalidInput if this build has no volume support: the checks `deform` makes before
-/// it builds a rig.
+/// Throws IoError naming `path` unless it is an existing OpenVDB file (only its header, metadata
+/// and grid descriptors are read, which is enough to refuse a truncated file), InvalidInput if this
+/// build has no volume support: the checks `deform` makes before it builds a rig.
 void checkVolumeFile(const std::filesystem::path& path);
 
 /// Prints what `path` holds: the file's metadata, then for each grid its name, class (level
 /// set, fog volume, staggered, unknown), value type, voxel size, active voxel count, active
 /// bounding box (index and world space), point count (point data grids) and metadata.
-/// Throws as deformVolumeFile does for a missing or non-VDB file.
-void printVolumeInfo(const std::filesystem::path& path);
+/// Throws as deformVolumeFile does for a missing or non-VDB file. What OpenVDB logs while
+/// reading is printed as warnings naming the file (CliContext::warn).
+void printVolumeInfo(const std::filesystem::path& path, const CliContext& context);
 
 /// Warps every supported grid of `input` (float, double and vec3s grids — level sets, fog
 /// volumes, fields — and point data grids) and writes them, with their names and metadata and
 /// the file's metadata, to `output` atomically (a temporary in the same folder, renamed).
 /// Grids of other types are left out with a warning (CliContext::warn). Throws IoError naming the
-/// file if it is missing or not a VDB file, InvalidInput naming it if it holds no supported grid or
-/// a grid cannot be warped (non-linear transform, non-cubic level set voxels); nothing is
-/// written then. Voxels whose preimage was not found are reported as warnings.
+/// file if it is missing, not a VDB file or truncated or corrupt, InvalidInput naming it if it
+/// holds no supported grid or a grid cannot be warped (non-linear transform, non-cubic level set
+/// voxels); nothing is written then. Voxels whose preimage was not found are reported as warnings,
+/// and so is what OpenVDB logs (naming the file read or written then).
 VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& input,
                                const std::filesystem::path& output, const VolumeCliOptions& options,
                                const CliContext& context);

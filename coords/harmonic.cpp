@@ -36,6 +36,7 @@
 #include <Eigen/SparseCore>
 
 #include <spacewarp/coords/detail/harmonic_file.h>
+#include <spacewarp/coords/harmonic_warp.h>
 #include <spacewarp/coords/tet_locator.h>
 #include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
@@ -459,6 +460,12 @@ void HarmonicCoordinates::weights(const Vec3& x, std::span<double> row) const {
   if (outside && impl_->options.outside == HarmonicOutsidePolicy::Throw) {
     throw InvalidInput("HarmonicCoordinates: 1 point is outside the cage: " + pointText(x));
   }
+}
+
+std::shared_ptr<const Warp> HarmonicCoordinates::makeWarpFor(
+    std::shared_ptr<const Coordinates> self, std::span<const Vec3> posed) const {
+  return std::make_shared<HarmonicWarp>(
+      std::static_pointer_cast<const HarmonicCoordinates>(std::move(self)), posed);
 }
 
 std::size_t HarmonicCoordinates::batchGrain() const { return kPointsPerTask; }

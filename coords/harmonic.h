@@ -181,6 +181,9 @@ class HarmonicCoordinates final : public Coordinates {
   double meshVolumeBound() const;
 
  protected:
+  /// A HarmonicWarp: a 4-term mix of per-vertex displacements per point.
+  std::shared_ptr<const Warp> makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                          std::span<const Vec3> posed) const override;
   /// Points outside the cage are reported under the policy Throw: weightsBatch() then throws
   /// InvalidInput with their number and the first one's index.
   std::size_t batchGrain() const override;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include <spacewarp/core/detail/power_of_two_scale.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -19,7 +20,7 @@ AffineWarp::AffineWarp(const Mat4& m) : linear_(m), translation_(m[3]) {
   if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
     throw InvalidInput("affine matrix: the last row must be (0, 0, 0, 1)");
   singular_ = isSingularJacobian(linear_);
-  if (!singular_) linearInverse_ = glm::inverse(linear_);
+  if (!singular_) linearInverse_ = detail::inverseScaled(linear_);  // entries of 1e300 too
 }
 
 std::optional<Vec3> AffineWarp::exactInverse(const Vec3& y) const {

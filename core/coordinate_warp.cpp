@@ -16,6 +16,7 @@ CoordinateWarp::CoordinateWarp(std::shared_ptr<const Coordinates> coordinates,
   coordinates_->columnControls(coordinates_->restControlPoints(), rest);
   coordinates_->columnControls(posed, displacement_);
   for (std::size_t c = 0; c < m; ++c) displacement_[c] -= rest[c];
+  sparse_ = 4 * coordinates_->maxNonZeros() <= m;
 }
 
 namespace {
@@ -28,7 +29,18 @@ Vec3 displace(const Vec3& x, std::span<const double> w, std::span<const Vec3> di
 
 }  // namespace
 
+Vec3 CoordinateWarp::displaceSparse(const Vec3& x, std::span<SparseWeight> slots) const {
+  const std::size_t count = coordinates_->sparseWeights(x, slots);
+  Vec3 sum(0.0);
+  for (std::size_t s = 0; s < count; ++s) sum += slots[s].weight * displacement_[slots[s].column];
+  return x + sum;
+}
+
 Vec3 CoordinateWarp::apply(const Vec3& x) const {
+  if (sparse_) {
+    std::vector<SparseWeight> slots(coordinates_->maxNonZeros());
+    return displaceSparse(x, slots);
+  }
   std::vector<double> w(displacement_.size());
   coordinates_->weights(x, w);
   return displace(x, w, displacement_);
@@ -36,6 +48,11 @@ Vec3 CoordinateWarp::apply(const Vec3& x) const {
 
 UnmappedPoints CoordinateWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
                                           std::size_t begin, std::size_t end) const {
+  if (sparse_) {
+    std::vector<SparseWeight> slots(coordinates_->maxNonZeros());
+    for (std::size_t i = begin; i != end; ++i) out[i] = displaceSparse(in[i], slots);
+    return {};
+  }
   const std::size_t m = displacement_.size();
   std::vector<double> rows((end - begin) * m);
   const std::vector<Vec3> block(in.begin() + std::ptrdiff_t(begin),

@@ -13,7 +13,9 @@ namespace spacewarp {
 
 /// x' = x + Σ_c w_c(x) (C_c(posed) − C_c(rest)). The Jacobian is
 /// I + Σ_c (C_c(posed) − C_c(rest)) ∇w_cᵀ when the coordinates offer weight gradients, and
-/// central differences (Warp's default) otherwise.
+/// central differences (Warp's default) otherwise. Sparse coordinates (at most a quarter of the
+/// columns non-zero per point, e.g. a trilinear lattice's 8) are summed over their non-zero
+/// weights only, in column order: the same value as the dense sum.
 class CoordinateWarp final : public Warp {
  public:
   /// `posed` has controlPointCount() entries. Throws InvalidInput if `coordinates` is null or
@@ -35,7 +37,10 @@ class CoordinateWarp final : public Warp {
 
  private:
   std::shared_ptr<const Coordinates> coordinates_;
+  Vec3 displaceSparse(const Vec3& x, std::span<SparseWeight> slots) const;
+
   std::vector<Vec3> displacement_;  // C(posed) − C(rest), columnCount() entries
+  bool sparse_ = false;             // sum over sparseWeights() (as Binding decides)
 };
 
 }  // namespace spacewarp

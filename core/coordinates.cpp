@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include <spacewarp/core/coordinate_warp.h>
 #include <spacewarp/core/detail/batch.h>
 #include <spacewarp/core/errors.h>
 
@@ -83,5 +84,17 @@ void Coordinates::columnControls(std::span<const Vec3> posed, std::span<Vec3> ou
 }
 
 bool Coordinates::weightGradients(const Vec3&, std::span<Vec3>) const { return false; }
+
+std::shared_ptr<const Warp> Coordinates::makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                                     std::span<const Vec3> posed) const {
+  return std::make_shared<CoordinateWarp>(std::move(self), posed);
+}
+
+std::shared_ptr<const Warp> makeWarp(std::shared_ptr<const Coordinates> coordinates,
+                                     std::span<const Vec3> posed) {
+  if (!coordinates) throw InvalidInput("makeWarp: the coordinates are null");
+  const Coordinates& c = *coordinates;
+  return c.makeWarpFor(std::move(coordinates), posed);
+}
 
 }  // namespace spacewarp

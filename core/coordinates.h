@@ -14,6 +14,7 @@
 // identity border).
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -80,6 +81,11 @@ class Coordinates {
   /// Throws InvalidInput unless x is finite and row.size() == columnCount().
   void checkWeightsArguments(const Vec3& x, std::size_t rowSize) const;
 
+  /// The Warp of these coordinates posed by `posed`, for makeWarp(): `self` is this object.
+  /// The default is a CoordinateWarp; coordinates with a faster warp of their own override it.
+  virtual std::shared_ptr<const Warp> makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                                  std::span<const Vec3> posed) const;
+
   /// Points per range of weightsBatch() (default 64).
   virtual std::size_t batchGrain() const { return 64; }
 
@@ -94,6 +100,18 @@ class Coordinates {
   /// InvalidInput with their number and the first one's index.
   [[noreturn]] virtual void throwUnmapped(const UnmappedPoints& unmapped,
                                           std::span<const Vec3> points) const;
+
+ private:
+  friend std::shared_ptr<const Warp> makeWarp(std::shared_ptr<const Coordinates> coordinates,
+                                              std::span<const Vec3> posed);
 };
+
+/// The fastest Warp of `coordinates` posed by `posed` (controlPointCount() points, world
+/// units): x' = x + Σ_c w_c(x) (C_c(posed) − C_c(rest)), computed by the coordinates' own warp
+/// where they have one (HarmonicWarp, LatticeWarp, RbfWarp) and by a CoordinateWarp otherwise.
+/// The warp keeps `coordinates` alive. Throws InvalidInput if `coordinates` is null or `posed`
+/// has the wrong size or is not finite.
+std::shared_ptr<const Warp> makeWarp(std::shared_ptr<const Coordinates> coordinates,
+                                     std::span<const Vec3> posed);
 
 }  // namespace spacewarp

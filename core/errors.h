@@ -27,8 +27,10 @@ class IoError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// `text` with control characters (a NUL, a newline in a JSON key or a file name) written as
-/// \uXXXX, so that a message stays one whole line.
+/// `text` with control characters (a NUL, a newline in a JSON key or a file name, U+0080 to
+/// U+009F) written as \uXXXX, so that a message stays one whole line, and bytes that are not
+/// part of well-formed UTF-8 (a binary file's content, Latin-1 text) as \xXX, so that it stays
+/// readable text. Well-formed UTF-8 (accented file names) is kept as it is.
 std::string printable(std::string_view text);
 
 /// `what` with "<name>: " in front, unless it already starts with `name`.

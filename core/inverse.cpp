@@ -5,6 +5,7 @@
 #include <limits>
 #include <optional>
 
+#include <spacewarp/core/detail/power_of_two_scale.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -38,7 +39,7 @@ void newton(const Warp& warp, const Vec3& y, Vec3 fx, const Mat3* chordInverse, 
     }
     const Mat3 j = warp.jacobian(result.x);
     if (isSingularJacobian(j)) return;
-    const Vec3 dx = -(glm::inverse(j) * (fx - y));
+    const Vec3 dx = -detail::solveScaled(j, fx - y);  // no overflow for huge J
     // Backtracking: halve the step until the residual decreases; a step cut below 1e-6 of
     // Newton's means the model is useless here (a kink or a fold), which the fallback handles.
     bool accepted = false;
@@ -167,7 +168,7 @@ InverseResult robustNewton(const Warp& warp, const Vec3& y, const Vec3& seed, do
                        : attempt == 1 ? secantJacobian(warp, it.x, h)
                                       : secantJacobian(warp, it.x, std::min(4.0 * h, maxStep));
         if (isSingularJacobian(j)) continue;
-        Vec3 dx = -(glm::inverse(j) * (it.fx - y));
+        Vec3 dx = -detail::solveScaled(j, it.fx - y);
         const double length = glm::length(dx);
         if (length > maxStep) dx *= maxStep / length;
         accepted = pass == 0 ? backtrack(warp, y, dx, it) : goldenSection(warp, y, dx, it);

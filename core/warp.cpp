@@ -1,10 +1,12 @@
 #include <spacewarp/core/warp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
 
 #include <spacewarp/core/detail/batch.h>
+#include <spacewarp/core/detail/power_of_two_scale.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -19,9 +21,18 @@ Mat3 cofactor(const Mat3& j) {
 }  // namespace
 
 bool isSingularJacobian(const Mat3& j) {
-  const double det = glm::determinant(j);
-  const double scale = glm::length(j[0]) * glm::length(j[1]) * glm::length(j[2]);
-  return !std::isfinite(det) || std::abs(det) <= 1e-14 * scale;
+  // The determinant of J with each column scaled to unit length: det J / Π |column|, in
+  // [-1, 1], and the same for J and s J at any scale s (the product of the column lengths
+  // itself would overflow for entries near 1e300, and underflow near 1e-300).
+  Mat3 unit;
+  for (int c = 0; c < 3; ++c) {
+    if (!isFinite(j[c])) return true;
+    const double m = maxAbs(j[c]);
+    if (m == 0.0) return true;
+    const Vec3 column = detail::scaledDown(j[c], m);
+    unit[c] = column / glm::length(column);
+  }
+  return std::abs(glm::determinant(unit)) <= 1e-14;
 }
 
 Mat3 Warp::jacobian(const Vec3& x) const {
@@ -64,7 +75,8 @@ Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n) {
   return transformNormal(warp.jacobian(x), n);
 }
 
-Vec3 transformNormal(const Mat3& j, const Vec3& n) {
+Vec3 transformNormal(const Mat3& jacobian, const Vec3& n) {
+  const Mat3 j = detail::scaledToUnit(jacobian);
   Vec3 v = cofactor(j) * n;  // = det(J) J^-T n
   if (glm::determinant(j) < 0.0) v = -v;
   const double len = glm::length(v);

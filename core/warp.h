@@ -91,15 +91,20 @@ class Warp {
 
 /// The normal n at x carried through the warp: J^-T n, normalised, computed through the
 /// cofactor matrix det(J) J^-T so that it stays defined where J is singular: at rank 2 it is
-/// the normal of the image plane, at rank 1 or 0 a zero vector (never NaN).
+/// the normal of the image plane, at rank 1 or 0 a zero vector (never NaN). J is first scaled
+/// by a power of two (exactly), so entries near 1e300 or 1e-300 give the normal too.
 Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n);
 
 /// The same with the Jacobian J at the normal's point given.
 Vec3 transformNormal(const Mat3& jacobian, const Vec3& n);
 
 /// Whether J is numerically singular (or not finite): |det J| at most 1e-14 times the product
-/// of its column lengths, i.e. zero up to rounding at J's own scale. Normals are undefined
-/// there. (A strongly anisotropic but invertible J is not singular: its normals are defined.)
+/// of its column lengths, i.e. zero up to rounding at J's own scale — computed with the
+/// columns scaled to unit length first, so that the verdict is the same for J and s J at any
+/// scale s (entries of 1e300 or 1e-300 included). Normals are undefined there. (A strongly
+/// anisotropic but invertible J is not singular: its normals are defined. A J whose columns
+/// are nearly dependent, such as the huge shear of a twist at a rate of 1e100 away from its
+/// axis, is singular in double precision even though det J = 1: J^-T n cannot be computed.)
 bool isSingularJacobian(const Mat3& jacobian);
 
 /// The tangent vector v at x carried through the warp: J v (not normalised).

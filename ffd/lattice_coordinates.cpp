@@ -5,6 +5,7 @@
 #include <vector>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/ffd/lattice_warp.h>
 
 namespace spacewarp {
 
@@ -30,6 +31,11 @@ bool LatticeCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) con
   std::fill(out.begin(), out.end(), Vec3(0.0));
   for (std::size_t e = 0; e < n; ++e) out[sparse[e].column] = gradients[e];
   return true;
+}
+
+std::shared_ptr<const Warp> LatticeCoordinates::makeWarpFor(std::shared_ptr<const Coordinates>,
+                                                            std::span<const Vec3> posed) const {
+  return std::make_shared<LatticeWarp>(lattice_, posed);
 }
 
 }  // namespace spacewarp

@@ -32,6 +32,11 @@ class LatticeCoordinates final : public Coordinates {
   /// Analytic ∇w_c (controlPointCount() entries, per world unit); always returns true.
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
 
+ protected:
+  /// A LatticeWarp (the basis evaluated per axis, not a dense row per point).
+  std::shared_ptr<const Warp> makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                          std::span<const Vec3> posed) const override;
+
  private:
   Lattice lattice_;
 };

@@ -10,7 +10,6 @@
 #include <string>
 #include <utility>
 
-
 #include <spacewarp/core/errors.h>
 #include <spacewarp/nonlinear/detail/graph_index.h>
 #include <spacewarp/nonlinear/detail/graph_solver.h>

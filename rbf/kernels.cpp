@@ -1,6 +1,10 @@
 #include <spacewarp/rbf/kernels.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numeric>
 
 #include <spacewarp/core/errors.h>
 
@@ -21,6 +25,16 @@ constexpr KernelName kNames[] = {
     {RbfKernel::InverseMultiquadric, "inverse-multiquadric"},
     {RbfKernel::WendlandC2, "wendland"},
 };
+
+constexpr const char* kOutOfRange =
+    "is outside [1e-150, 1e150], where the kernel's squares and their reciprocals are finite";
+
+// "1e-200", "0.25": for messages.
+std::string shortNumber(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
+}
 
 }  // namespace
 
@@ -105,13 +119,61 @@ void validateRbfOptions(const std::string& who, const RbfOptions& o) {
   for (const KernelName& k : kNames) known = known || k.kernel == o.kernel;
   if (!known) fail("unknown kernel " + std::to_string(static_cast<int>(o.kernel)));
   if (!(std::isfinite(o.scale) && o.scale > 0.0))
-    fail("the kernel scale must be finite and > 0, not " + std::to_string(o.scale));
+    fail("the kernel scale must be finite and > 0, not " + shortNumber(o.scale));
+  if (!(o.scale >= kMinRbfScale && o.scale <= kMaxRbfScale))
+    fail("the kernel scale " + shortNumber(o.scale) + " " + kOutOfRange);
   if (!(std::isfinite(o.radius) && o.radius > 0.0))
-    fail("the support radius must be finite and > 0, not " + std::to_string(o.radius));
+    fail("the support radius must be finite and > 0, not " + shortNumber(o.radius));
+  if (!(o.radius >= kMinRbfScale && o.radius <= kMaxRbfScale))
+    fail("the support radius " + shortNumber(o.radius) + " " + kOutOfRange);
   if (!(std::isfinite(o.smoothing) && o.smoothing >= 0.0))
     fail("the smoothing must be finite and >= 0, not " + std::to_string(o.smoothing));
   if (!(std::isfinite(o.duplicateTolerance) && o.duplicateTolerance >= 0.0))
     fail("the duplicate tolerance must be finite and >= 0");
+}
+
+}  // namespace spacewarp
+
+namespace spacewarp {
+
+std::string rbfScaleProblem(const RbfOptions& o, std::span<const Vec3> centres) {
+  if (o.kernel != RbfKernel::Gaussian && o.kernel != RbfKernel::InverseMultiquadric) return {};
+  if (!(std::isfinite(o.scale) && o.scale > 0.0)) return "must be finite and > 0";
+  if (!(o.scale >= kMinRbfScale && o.scale <= kMaxRbfScale)) return kOutOfRange;
+  if (centres.size() < 2) return {};
+  Vec3 lo = centres[0], hi = centres[0];
+  for (const Vec3& p : centres) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  const double extent = glm::length(hi - lo);
+  if (!(extent > 0.0) || !std::isfinite(extent)) return {};
+  // Too large: r²/ε² below half an ulp of 1 for every r up to the extent.
+  const double spread = extent / o.scale;
+  if (spread * spread < std::numeric_limits<double>::epsilon())
+    return "is too large for centres spanning " + shortNumber(extent) +
+           ": the kernel has the same value between any two of them in double precision, so "
+           "the fit is singular; give about the centres' spacing";
+  if (o.kernel != RbfKernel::Gaussian) return {};
+  // Too small: the closest two distinct centres (a sweep along x) are beyond the underflow of
+  // exp(-(r/ε)²), at (r/ε)² > 708.
+  std::vector<std::size_t> order(centres.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return centres[a].x < centres[b].x; });
+  const double same = o.duplicateTolerance * extent;
+  double closest = std::numeric_limits<double>::infinity();
+  for (std::size_t s = 0; s < order.size(); ++s) {
+    const Vec3& a = centres[order[s]];
+    for (std::size_t t = s + 1; t < order.size() && centres[order[t]].x - a.x < closest; ++t) {
+      const double d = glm::length(centres[order[t]] - a);
+      if (d > same) closest = std::min(closest, d);
+    }
+  }
+  if (!std::isfinite(closest)) return {};
+  const double ratio = closest / o.scale;
+  if (!(ratio * ratio <= 708.0))
+    return "is too small for centres " + shortNumber(closest) +
+           " apart (the closest two): exp(-(r/scale)^2) underflows to 0 between any two "
+           "centres, so each moves alone; give about the centres' spacing";
+  return {};
 }
 
 }  // namespace spacewarp

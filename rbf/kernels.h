@@ -1,9 +1,12 @@
 #pragma once
 // Radial basis kernels φ(r) of the RBF warps, and the options every RBF fit shares.
 
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <spacewarp/core/math.h>
 
 namespace spacewarp {
 
@@ -58,8 +61,25 @@ double rbfKernelValue(const RbfOptions& options, double r);
 /// (biharmonic, a cone) has no limit: 0 is its symmetric subgradient.
 double rbfKernelSlopeOverR(const RbfOptions& options, double r);
 
+/// The range of the kernel scale ε and the Wendland radius ρ, world units: their squares and
+/// reciprocal squares, which the kernels compute, stay normal doubles. Beyond it (e.g. a
+/// scale of 1e-200, whose 1/ε² is infinite) kernel values would be NaN.
+inline constexpr double kMinRbfScale = 1e-150;
+inline constexpr double kMaxRbfScale = 1e150;
+
 /// Throws InvalidInput (prefixed with `who`) unless the options are valid: scale and radius
-/// finite and > 0, smoothing finite and ≥ 0, duplicateTolerance finite and ≥ 0.
+/// finite and within [kMinRbfScale, kMaxRbfScale], smoothing finite and ≥ 0,
+/// duplicateTolerance finite and ≥ 0.
 void validateRbfOptions(const std::string& who, const RbfOptions& options);
+
+/// Why the Gaussian or inverse multiquadric scale ε does not suit `centres` (world units;
+/// centres closer than duplicateTolerance × their bounding-box diagonal count as one), as a
+/// phrase to put after the scale's value ("is too small for ..."); empty when it suits them,
+/// or the kernel has no scale. Refused: an ε outside [kMinRbfScale, kMaxRbfScale]; for the
+/// Gaussian an ε so small that exp(−(r/ε)²) underflows to 0 between every two centres (the
+/// closest two included: each centre is alone, and the warp a set of spikes), and for both an
+/// ε so large that the kernel's values across the centres' whole extent are equal in double
+/// precision (the fit is singular).
+std::string rbfScaleProblem(const RbfOptions& options, std::span<const Vec3> centres);
 
 }  // namespace spacewarp

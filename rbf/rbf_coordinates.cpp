@@ -4,6 +4,7 @@
 
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rbf/detail/rbf_system.h>
+#include <spacewarp/rbf/rbf_warp.h>
 
 namespace spacewarp {
 
@@ -75,6 +76,11 @@ bool RbfCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
     for (std::size_t c = 0; c < m; ++c) out[c] += g[c] * grad;
   }
   return true;
+}
+
+std::shared_ptr<const Warp> RbfCoordinates::makeWarpFor(std::shared_ptr<const Coordinates>,
+                                                        std::span<const Vec3> posed) const {
+  return std::make_shared<RbfWarp>(handles_, posed, fixed_, options_);
 }
 
 }  // namespace spacewarp

@@ -50,6 +50,12 @@ class RbfCoordinates final : public Coordinates {
   /// The fixed centres as given.
   std::span<const Vec3> fixedCentres() const { return fixed_; }
 
+ protected:
+  /// An RbfWarp with the posed handles as targets (its own fit: O(n³) once, then the
+  /// vectorised kernel per point instead of a dense row).
+  std::shared_ptr<const Warp> makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                          std::span<const Vec3> posed) const override;
+
  private:
   RbfOptions options_;
   std::vector<Vec3> handles_;

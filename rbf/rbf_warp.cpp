@@ -182,6 +182,13 @@ RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
                  const RbfOptions& options)
     : RbfWarp(centres, targets, {}, options) {}
 
+void RbfWarp::check(std::span<const Vec3> centres, std::span<const Vec3> targets,
+                    std::span<const Vec3> fixed, const RbfOptions& options) {
+  const std::string who = "RbfWarp";
+  const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, &targets, fixed, options);
+  detail::checkRbfPolynomial(who, c.unique);
+}
+
 RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
                  std::span<const Vec3> fixed, const RbfOptions& options)
     : options_(options) {

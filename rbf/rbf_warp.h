@@ -33,12 +33,19 @@ class RbfWarp final : public Warp {
   /// mismatched sizes, non-finite points (naming the index), coinciding centres whose targets
   /// differ (naming both; coinciding centres with agreeing targets are merged, within
   /// options.duplicateTolerance of the centres' bounding-box diagonal), fewer than 4 affinely
-  /// independent centres, or invalid options; SolverError for a singular system.
+  /// independent centres, invalid options or a kernel scale that does not suit the centres
+  /// (rbfScaleProblem); SolverError for a singular system.
   RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
           const RbfOptions& options = {});
   /// As above, with `fixed` centres (world units) whose displacement is zero.
   RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets, std::span<const Vec3> fixed,
           const RbfOptions& options = {});
+
+  /// Throws every InvalidInput the constructor would for these arguments, without the fit
+  /// (O(n log n) rather than O(n³)): what `spacewarp info` checks. A SolverError of the fit
+  /// itself (a numerically singular system) is only found by the constructor.
+  static void check(std::span<const Vec3> centres, std::span<const Vec3> targets,
+                    std::span<const Vec3> fixed, const RbfOptions& options = {});
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;

@@ -7,10 +7,8 @@
 #include <spacewarp/coords/green.h>
 #ifdef SPACEWARP_HAVE_HARMONIC
 #include <spacewarp/coords/harmonic.h>
-#include <spacewarp/coords/harmonic_warp.h>
 #endif
 #include <spacewarp/coords/mean_value.h>
-#include <spacewarp/core/coordinate_warp.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rig/detail/harmonic_rig.h>
 
@@ -93,15 +91,30 @@ Rig cageRig(const std::string& method, const std::filesystem::path& cage,
   // the cage's file.
   auto coordinates =
       namingFile(cage.string(), [&] { return cageCoordinates(method, rest, options, progress); });
-#ifdef SPACEWARP_HAVE_HARMONIC
-  // Harmonic coordinates have a faster Warp view (a 4-term mix per point).
-  if (auto harmonic = std::dynamic_pointer_cast<const HarmonicCoordinates>(coordinates))
-    return {std::make_shared<HarmonicWarp>(harmonic, posed), coordinates};
-#endif
-  return {std::make_shared<CoordinateWarp>(coordinates, posed), coordinates};
+  return {makeWarp(coordinates, posed), coordinates};
 }
 
 namespace detail {
+
+namespace {
+
+// A cage rig read from `reader`; when checking, the cage and the pose are read and checked
+// (a closed cage, a pose of as many vertices) but no coordinates are solved.
+Rig cageRigOf(const RigReader& reader, const std::string& method, const std::filesystem::path& cage,
+              const std::filesystem::path& pose, const CageMethodOptions& options) {
+  if (reader.checking()) {
+    Cage::fromFile(cage).posedVerticesFromFile(pose);
+    return {};
+  }
+  return cageRig(method, cage, pose, options);
+}
+
+}  // namespace
+
+Rig cageRig(RigReader& reader, const std::string& method) {
+  const std::filesystem::path cage = reader.path("cage"), pose = reader.path("pose");
+  return cageRigOf(reader, method, cage, pose, {});
+}
 
 Rig harmonicRig(RigReader& reader) {
 #ifdef SPACEWARP_HAVE_HARMONIC
@@ -119,7 +132,7 @@ Rig harmonicRig(RigReader& reader) {
     if (options.harmonicOutside != "raise" && options.harmonicOutside != "nearest")
       reader.fail("outside", "must be \"raise\" or \"nearest\"");
   }
-  return cageRig("harmonic", cage, pose, options);
+  return cageRigOf(reader, "harmonic", cage, pose, options);
 #else
   reader.fail("method",
               "'harmonic' is not available: spacewarp was built without TetGen "

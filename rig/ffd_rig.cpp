@@ -7,7 +7,6 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/lattice_coordinates.h>
 #include <spacewarp/ffd/lattice_fit.h>
-#include <spacewarp/ffd/lattice_warp.h>
 
 namespace spacewarp::detail {
 
@@ -79,11 +78,16 @@ Rig ffdRig(RigReader& r) {
                                   std::to_string(lattice.controlPointCount()));
   } else {
     RigReader constraints(r.object("constraints"), r.baseDir(), r.where() + ": constraints");
+    constraints.allowOnly({"from", "to"}, "the constraints", "constraints");
     const std::vector<Vec3> from = constraints.points("from");
     const std::vector<Vec3> to = constraints.points("to");
+    if (to.size() != from.size())
+      constraints.fail("to", "must have as many points as 'from' (" + std::to_string(from.size()) +
+                                 "), not " + std::to_string(to.size()));
     constraints.finish();
     LatticeFitOptions options;
     options.smoothness = r.number("smoothness", options.smoothness);
+    if (r.checking()) return {};  // the fit is the expensive part
     try {
       posed = fitControlPoints(lattice, from, to, options).controlPoints;
     } catch (const SolverError&) {
@@ -96,9 +100,8 @@ Rig ffdRig(RigReader& r) {
       throw;
     }
   }
-  auto warp = std::make_shared<LatticeWarp>(lattice, posed);
   auto coordinates = std::make_shared<LatticeCoordinates>(lattice);
-  return {std::move(warp), std::move(coordinates)};
+  return {makeWarp(coordinates, posed), std::move(coordinates)};
 }
 
 }  // namespace spacewarp::detail

@@ -1,5 +1,6 @@
 #include <spacewarp/rig/detail/rbf_rig.h>
 
+#include <cstdio>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -89,10 +90,26 @@ Rig rbfRig(RigReader& r) {
     r.fail("scale", "applies to the gaussian and inverse-multiquadric kernels only");
   if (r.has("radius") && options.kernel != RbfKernel::WendlandC2)
     r.fail("radius", "applies to the wendland kernel only");
+  const bool defaultScale = !r.has("scale");
   options.scale = r.number("scale", options.scale);
   options.radius = r.number("radius", options.radius);
   if (!(options.scale > 0.0)) r.fail("scale", "must be > 0");
   if (!(options.radius > 0.0)) r.fail("radius", "must be > 0");
+  if (!(options.radius >= kMinRbfScale && options.radius <= kMaxRbfScale))
+    r.fail("radius", "must be within [1e-150, 1e150]");
+  // A scale that does not suit the centres gives NaN or a singular fit: say so here, naming
+  // the key, rather than blame the input for the non-finite points it makes.
+  std::vector<Vec3> all = centres;
+  all.insert(all.end(), fixed.begin(), fixed.end());
+  if (const std::string problem = rbfScaleProblem(options, all); !problem.empty()) {
+    char value[32];
+    std::snprintf(value, sizeof value, "%.3g", options.scale);
+    r.fail("scale", value + std::string(defaultScale ? " (the default) " : " ") + problem);
+  }
+  if (r.checking()) {
+    RbfWarp::check(centres, targets, fixed, options);  // what the fit would refuse, without it
+    return {};
+  }
   Rig rig;
   rig.warp = std::make_shared<RbfWarp>(centres, targets, fixed, options);
   rig.coordinates = std::make_shared<LazyRbfCoordinates>(centres, fixed, options, r.where());

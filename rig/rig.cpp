@@ -26,67 +26,84 @@ using detail::RigFactory;
 using detail::RigReader;
 using nlohmann::json;
 
-Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const std::string& where,
-             int depth);
+Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const detail::RigPlace& place,
+             bool checkOnly);
 
 Rig warpOnly(std::shared_ptr<const Warp> warp) { return {std::move(warp), nullptr}; }
 
+// A rig method: the keys it may have (besides "method") and how it is built from them.
+struct Method {
+  std::vector<std::string> keys;
+  RigFactory build;
+};
+
 // One entry per rig method: adding a method is one line here plus its keys in README.md.
-const std::map<std::string, RigFactory>& factories() {
-  static const std::map<std::string, RigFactory> table = {
+const std::map<std::string, Method>& factories() {
+  static const std::map<std::string, Method> table = {
       {"twist",
-       [](RigReader& r) {
-         TwistParams p;
-         p.origin = r.vec3("origin");
-         p.axis = r.vec3("axis");
-         p.rate = r.number("rate");
-         std::tie(p.lo, p.hi) = r.limits("limits");
-         return warpOnly(std::make_shared<TwistWarp>(p));
-       }},
+       {{"origin", "axis", "rate", "limits"},
+        [](RigReader& r) {
+          TwistParams p;
+          p.origin = r.vec3("origin");
+          p.axis = r.vec3("axis");
+          p.rate = r.number("rate");
+          std::tie(p.lo, p.hi) = r.limits("limits");
+          return warpOnly(std::make_shared<TwistWarp>(p));
+        }}},
       {"bend",
-       [](RigReader& r) {
-         BendParams p;
-         p.origin = r.vec3("origin");
-         p.axis = r.vec3("axis");
-         p.direction = r.vec3("direction");
-         p.rate = r.number("rate");
-         std::tie(p.lo, p.hi) = r.limits("limits");
-         return warpOnly(std::make_shared<BendWarp>(p));
-       }},
+       {{"origin", "axis", "direction", "rate", "limits"},
+        [](RigReader& r) {
+          BendParams p;
+          p.origin = r.vec3("origin");
+          p.axis = r.vec3("axis");
+          p.direction = r.vec3("direction");
+          p.rate = r.number("rate");
+          std::tie(p.lo, p.hi) = r.limits("limits");
+          return warpOnly(std::make_shared<BendWarp>(p));
+        }}},
       {"taper",
-       [](RigReader& r) {
-         TaperParams p;
-         p.origin = r.vec3("origin");
-         p.axis = r.vec3("axis");
-         p.rate = r.number("rate");
-         std::tie(p.lo, p.hi) = r.limits("limits");
-         return warpOnly(std::make_shared<TaperWarp>(p));
-       }},
+       {{"origin", "axis", "rate", "limits"},
+        [](RigReader& r) {
+          TaperParams p;
+          p.origin = r.vec3("origin");
+          p.axis = r.vec3("axis");
+          p.rate = r.number("rate");
+          std::tie(p.lo, p.hi) = r.limits("limits");
+          return warpOnly(std::make_shared<TaperWarp>(p));
+        }}},
       {"affine",
-       [](RigReader& r) { return warpOnly(std::make_shared<AffineWarp>(r.matrix4("matrix"))); }},
-      {"mvc", [](RigReader& r) { return cageRig("mvc", r.path("cage"), r.path("pose")); }},
-      {"green", [](RigReader& r) { return cageRig("green", r.path("cage"), r.path("pose")); }},
-      {"harmonic", detail::harmonicRig},
-      {"ffd", detail::ffdRig},
-      {"graph", detail::graphRig},
-      {"mls", detail::mlsRig},
-      {"rbf", detail::rbfRig},
+       {{"matrix"},
+        [](RigReader& r) { return warpOnly(std::make_shared<AffineWarp>(r.matrix4("matrix"))); }}},
+      {"mvc", {{"cage", "pose"}, [](RigReader& r) { return detail::cageRig(r, "mvc"); }}},
+      {"green", {{"cage", "pose"}, [](RigReader& r) { return detail::cageRig(r, "green"); }}},
+      {"harmonic", {{"cage", "pose", "tets", "cache", "outside"}, detail::harmonicRig}},
+      {"ffd",
+       {{"basis", "origin", "size", "resolution", "axes", "outside", "falloff", "controlPoints",
+         "constraints", "smoothness"},
+        detail::ffdRig}},
+      {"graph",
+       {{"handles", "targets", "k", "nodes", "spacing", "rotationWeight", "regularizationWeight",
+         "constraintWeight", "maxIterations", "tolerance"},
+        detail::graphRig}},
+      {"mls", {{"mode", "alpha", "handles", "targets"}, detail::mlsRig}},
+      {"rbf",
+       {{"kernel", "centers", "targets", "fixed", "smoothing", "scale", "radius"}, detail::rbfRig}},
       {"compose",
-       [](RigReader& r) {
-         std::shared_ptr<const Warp> result;
-         const json& warps = r.array("warps");
-         // Each level recurses here: bounded so that hostile nesting cannot overflow the stack.
-         if (r.depth() >= kMaxComposeDepth)  // depth counts the compose rigs around this one
-           r.fail("warps",
-                  "nests compose rigs deeper than " + std::to_string(kMaxComposeDepth) + " levels");
-         for (std::size_t i = 0; i < warps.size(); ++i) {
-           auto next = buildRig(warps[i], r.baseDir(),
-                                r.where() + ": warps[" + std::to_string(i) + "]", r.depth() + 1)
-                           .warp;
-           result = result ? std::make_shared<ComposedWarp>(result, next) : next;
-         }
-         return warpOnly(result);
-       }},
+       {{"warps"},
+        [](RigReader& r) {
+          std::shared_ptr<const Warp> result;
+          const json& warps = r.array("warps");
+          // Each level recurses here: bounded so that hostile nesting cannot overflow the stack.
+          if (r.depth() >= kMaxComposeDepth)  // depth counts the compose rigs around this one
+            r.fail("warps", "nests compose rigs deeper than " + std::to_string(kMaxComposeDepth) +
+                                " levels");
+          for (std::size_t i = 0; i < warps.size(); ++i) {
+            auto next = buildRig(warps[i], r.baseDir(), r.place().nested(i), r.checking()).warp;
+            if (!r.checking())
+              result = result ? std::make_shared<ComposedWarp>(result, next) : next;
+          }
+          return warpOnly(result);
+        }}},
   };
   return table;
 }
@@ -130,9 +147,9 @@ class ParsePath {
   std::vector<Frame> frames_;
 };
 
-Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const std::string& where,
-             int depth) {
-  RigReader reader(rig, baseDir, where, depth);
+Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const detail::RigPlace& place,
+             bool checkOnly) {
+  RigReader reader(rig, baseDir, place, checkOnly);
   const std::string method = reader.string("method");
   const auto it = factories().find(method);
   if (it == factories().end()) {
@@ -140,8 +157,23 @@ Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const std::s
     for (const std::string& m : rigMethods()) known += (known.empty() ? "" : ", ") + m;
     reader.fail("method", "'" + method + "' is not one of: " + known);
   }
-  // Errors from the warps' own validation and solvers: say which rig they came from.
-  Rig result = namingFile(where, [&] { return it->second(reader); });
+  reader.allowOnly(it->second.keys, "this method", method);
+  // Errors from the warps' own validation and solvers: say which rig they came from (those of
+  // a rig nested in this one are placed already).
+  const std::string nested = place.file + ": warps[";
+  const auto located = [&](const std::string& what) {
+    return what.rfind(nested, 0) == 0 ? what : prefixed(reader.where(), what);
+  };
+  Rig result;
+  try {
+    result = it->second.build(reader);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(located(e.what()));
+  } catch (const SolverError& e) {
+    throw SolverError(located(e.what()));
+  } catch (const IoError& e) {
+    throw IoError(located(e.what()));
+  }
   reader.finish();
   return result;
 }
@@ -191,7 +223,11 @@ json parseRigJson(std::string_view text, const std::string& where) {
 }
 
 Rig rigFromJson(const json& rig, const std::filesystem::path& baseDir, const std::string& where) {
-  return buildRig(rig, baseDir, where, 0);
+  return buildRig(rig, baseDir, {where, {}}, false);
+}
+
+void checkRig(const json& rig, const std::filesystem::path& baseDir, const std::string& where) {
+  buildRig(rig, baseDir, {where, {}}, true);
 }
 
 json readRigFile(const std::filesystem::path& path) {

@@ -35,12 +35,22 @@ inline constexpr int kMaxJsonDepth = 256;
 nlohmann::json parseRigJson(std::string_view text, const std::string& where);
 
 /// Builds the rig that `rig` describes. `baseDir` resolves relative paths inside the rig;
-/// `where` names the rig in messages (usually its path). Throws InvalidInput naming the key
-/// at fault for a missing, mistyped, unknown or out-of-range key, an unknown method or compose
-/// rigs nested deeper than kMaxComposeDepth; errors of the library while building the warp
-/// (InvalidInput, SolverError, InvalidInput) are rethrown with `where` in front.
+/// `where` names the rig in messages (usually its path; a rig nested in compose rigs as
+/// "rig.json: warps[1].warps[0]"). Throws InvalidInput naming the key at fault for a missing,
+/// mistyped, unknown or out-of-range key (unknown keys first: they are usually the misspelling
+/// that makes a required key missing), an unknown method or compose rigs nested deeper than
+/// kMaxComposeDepth; errors of the library while building the warp (InvalidInput, SolverError,
+/// IoError) are rethrown with `where` in front.
 Rig rigFromJson(const nlohmann::json& rig, const std::filesystem::path& baseDir,
                 const std::string& where);
+
+/// Checks `rig` exactly as rigFromJson() does — the same code, every key, the cage files
+/// read — but stops before the expensive solves (harmonic coordinates, FFD fits, RBF fits,
+/// deformation graph solves) and builds nothing. Failures of those solves themselves (a
+/// singular fit, a solver that gives up, a job too large for the memory) are therefore only
+/// found by rigFromJson(). Throws as rigFromJson() does.
+void checkRig(const nlohmann::json& rig, const std::filesystem::path& baseDir,
+              const std::string& where);
 
 /// The JSON of a rig file, checked as JSON (duplicate keys, depth, number range) but not yet
 /// as a rig. Throws IoError naming the file if it cannot be read (a folder, a missing file) or

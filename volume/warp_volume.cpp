@@ -426,9 +426,9 @@ struct GridPlan {
   std::unique_ptr<CachedWarp> cached;  // set with options.cacheSpacing
   const Warp* warp = nullptr;          // *cached, or the caller's warp
   std::vector<Cell> cells;
-  bool rigid = true;  // Jᵀ J = I at every cell centre
-  std::vector<LeafCellPair> pairs;          // sorted by leaf, then cell
-  std::vector<std::size_t> groupStart;      // pairs[groupStart[g] .. groupStart[g+1]): leaf g
+  bool rigid = true;                    // Jᵀ J = I at every cell centre
+  std::vector<LeafCellPair> pairs;      // sorted by leaf, then cell
+  std::vector<std::size_t> groupStart;  // pairs[groupStart[g] .. groupStart[g+1]): leaf g
 
   std::size_t groups() const { return groupStart.size() - 1; }
   const TreeT& tree() const { return in.tree(); }
@@ -695,6 +695,11 @@ struct LeafResult {
   std::size_t solved = 0, failures = 0, vectorFailures = 0, iterations = 0;
   int maxIterations = 0;
   double mass = 0.0;
+  // conserveMass: the range of |det J| the densities were divided by, and the voxels left
+  // out because it was 0 or not finite.
+  double minVolumeChange = std::numeric_limits<double>::infinity();
+  double maxVolumeChange = 0.0;
+  std::size_t degenerateVolumeChanges = 0;
 };
 
 // Samples the input at the preimage of an output voxel and stores the value, transformed as
@@ -752,8 +757,11 @@ class VoxelSampler {
       const double det = std::abs(glm::determinant(plan_.warp->jacobian(x)));
       if (!(det > 0.0) || !std::isfinite(det)) {
         ++out.failures;
+        ++out.degenerateVolumeChanges;
         return false;
       }
+      out.minVolumeChange = std::min(out.minVolumeChange, det);
+      out.maxVolumeChange = std::max(out.maxVolumeChange, det);
       value = static_cast<ValueT>(static_cast<double>(value) / det);
     }
     if (toDistance_) {
@@ -764,8 +772,7 @@ class VoxelSampler {
           double(acc.getValue(i.offsetBy(1, 0, 0))) - double(acc.getValue(i.offsetBy(-1, 0, 0))),
           double(acc.getValue(i.offsetBy(0, 1, 0))) - double(acc.getValue(i.offsetBy(0, -1, 0))),
           double(acc.getValue(i.offsetBy(0, 0, 1))) - double(acc.getValue(i.offsetBy(0, 0, -1))));
-      const double warped =
-          glm::length(glm::transpose(plan_.cells[seedCell].jacobianInverse) * g);
+      const double warped = glm::length(glm::transpose(plan_.cells[seedCell].jacobianInverse) * g);
       const double plain = glm::length(g);
       if (warped > 0.0 && plain > 0.0) {
         value =
@@ -824,41 +831,42 @@ void solveLeaves(const GridPlan<GridT>& plan, const VoxelSampler<GridT>& sampler
                  std::vector<LeafResult<typename GridPlan<GridT>::LeafT>>& leafResults,
                  ProgressTracker& tracker) {
   using LeafT = typename GridPlan<GridT>::LeafT;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, plan.groups(), 4),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        typename VoxelSampler<GridT>::Accessor acc(plan.tree());
-        constexpr int kSize = static_cast<int>(LeafT::SIZE);
-        std::vector<double> best(kSize);
-        std::vector<Vec3> seeds(kSize);
-        std::vector<std::uint32_t> seedCellOf(kSize);
-        for (std::size_t g = r.begin(); g != r.end(); ++g) {
-          tracker.advance();
-          const Coord origin = plan.pairs[plan.groupStart[g]].first;
-          seedLeaf(plan, g, best, seeds, seedCellOf);
-          auto& out = leafResults[g];
-          for (int n = 0; n < kSize; ++n) {
-            if (!(best[n] < std::numeric_limits<double>::infinity())) continue;
-            // The preimage is within the cell's slack of the seed; it must be in an active voxel.
-            const Cell& seedCell = plan.cells[seedCellOf[n]];
-            if (!nearActive(acc, seeds[n], seedCell.slack)) continue;
-            const Coord ijk = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(n));
-            const Vec3 y = plan.frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
-            InverseHint hint;
-            hint.seed = plan.frame.toWorld(seeds[n]);
-            hint.chordInverse = seedCell.worldJacobianInverse;
-            const InverseResult s = inverse(*plan.warp, y, firstSolve, hint);
-            ++out.solved;
-            out.iterations += static_cast<std::size_t>(s.iterations);
-            out.maxIterations = std::max(out.maxIterations, s.iterations);
-            if (!s.converged) {
-              out.retries.push_back({n, seedCellOf[n]});
-              continue;
-            }
-            sampler.settle(acc, out, origin, n, s.x, seedCellOf[n]);
-          }
-        }
-      });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, plan.groups(), 4),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      typename VoxelSampler<GridT>::Accessor acc(plan.tree());
+                      constexpr int kSize = static_cast<int>(LeafT::SIZE);
+                      std::vector<double> best(kSize);
+                      std::vector<Vec3> seeds(kSize);
+                      std::vector<std::uint32_t> seedCellOf(kSize);
+                      for (std::size_t g = r.begin(); g != r.end(); ++g) {
+                        tracker.advance();
+                        const Coord origin = plan.pairs[plan.groupStart[g]].first;
+                        seedLeaf(plan, g, best, seeds, seedCellOf);
+                        auto& out = leafResults[g];
+                        for (int n = 0; n < kSize; ++n) {
+                          if (!(best[n] < std::numeric_limits<double>::infinity())) continue;
+                          // The preimage is within the cell's slack of the seed; it must be in an
+                          // active voxel.
+                          const Cell& seedCell = plan.cells[seedCellOf[n]];
+                          if (!nearActive(acc, seeds[n], seedCell.slack)) continue;
+                          const Coord ijk =
+                              origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(n));
+                          const Vec3 y = plan.frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
+                          InverseHint hint;
+                          hint.seed = plan.frame.toWorld(seeds[n]);
+                          hint.chordInverse = seedCell.worldJacobianInverse;
+                          const InverseResult s = inverse(*plan.warp, y, firstSolve, hint);
+                          ++out.solved;
+                          out.iterations += static_cast<std::size_t>(s.iterations);
+                          out.maxIterations = std::max(out.maxIterations, s.iterations);
+                          if (!s.converged) {
+                            out.retries.push_back({n, seedCellOf[n]});
+                            continue;
+                          }
+                          sampler.settle(acc, out, origin, n, s.x, seedCellOf[n]);
+                        }
+                      }
+                    });
 }
 
 // Stage 5. Second chance for the voxels where the first solve failed (few, and only where the
@@ -925,6 +933,13 @@ std::pair<typename GridT::Ptr, double> assembleGrid(
     report.totalNewtonIterations += lr.iterations;
     report.maxNewtonIterations = std::max(report.maxNewtonIterations, lr.maxIterations);
     massAfter += lr.mass;
+    if (lr.maxVolumeChange > 0.0) {
+      report.minVolumeChange = report.maxVolumeChange == 0.0
+                                   ? lr.minVolumeChange
+                                   : std::min(report.minVolumeChange, lr.minVolumeChange);
+      report.maxVolumeChange = std::max(report.maxVolumeChange, lr.maxVolumeChange);
+    }
+    report.degenerateVolumeChanges += lr.degenerateVolumeChanges;
     if (lr.leaf) tree->addLeaf(lr.leaf.release());
   }
   typename GridT::Ptr grid = GridT::create(tree);

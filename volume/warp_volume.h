@@ -174,6 +174,16 @@ struct WarpVolumeReport {
   /// grids that are not level sets; 0 otherwise). World units³ × value units.
   double massBefore = 0.0;
   double massAfter = 0.0;
+  /// With conserveMass: the smallest and largest local volume change |det J| at the preimages
+  /// of the output voxels, by which their densities were divided (0 and 0 when none was). Far
+  /// from 1 (hasExtremeVolumeChange) the total is not conserved in practice: where the warp
+  /// squeezes space well below the voxel size the output voxels sample a sheet of density
+  /// divided by a tiny |det J|, and the mass after can be orders of magnitude off.
+  double minVolumeChange = 0.0;
+  double maxVolumeChange = 0.0;
+  /// With conserveMass: output voxels left inactive because |det J| at their preimage is 0 or
+  /// not finite (also counted in inverseFailures).
+  std::size_t degenerateVolumeChanges = 0;
   /// Level sets: the half-width of the narrow band in voxels (input's = output's), and
   /// whether the band was rebuilt.
   double halfWidth = 0.0;
@@ -192,6 +202,15 @@ struct WarpVolumeReport {
   /// Point data grids (warpPoints): the points moved.
   std::size_t points = 0;
 };
+
+/// Whether conserveMass met volume changes too extreme for the resampled total to be
+/// trusted: |det J| below 1e-3 or above 1e3 (a thousandfold, e.g. a tenfold squeeze along
+/// every axis) somewhere, or 0 or not finite (degenerateVolumeChanges).
+inline bool hasExtremeVolumeChange(const WarpVolumeReport& report) {
+  return report.degenerateVolumeChanges > 0 ||
+         (report.maxVolumeChange > 0.0 &&
+          (report.minVolumeChange < 1e-3 || report.maxVolumeChange > 1e3));
+}
 
 /// A warped grid and its report.
 template <typename GridT>

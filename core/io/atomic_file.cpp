@@ -2,8 +2,10 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -67,23 +69,36 @@ struct Slot {
 };
 Slot slots[kSlotCount];
 
-/// Lists `path` and returns its slot, or -1 if it is too long or every slot is taken.
-int listTemporary(const std::string& path) {
-  if (path.size() >= kSlotPathSize) return -1;
-  for (std::size_t i = 0; i < kSlotCount; ++i) {
+// Folders of writeFolderAtomically(): the temporary folder, or the old folder while it is
+// swapped out by two renames, with the place it goes back to (`restore`, "" if none).
+constexpr std::size_t kFolderSlotCount = 8;
+
+struct FolderSlot {
+  std::atomic<int> state{kFree};
+  char path[kSlotPathSize];
+  char restore[kSlotPathSize];
+};
+FolderSlot folderSlots[kFolderSlotCount];
+
+/// Claims a free slot of `table` and lets `fill` write its paths; returns it, or -1 if every
+/// slot is taken.
+template <typename SlotT, std::size_t N, typename Fill>
+int claimSlot(SlotT (&table)[N], const Fill& fill) {
+  for (std::size_t i = 0; i < N; ++i) {
     int expected = kFree;
-    if (slots[i].state.compare_exchange_strong(expected, kFilling, std::memory_order_acquire)) {
-      std::memcpy(slots[i].path, path.c_str(), path.size() + 1);
-      slots[i].state.store(kListed, std::memory_order_release);
+    if (table[i].state.compare_exchange_strong(expected, kFilling, std::memory_order_acquire)) {
+      fill(table[i]);
+      table[i].state.store(kListed, std::memory_order_release);
       return static_cast<int>(i);
     }
   }
   return -1;
 }
 
-void unlistTemporary(int slot) {
+template <typename SlotT, std::size_t N>
+void releaseSlot(SlotT (&table)[N], int slot) {
   if (slot < 0) return;
-  std::atomic<int>& state = slots[slot].state;
+  std::atomic<int>& state = table[slot].state;
   for (;;) {
     int expected = kListed;
     if (state.compare_exchange_strong(expected, kFree, std::memory_order_acq_rel)) return;
@@ -91,8 +106,61 @@ void unlistTemporary(int slot) {
       state.store(kFree, std::memory_order_release);
       return;
     }
-    std::this_thread::yield();  // kRemoving: a handler on another thread is unlinking it
+    std::this_thread::yield();  // kRemoving: a handler on another thread is removing it
   }
+}
+
+/// Lists `path` and returns its slot, or -1 if it is too long or every slot is taken.
+int listTemporary(const std::string& path) {
+  if (path.size() >= kSlotPathSize) return -1;
+  return claimSlot(slots,
+                   [&](Slot& slot) { std::memcpy(slot.path, path.c_str(), path.size() + 1); });
+}
+
+void unlistTemporary(int slot) { releaseSlot(slots, slot); }
+
+/// Lists the folder `path` (to be put back at `restore` if that is not empty and nothing is
+/// there, removed otherwise); returns its slot or -1.
+int listFolder(const std::string& path, const std::string& restore) {
+  if (path.size() >= kSlotPathSize || restore.size() >= kSlotPathSize) return -1;
+  return claimSlot(folderSlots, [&](FolderSlot& slot) {
+    std::memcpy(slot.path, path.c_str(), path.size() + 1);
+    std::memcpy(slot.restore, restore.c_str(), restore.size() + 1);
+  });
+}
+
+void unlistFolder(int slot) { releaseSlot(folderSlots, slot); }
+
+/// Removes the entries of the folder `path` (files, links, empty folders), then the folder.
+/// Async-signal-safe: system calls only (getdents64 rather than readdir, which allocates).
+void removeFolderNow(const char* path) noexcept {
+  const int fd = ::open(path, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd >= 0) {
+    alignas(8) char buffer[4096];
+    // Entries removed while the folder is listed may shift the listing: list again until a
+    // pass removes nothing.
+    for (int pass = 0; pass < 64; ++pass) {
+      bool removed = false;
+      ::lseek(fd, 0, SEEK_SET);
+      for (;;) {
+        const long n = ::syscall(SYS_getdents64, fd, buffer, sizeof buffer);
+        if (n <= 0) break;
+        // struct linux_dirent64: d_ino (8 bytes), d_off (8), d_reclen (2), d_type (1), d_name.
+        for (long offset = 0; offset < n;) {
+          unsigned short length = 0;
+          std::memcpy(&length, buffer + offset + 16, sizeof length);
+          const char* name = buffer + offset + 19;
+          offset += length;
+          if (name[0] == '.' && (name[1] == '\0' || (name[1] == '.' && name[2] == '\0'))) continue;
+          if (::unlinkat(fd, name, 0) == 0 || ::unlinkat(fd, name, AT_REMOVEDIR) == 0)
+            removed = true;
+        }
+      }
+      if (!removed) break;
+    }
+    ::close(fd);
+  }
+  ::rmdir(path);
 }
 
 /// A new, empty temporary file beside the target, created exclusively (so it did not exist
@@ -303,11 +371,172 @@ void writeFileAtomically(const std::filesystem::path& requested,
   syncDirectory(path.parent_path());
 }
 
+namespace {
+
+[[noreturn]] void failFolder(const fs::path& path, const std::string& reason) {
+  throw IoError("cannot write the folder " + quoted(path) + ": " + reason);
+}
+
+std::string absoluteString(const fs::path& path) {
+  std::error_code ignored;
+  const fs::path absolute = fs::absolute(path, ignored);
+  return absolute.empty() ? path.string() : absolute.string();
+}
+
+/// `text` with every `from` replaced by `to`.
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  if (from.empty()) return text;
+  for (std::size_t at = text.find(from); at != std::string::npos;
+       at = text.find(from, at + to.size()))
+    text.replace(at, from.size(), to);
+  return text;
+}
+
+/// ".<name>." of `path`: the start of its temporaries' names. (Built by appending: GCC 12 warns
+/// falsely, -Wrestrict, about "." + a string.)
+std::string hiddenStem(const fs::path& path) {
+  std::string stem(1, '.');
+  stem += path.filename().string();
+  stem += '.';
+  return stem;
+}
+
+/// A new, empty temporary folder beside the target, listed for removeAtomicTemporaries()
+/// before it exists, and removed with its content on destruction (after a swap it holds the
+/// old folder).
+class TemporaryFolder {
+ public:
+  TemporaryFolder(const fs::path& target, const fs::path& shown) {
+    const fs::path directory = target.parent_path();
+    const std::string stem = hiddenStem(target);
+    for (int attempt = 0; attempt < 100; ++attempt) {
+      path_ = directory / (stem + uniqueSuffix() + ".tmp");
+      slot_ = listFolder(absoluteString(path_), "");
+      if (::mkdir(path_.c_str(), 0777) == 0) return;
+      const int error = errno;
+      unlistFolder(slot_);
+      slot_ = -1;
+      if (error != EEXIST)
+        failFolder(shown, "cannot create a temporary folder in " +
+                              quoted(directory.empty() ? fs::path(".") : directory) + ": " +
+                              std::strerror(error));
+    }
+    failFolder(shown, "no unique temporary folder name found");
+  }
+  TemporaryFolder(const TemporaryFolder&) = delete;
+  TemporaryFolder& operator=(const TemporaryFolder&) = delete;
+  ~TemporaryFolder() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+    unlistFolder(slot_);
+  }
+
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+  int slot_ = -1;
+};
+
+/// Whether `inner` is `outer` or lies inside it (both absolute and without symbolic links).
+bool isWithin(const fs::path& inner, const fs::path& outer) {
+  auto i = inner.begin();
+  for (auto o = outer.begin(); o != outer.end(); ++o, ++i)
+    if (i == inner.end() || *i != *o) return false;
+  return true;
+}
+
+}  // namespace
+
+void writeFolderAtomically(const std::filesystem::path& requested,
+                           const std::function<void(const std::filesystem::path&)>& fill) {
+  fs::path given = requested;
+  while (given.filename().empty() && given.has_relative_path())
+    given = given.parent_path();  // "out/"
+  const std::string name = given.filename().string();
+  if (name.empty() || name == "." || name == "..")
+    failFolder(requested, "not a folder name (give the folder's own name)");
+  const fs::path shown = given.lexically_normal();
+
+  std::error_code error;
+  const fs::file_status status = fs::status(shown, error);  // through symbolic links
+  const bool replacing = fs::exists(status);
+  fs::path target = shown;
+  struct stat old {};
+  if (replacing) {
+    if (!fs::is_directory(status)) failFolder(shown, "it exists and is not a folder");
+    target = fs::canonical(shown, error);
+    if (error) failFolder(shown, error.message());
+    const fs::path cwd = fs::current_path(error);
+    if (!error && isWithin(cwd, target))
+      failFolder(shown, "it holds the current working folder, which cannot be replaced");
+    if (::stat(target.c_str(), &old) != 0) failFolder(shown, std::strerror(errno));
+  } else {
+    if (fs::is_symlink(fs::symlink_status(shown, error)))
+      failFolder(shown, "it is a symbolic link to nothing");
+    if (const fs::path parent = shown.parent_path(); !parent.empty()) {
+      fs::create_directories(parent, error);
+      if (error) failFolder(shown, "cannot create its parent folder: " + error.message());
+    }
+  }
+
+  TemporaryFolder temporary(target, shown);
+  const fs::path& staging = temporary.path();
+  if (replacing && ::chmod(staging.c_str(), old.st_mode & 07777) != 0)
+    failFolder(shown, std::string("cannot give the new folder the old one's permissions: ") +
+                          std::strerror(errno));
+  try {
+    fill(staging);
+  } catch (const IoError& e) {
+    // The files failed in the temporary folder; the user knows them by their final names.
+    throw IoError(replaced(e.what(), staging.string(), shown.string()));
+  }
+  syncDirectory(staging);
+
+  if (!replacing) {
+    if (::rename(staging.c_str(), target.c_str()) != 0) failFolder(shown, std::strerror(errno));
+  } else if (::renameat2(AT_FDCWD, staging.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) !=
+             0) {
+    // A file system without the exchange: the old folder steps aside, the new one takes its
+    // place. An interruption in between puts the old folder back (removeAtomicTemporaries).
+    if (errno != EINVAL && errno != ENOSYS && errno != ENOTSUP)
+      failFolder(shown, std::strerror(errno));
+    const fs::path aside = target.parent_path() / (hiddenStem(target) + uniqueSuffix() + ".tmp");
+    const int slot = listFolder(absoluteString(aside), absoluteString(target));
+    if (::rename(target.c_str(), aside.c_str()) != 0) {
+      const int reason = errno;
+      unlistFolder(slot);
+      failFolder(shown, std::strerror(reason));
+    }
+    if (::rename(staging.c_str(), target.c_str()) != 0) {
+      const int reason = errno;
+      ::rename(aside.c_str(), target.c_str());
+      unlistFolder(slot);
+      failFolder(shown, std::strerror(reason));
+    }
+    fs::remove_all(aside, error);
+    unlistFolder(slot);
+  }
+  syncDirectory(target.parent_path());
+  // `temporary` now removes the old folder (after the exchange it is at the temporary name).
+}
+
 void removeAtomicTemporaries() noexcept {
+  // Files first: the temporaries of writes into a temporary folder are in it.
   for (Slot& slot : slots) {
     int expected = kListed;
     if (slot.state.compare_exchange_strong(expected, kRemoving, std::memory_order_acquire)) {
       ::unlink(slot.path);
+      slot.state.store(kRemoved, std::memory_order_release);
+    }
+  }
+  for (FolderSlot& slot : folderSlots) {
+    int expected = kListed;
+    if (slot.state.compare_exchange_strong(expected, kRemoving, std::memory_order_acquire)) {
+      // An old folder between the two renames of a swap goes back where it was; once the new
+      // folder is in its place, the rename fails and the old one is removed.
+      if (slot.restore[0] == '\0' || ::rename(slot.path, slot.restore) != 0)
+        removeFolderNow(slot.path);
       slot.state.store(kRemoved, std::memory_order_release);
     }
   }

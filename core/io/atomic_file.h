@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <functional>
 #include <ostream>
+#include <string>
 
 namespace spacewarp {
 
@@ -28,11 +29,36 @@ namespace spacewarp {
 void writeFileAtomically(const std::filesystem::path& path,
                          const std::function<void(std::ostream&)>& write);
 
-/// Removes (unlinks) the temporaries of every writeFileAtomically() in progress in this
+/// Writes a folder of files atomically, as a whole: `fill` writes the new content into a new,
+/// empty temporary folder beside `path` (`.<name>.<16 hex digits>.tmp`, given to `fill`), which
+/// then takes the place of `path`. Readers see either the complete old folder or the complete
+/// new one, never a mix. An existing folder at `path` is replaced as a whole — anything else in
+/// it is gone afterwards, so callers check that it holds only what they write — and is swapped
+/// out in one step (Linux renameat2 RENAME_EXCHANGE; where the file system cannot, two renames
+/// whose gap an interruption also recovers from). A `path` that is a symbolic link to a folder
+/// is written through: the folder it names is replaced. Missing parent folders are created.
+///
+/// `fill` should write flat content (files, through writeFileAtomically, are best: their own
+/// temporaries are listed too); the temporary folder is listed for removeAtomicTemporaries()
+/// while it exists, which removes its files and empty subfolders.
+///
+/// If `fill` throws, or creating, syncing or swapping fails, the temporary folder is removed and
+/// the old folder at `path` is untouched; an IoError that names the temporary folder is
+/// rethrown naming `path` instead (a file that failed is named as it would have been), other
+/// exceptions unchanged. Throws IoError naming `path` when it is not a folder, is the current
+/// working folder or one of its parents, or the system refuses a step.
+///
+/// A replaced folder keeps its permission bits; a new one gets those of a newly created folder.
+void writeFolderAtomically(const std::filesystem::path& path,
+                           const std::function<void(const std::filesystem::path&)>& fill);
+
+/// Removes the temporaries of every writeFileAtomically() (unlinks them) and
+/// writeFolderAtomically() (removes their files and the folder; an old folder that was being
+/// swapped out is put back if the new one is not in its place yet) in progress in this
 /// process. Async-signal-safe: it is meant for a signal handler that then ends the process
 /// (the spacewarp CLI's SIGINT/SIGTERM/SIGHUP handling), and does nothing else, so the
-/// interrupted writes would fail if the process went on. At most 64 temporaries are listed at
-/// once; further concurrent writes work but are not listed.
+/// interrupted writes would fail if the process went on. At most 64 file and 8 folder
+/// temporaries are listed at once; further concurrent writes work but are not listed.
 void removeAtomicTemporaries() noexcept;
 
 }  // namespace spacewarp

@@ -73,7 +73,7 @@ Vec3 parseTriple(const std::vector<std::string_view>& tokens, const ObjError& er
     double value = 0.0;
     const detail::NumberStatus status = detail::parseDouble(tokens[t], value);
     if (status == detail::NumberStatus::NotANumber)
-      error.fail(std::string(what) + ": '" + std::string(tokens[t]) + "' is not a number");
+      error.fail(std::string(what) + ": " + detail::quotedToken(tokens[t]) + " is not a number");
     if (t <= 3) {
       if (status == detail::NumberStatus::OutOfRange || !std::isfinite(value))
         error.fail(std::string(what) + " has a non-finite coordinate");
@@ -93,7 +93,7 @@ Vec3 parseTexcoord(const std::vector<std::string_view>& tokens, const ObjError& 
     double value = 0.0;
     const detail::NumberStatus status = detail::parseDouble(tokens[t], value);
     if (status == detail::NumberStatus::NotANumber)
-      error.fail("texture coordinate: '" + std::string(tokens[t]) + "' is not a number");
+      error.fail("texture coordinate: " + detail::quotedToken(tokens[t]) + " is not a number");
     if (t <= 3) {
       if (status == detail::NumberStatus::OutOfRange || !std::isfinite(value))
         error.fail("texture coordinate has a non-finite value");
@@ -112,7 +112,7 @@ void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t
   std::size_t start = 0;
   for (;;) {
     const std::size_t slash = corner.find('/', start);
-    if (partCount == 3) error.fail("malformed face corner '" + std::string(corner) + "'");
+    if (partCount == 3) error.fail("malformed face corner " + detail::quotedToken(corner));
     parts[partCount++] =
         corner.substr(start, slash == std::string_view::npos ? slash : slash - start);
     if (slash == std::string_view::npos) break;
@@ -125,7 +125,7 @@ void checkCorner(std::string_view corner, std::int64_t vertexCount, std::int64_t
     if (p == 1 && parts[p].empty() && partCount == 3) continue;  // "v//n"
     std::int64_t index = 0;
     if (!detail::parseInteger(parts[p], index))
-      error.fail("malformed face corner '" + std::string(corner) + "'");
+      error.fail("malformed face corner " + detail::quotedToken(corner));
     std::int64_t resolved = 0;
     if (!resolveIndex(index, counts[p], resolved)) {
       error.fail(std::string("face ") + kinds[p] + " index " + std::to_string(index) +
@@ -150,26 +150,16 @@ struct Scan {
   std::string forwarded;
 };
 
-Scan scanLines(std::string_view text, const std::string& name) {
+/// One pass over the lines, read as they come (see detail::TextLines): binary or endless input
+/// fails at its first block or its first overlong line, before it is held in memory.
+Scan scanLines(std::istream& in, const std::string& name) {
   Scan scan;
-  scan.forwarded.reserve(text.size() + 1);
   std::vector<std::string_view> tokens;
-  std::size_t lineNumber = 0;
-  std::size_t pos = 0;
-  while (pos < text.size()) {
-    // Lines end with "\n", "\r\n" or "\r", as in tinyobjloader.
-    std::size_t end = pos;
-    while (end < text.size() && text[end] != '\n' && text[end] != '\r') ++end;
-    const std::string_view line = text.substr(pos, end - pos);
-    pos = end;
-    if (pos < text.size()) {
-      const bool crlf = text[pos] == '\r' && pos + 1 < text.size() && text[pos + 1] == '\n';
-      pos += crlf ? 2 : 1;
-    }
-    ++lineNumber;
-
-    const ObjError error(name, lineNumber);
-    if (line.find('\0') != std::string_view::npos) error.fail("unexpected NUL byte");
+  // Lines end with "\n", "\r\n" or "\r", as in tinyobjloader.
+  detail::TextLines lines(in, name, /*loneCrEndsLine=*/true);
+  std::string_view line;
+  while (lines.next(line)) {
+    const ObjError error(name, lines.lineNumber());
     tokenize(line, tokens);
     if (tokens.empty()) {
       scan.forwarded += '\n';
@@ -280,12 +270,7 @@ void assignNormals(PolygonSoup& soup, std::vector<Vec3> fileNormals,
 }
 
 PolygonSoup readObjImpl(std::istream& in, const std::string& name) {
-  std::ostringstream buffer;
-  if (in.peek() != std::char_traits<char>::eof()) buffer << in.rdbuf();
-  if (in.bad()) throw IoError(name + ": read error");
-  const std::string text = std::move(buffer).str();
-
-  Scan scan = scanLines(text, name);
+  Scan scan = scanLines(in, name);
 
   tinyobj::attrib_t attrib;
   std::vector<tinyobj::shape_t> shapes;

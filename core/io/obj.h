@@ -33,7 +33,10 @@ namespace spacewarp {
 /// naming `name` and the line ("model.obj:17: vertex has a non-finite coordinate") for a `v`
 /// or `vn` line with fewer than 3 numbers, a `vt` line with none, a non-numeric token on
 /// them, a NaN or infinite (or overflowing) coordinate, a face with fewer than 3 corners, a
-/// malformed, zero or out-of-range face index, or a read error.
+/// malformed, zero or out-of-range face index, a NUL byte ("model.obj:1: unexpected NUL byte
+/// (byte offset 0): not a text file"), a line longer than 64 MiB, or a read error. The input is
+/// read line by line as it comes (its `v`, `vn`, `vt` and `f` lines are kept for tinyobjloader),
+/// so binary or endless input (/dev/zero, a FIFO) fails early instead of filling memory.
 PolygonSoup readObj(std::istream& in, const std::string& name);
 
 /// Writes `soup` as OBJ: `v x y z` lines with the shortest decimal form that reads back to

@@ -18,17 +18,20 @@ namespace {
 // Reading
 
 /// Reads the content lines of an OFF file (comments removed, blank lines skipped) as tokens,
-/// and throws IoError messages that name the file and the current line.
+/// and throws IoError messages that name the file and the current line. Lines are read as they
+/// come (see detail::TextLines): binary or endless input fails at its first block or its first
+/// overlong line.
 class LineReader {
  public:
-  LineReader(std::istream& in, const std::string& name) : in_(in), name_(name) {}
+  LineReader(std::istream& in, const std::string& name)
+      : lines_(in, name, /*loneCrEndsLine=*/false), name_(name) {}
 
   /// Moves to the next line with content; false at the end of the file.
   bool next() {
-    while (std::getline(in_, line_)) {
-      ++lineNumber_;
+    std::string_view text;
+    while (lines_.next(text)) {
+      lineNumber_ = lines_.lineNumber();
       tokens_.clear();
-      const std::string_view text(line_);
       std::size_t i = 0;
       while (i < text.size()) {
         while (i < text.size() && detail::isSpace(text[i])) ++i;
@@ -39,7 +42,6 @@ class LineReader {
       }
       if (!tokens_.empty()) return true;
     }
-    if (in_.bad()) throw IoError(name_ + ": read error");
     return false;
   }
 
@@ -52,8 +54,8 @@ class LineReader {
   /// "what index: 'token' problem" for token t (index < 0: no index).
   [[noreturn]] void fail(const char* what, std::int64_t index, const char* problem,
                          std::size_t t) const {
-    fail(std::string(what) + (index >= 0 ? " " + std::to_string(index) : std::string()) + ": '" +
-         std::string(tokens_[t].substr(0, 64)) + "' " + problem);
+    fail(std::string(what) + (index >= 0 ? " " + std::to_string(index) : std::string()) + ": " +
+         detail::quotedToken(tokens_[t]) + " " + problem);
   }
 
   /// Token t as a number (an overflowing one gives infinity); `what` and `index` name the
@@ -74,9 +76,8 @@ class LineReader {
   }
 
  private:
-  std::istream& in_;
+  detail::TextLines lines_;
   const std::string& name_;
-  std::string line_;
   std::vector<std::string_view> tokens_;
   std::size_t lineNumber_ = 0;
 };
@@ -155,8 +156,8 @@ PolygonSoup readOffImpl(std::istream& in, const std::string& name) {
   if (!reader.next()) throw IoError(name + ": empty file, expected an 'OFF' header");
   const Header header = parseKeyword(reader.tokens().front());
   if (!header.valid) {
-    reader.fail("not an OFF file: expected 'OFF', found '" +
-                std::string(reader.tokens().front().substr(0, 64)) + "'");
+    reader.fail("not an OFF file: expected 'OFF', found " +
+                detail::quotedToken(reader.tokens().front()));
   }
   std::size_t firstCount = 1;  // The counts may follow the keyword on the same line.
   if (reader.tokens().size() == 1) {

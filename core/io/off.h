@@ -26,7 +26,9 @@ namespace spacewarp {
 /// counts line, fewer vertices or faces than declared, content after the last face, a
 /// non-numeric token, a NaN or infinite coordinate or normal, k < 3, fewer than k indices,
 /// an out-of-range index, COFF vertices without 3 or 4 colour values (or with different
-/// counts), an infinite colour value, or a read error.
+/// counts), an infinite colour value, a NUL byte ("mesh.off:1: unexpected NUL byte (byte offset
+/// 0): not a text file"), a line longer than 64 MiB, or a read error. The input is read line by
+/// line as it comes, so binary or endless input (/dev/zero, a FIFO) fails early.
 PolygonSoup readOff(std::istream& in, const std::string& name);
 
 /// The attributes that OFF stores as colours: red, green, blue and, if present, alpha, when

@@ -240,13 +240,8 @@ void tokenize(std::string_view line, std::vector<std::string_view>& tokens) {
   }
 }
 
-/// A token shortened for messages.
-std::string quote(std::string_view token) {
-  std::string text(1, '\'');
-  text += token.substr(0, 64);
-  text += token.size() > 64 ? "...'" : "'";
-  return text;
-}
+/// A token shortened and escaped for messages.
+std::string quote(std::string_view token) { return detail::quotedToken(token); }
 
 /// Parses a whole token as a value of `type`: integers for integer types (an integral decimal
 /// like "3.0" is accepted too), correctly rounded floats for Float32 and doubles for Float64
@@ -303,7 +298,8 @@ class Input {
   }
 
   /// Reads the next line without its "\n" or "\r\n"; false at the end of the input. Throws
-  /// IoError when the line is longer than `maxLength`.
+  /// IoError when the line holds a NUL byte (binary content where text belongs, checked as the
+  /// bytes arrive) or is longer than `maxLength`.
   bool readLine(std::string& line, std::size_t maxLength) {
     line.clear();
     bool any = false;
@@ -313,7 +309,11 @@ class Input {
       const char* begin = buffer_.data() + pos_;
       const auto* newline = static_cast<const char*>(std::memchr(begin, '\n', end_ - pos_));
       const std::size_t length = newline ? static_cast<std::size_t>(newline - begin) : end_ - pos_;
-      if (line.size() + length > maxLength) detail::failAt(name_, line_ + 1, "line too long");
+      detail::checkNoNul(std::string_view(begin, length), name_, line_ + 1, bufferOffset_ + pos_);
+      if (line.size() + length > maxLength) {
+        detail::failAt(name_, line_ + 1,
+                       "line too long (more than " + std::to_string(maxLength) + " bytes)");
+      }
       line.append(begin, length);
       pos_ += length;
       if (newline) {
@@ -351,6 +351,7 @@ class Input {
  private:
   bool refill() {
     if (eof_) return false;
+    bufferOffset_ += end_;
     in_.read(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
     if (in_.bad()) throw IoError(name_ + ": read error");
     const auto count = static_cast<std::size_t>(in_.gcount());
@@ -366,6 +367,7 @@ class Input {
   std::vector<char> buffer_;
   std::size_t pos_ = 0;
   std::size_t end_ = 0;
+  std::uint64_t bufferOffset_ = 0;  ///< Input offset of buffer_[0].
   bool eof_ = false;
   std::size_t line_ = 0;
   std::optional<std::uint64_t> streamRemaining_;
@@ -498,8 +500,7 @@ class ValueReader {
     index_ = index;
     if (!ascii()) return;
     do {
-      if (!input_.readLine(line_, std::numeric_limits<std::size_t>::max()))
-        fail("unexpected end of file");
+      if (!input_.readLine(line_, detail::kMaxTextLine)) fail("unexpected end of file");
       tokenize(line_, tokens_);
     } while (tokens_.empty());
     next_ = 0;
@@ -748,7 +749,7 @@ PolygonSoup readPlyImpl(std::istream& in, const std::string& name) {
   if (header.encoding == PlyEncoding::Ascii) {
     std::string line;
     std::vector<std::string_view> tokens;
-    while (input.readLine(line, std::numeric_limits<std::size_t>::max())) {
+    while (input.readLine(line, detail::kMaxTextLine)) {
       tokenize(line, tokens);
       if (!tokens.empty())
         detail::failAt(name, input.line(), "unexpected data after the last element");

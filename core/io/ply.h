@@ -35,8 +35,10 @@ enum class PlyEncoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
 /// ..."): truncated data (fewer elements than declared), too few or too many values on an
 /// ASCII line, non-numeric values, values out of range of their type, NaN or infinite
 /// coordinates or normals, polygons with fewer than 3 vertices, out-of-range vertex indices,
-/// data after the last element of an ASCII file. Declared counts are not trusted: memory
-/// grows with the data actually present.
+/// data after the last element of an ASCII file, a NUL byte in the header or in ASCII data
+/// ("cloud.ply:9: unexpected NUL byte (byte offset 106): not a text file"), an ASCII line longer
+/// than 64 MiB (a header line longer than 64 KiB). Declared counts are not trusted: memory
+/// grows with the data actually present, and endless input (/dev/zero, a FIFO) fails early.
 PolygonSoup readPly(std::istream& in, const std::string& name);
 
 /// Writes `soup` as PLY. Positions and normals are written as double, vertex and face

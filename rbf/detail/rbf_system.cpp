@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <string>
+#include <tuple>
+#include <utility>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -97,39 +100,65 @@ RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handl
   }
   // Handle groups come first: every handle root precedes every fixed root in index order.
   result.handleCentres = result.multiplicity.size();
+  if (const std::string problem = rbfScaleProblem(options, result.unique); !problem.empty()) {
+    char scale[32];
+    std::snprintf(scale, sizeof scale, "%.3g", options.scale);
+    throw InvalidInput(who + ": the kernel scale " + scale + " " + problem);
+  }
   return result;
 }
 
-RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centres,
-                     const RbfOptions& options)
-    : n_(centres.size()) {
-  sigma_ = options.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
-  const std::string needs =
-      who +
-      ": the linear polynomial needs at least 4 affinely independent centres (not all "
-      "coplanar), but ";
-  if (n_ < 4)
-    throw InvalidInput(needs + "only " + std::to_string(n_) + " distinct centres are given");
+namespace {
+
+// The centres' mean and bounding-box diagonal: the origin and length of the polynomial basis.
+std::pair<Vec3, double> polynomialFrame(std::span<const Vec3> centres) {
   Vec3 lo = centres[0], hi = centres[0], sum(0.0);
   for (const Vec3& c : centres) {
     lo = glm::min(lo, c);
     hi = glm::max(hi, c);
     sum += c;
   }
-  origin_ = sum / static_cast<double>(n_);
-  length_ = glm::length(hi - lo);
-  const Eigen::Index n = static_cast<Eigen::Index>(n_);
+  return {sum / static_cast<double>(centres.size()), glm::length(hi - lo)};
+}
+
+// The polynomial block P: rows [1, (c - origin) / length].
+Eigen::MatrixXd polynomialBlock(std::span<const Vec3> centres, const Vec3& origin, double length) {
+  const Eigen::Index n = static_cast<Eigen::Index>(centres.size());
   Eigen::MatrixXd p(n, 4);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Vec3 q = (centres[static_cast<std::size_t>(i)] - origin_) / length_;
+    const Vec3 q = (centres[static_cast<std::size_t>(i)] - origin) / length;
     p.row(i) << 1.0, q.x, q.y, q.z;
   }
+  return p;
+}
+
+}  // namespace
+
+void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centres) {
+  const std::size_t n = centres.size();
+  const std::string needs =
+      who +
+      ": the linear polynomial needs at least 4 affinely independent centres (not all "
+      "coplanar), but ";
+  if (n < 4)
+    throw InvalidInput(needs + "only " + std::to_string(n) + " distinct centres are given");
+  const auto [origin, length] = polynomialFrame(centres);
+  const Eigen::MatrixXd p = polynomialBlock(centres, origin, length);
   // Affine independence: the spread of the centred, scaled centres in their thinnest direction.
   const Eigen::Matrix3d cov = p.rightCols<3>().transpose() * p.rightCols<3>();
   const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues();
-  if (!(ev(0) > 1e-20 * ev(2))) {
-    throw InvalidInput(needs + "the " + std::to_string(n_) + " distinct centres are all coplanar");
-  }
+  if (!(ev(0) > 1e-20 * ev(2)))
+    throw InvalidInput(needs + "the " + std::to_string(n) + " distinct centres are all coplanar");
+}
+
+RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centres,
+                     const RbfOptions& options)
+    : n_(centres.size()) {
+  sigma_ = options.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
+  checkRbfPolynomial(who, centres);
+  std::tie(origin_, length_) = polynomialFrame(centres);
+  const Eigen::Index n = static_cast<Eigen::Index>(n_);
+  const Eigen::MatrixXd p = polynomialBlock(centres, origin_, length_);
   qr_.compute(p);
 
   // Φ, then QᵀΦQ (four Householder reflections on each side).

@@ -40,6 +40,10 @@ RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handl
                              const std::span<const Vec3>* targets, std::span<const Vec3> fixed,
                              const RbfOptions& options);
 
+/// Throws InvalidInput (prefixed with `who`) unless the distinct `centres` hold at least 4
+/// affinely independent points, as the linear polynomial of the fit needs.
+void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centres);
+
 /// The factorisation of [[Φ + σλI, P], [Pᵀ, 0]] (see RbfOptions::smoothing) by null-space
 /// reduction: with P = Q [R; 0] (Householder QR of the n × 4 polynomial block), the kernel
 /// weights are w = Q [0; u] with (σ Q₂ᵀ Φ Q₂ + λ I) u = σ Q₂ᵀ D, an SPD system (the kernels are

@@ -1,5 +1,5 @@
 #pragma once
-// The "harmonic" rig method (its coordinates are built in cage_rig.cpp).
+// The cage rig methods: "mvc", "green" and "harmonic" (built in cage_rig.cpp).
 
 #include <spacewarp/rig/detail/rig_reader.h>
 #include <spacewarp/rig/rig.h>
@@ -10,5 +10,9 @@ namespace spacewarp::detail {
 /// "cache" (a coordinate cache file, as --harmonic-cache) and "outside" ("raise" or "nearest").
 /// Throws InvalidInput if spacewarp was built without TetGen.
 Rig harmonicRig(RigReader& reader);
+
+/// The "mvc" and "green" rigs: keys "cage" and "pose" (paths). When the reader is checking,
+/// the cage and the pose are read and checked but no coordinates are built (an empty Rig).
+Rig cageRig(RigReader& reader, const std::string& method);
 
 }  // namespace spacewarp::detail

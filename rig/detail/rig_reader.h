@@ -19,6 +19,51 @@
 
 namespace spacewarp::detail {
 
+/// Where a rig is, for messages: its file (as messages name it) and, for a rig inside compose
+/// rigs, its index in each enclosing "warps" array, outermost first.
+struct RigPlace {
+  std::string file;
+  std::vector<std::size_t> warps;
+
+  /// The place nested as warps[index] of this one.
+  RigPlace nested(std::size_t index) const {
+    RigPlace inner = *this;
+    inner.warps.push_back(index);
+    return inner;
+  }
+
+  /// "rig.json", "rig.json: warps[1].warps[0]"; deeper than 4 levels only the first two and
+  /// the last, so that the line stays short: "rig.json: warps[0].warps[0]...warps[2] (64
+  /// levels)".
+  std::string str() const {
+    if (warps.empty()) return file;
+    // Appended piece by piece (GCC 12 warns falsely, -Wrestrict, about "." + a string).
+    std::string path = file;
+    const auto step = [&](std::size_t level) {
+      path += "warps[";
+      path += std::to_string(warps[level]);
+      path += ']';
+    };
+    path += ": ";
+    if (warps.size() <= 4) {
+      for (std::size_t level = 0; level < warps.size(); ++level) {
+        if (level > 0) path += '.';
+        step(level);
+      }
+    } else {
+      step(0);
+      path += '.';
+      step(1);
+      path += "...";
+      step(warps.size() - 1);
+      path += " (";
+      path += std::to_string(warps.size());
+      path += " levels)";
+    }
+    return path;
+  }
+};
+
 // Reads the keys of one rig object with clear, located errors, and remembers which keys were
 // read so that unknown (usually misspelt) keys can be reported.
 class RigReader {
@@ -30,6 +75,37 @@ class RigReader {
       : object_(object), baseDir_(std::move(baseDir)), where_(std::move(where)), depth_(depth) {
     if (!object_.is_object()) fail("", "a rig must be a JSON object");
   }
+
+  /// A rig at `place`; with `checkOnly`, factories stop before their expensive solves
+  /// (checking()).
+  RigReader(const json& object, std::filesystem::path baseDir, RigPlace place, bool checkOnly)
+      : RigReader(object, std::move(baseDir), place.str(), static_cast<int>(place.warps.size())) {
+    place_ = std::move(place);
+    checking_ = checkOnly;
+  }
+
+  /// Declares every key the object may have (besides "method"), and rejects any other at once,
+  /// before a missing or mistyped key is reported: an unknown key is usually the misspelling
+  /// that makes a required one missing. The message: "'rat' is not a key of <subject> (the
+  /// keys of <name>: origin, axis, rate, limits)".
+  void allowOnly(const std::vector<std::string>& keys, const std::string& subject,
+                 const std::string& name) {
+    allowed_ = std::set<std::string>(keys.begin(), keys.end());
+    allowed_.insert("method");
+    for (const auto& [key, value] : object_.items()) {
+      if (allowed_.count(key)) continue;
+      std::string list;
+      for (const std::string& k : keys) list += (list.empty() ? "" : ", ") + k;
+      fail(key, "is not a key of " + subject + " (the keys of " + name + ": " + list + ")");
+    }
+  }
+
+  /// Whether only the rig is being checked (checkRig, `spacewarp info`): factories then return
+  /// once every key is read and validated, before solving (an empty Rig).
+  bool checking() const { return checking_; }
+
+  /// Where this rig is (for nested compose rigs).
+  const RigPlace& place() const { return place_; }
 
   bool has(const std::string& key) const { return object_.contains(key); }
 
@@ -116,10 +192,13 @@ class RigReader {
   const std::string& where() const { return where_; }
   int depth() const { return depth_; }
 
-  /// Rejects keys that no reader asked for.
+  /// Rejects keys that no reader asked for: unknown ones, or (with allowOnly) known ones that
+  /// the other keys given make unused.
   void finish() const {
     for (const auto& [key, value] : object_.items()) {
-      if (!seen_.count(key)) fail(key, "is not a key of this method");
+      if (seen_.count(key)) continue;
+      if (allowed_.empty()) fail(key, "is not a key of this method");
+      fail(key, "has no effect with the other keys given: remove it");
     }
   }
 
@@ -151,7 +230,10 @@ class RigReader {
   std::filesystem::path baseDir_;
   std::string where_;
   int depth_ = 0;
+  RigPlace place_;
+  bool checking_ = false;
   std::set<std::string> seen_{"method"};
+  std::set<std::string> allowed_;  // empty: any key until finish()
 };
 
 /// Builds one rig method from its reader. A method's keys are read through the reader, which

@@ -2,6 +2,8 @@
 // (checked before any work), options that do not apply to the input being usage errors,
 // --version, --help and --threads, the summary line of `deform`, and `info` on rigs.
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <string>
@@ -22,6 +24,12 @@ namespace {
 namespace fs = std::filesystem;
 using test::CliResult;
 using ::testing::HasSubstr;
+
+#ifdef SPACEWARP_SANITIZED
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
 
 // Moves every point by (5, 0, 0).
 constexpr const char* kShift =
@@ -107,6 +115,38 @@ TEST_F(CliFrictionTest, UnknownExtensionsExit3NamingTheFileBeforeAnyWork) {
     EXPECT_THAT(r.err, ::testing::Not(HasSubstr("missing.json")));
   }
   expectOnly({"cloud.ply", "model.stl"});
+}
+
+TEST_F(CliFrictionTest, BinaryAndEndlessInputsAreRefusedEarly) {
+  // The text readers used to read their whole input before looking at it: /dev/zero or a FIFO
+  // fed forever grew until memory ran out. Each run here has a minute and (unless sanitizers,
+  // which reserve terabytes of address space, are on) 1.5 GB of address space.
+  const std::string limits = kSanitized ? "timeout 60 " : "ulimit -v 1500000; timeout 60 ";
+  write("twist.json", R"({"method": "twist", "origin": [0,0,0], "axis": [0,0,1], "rate": 1})");
+  const std::string deform = "deform --rig " + path("twist.json") + " ";
+  for (const std::string extension : {"obj", "off", "ply"}) {
+    SCOPED_TRACE(extension);
+    const std::string zeros = path("zeros." + extension);
+    write("zeros." + extension, std::string(1 << 22, '\0'));
+    CliResult r = run(deform + zeros + " -o " + path("out.obj"), limits);
+    expectOneLineError(r, 3, {zeros + ":1: unexpected NUL byte (byte offset 0): not a text file"});
+
+    const std::string device = path("device." + extension);
+    fs::create_symlink("/dev/zero", device);
+    r = run(deform + device + " -o " + path("out.obj"), limits);
+    expectOneLineError(r, 3, {device + ":1: unexpected NUL byte (byte offset 0)"});
+
+    // A FIFO fed one endless line (its writer ends with the reader, or after a minute).
+    const std::string fifo = path("fifo." + extension);
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    r = run(deform + fifo + " -o " + path("out.obj"),
+            "timeout 60 sh -c \"tr '\\\\0' 7 < /dev/zero > " + fifo + "\" 2>/dev/null & " + limits);
+    expectOneLineError(r, 3, {fifo + ":1: line too long"});
+  }
+  // /dev/zero itself has no extension to say what it holds.
+  expectOneLineError(run(deform + "/dev/zero -o " + path("out.obj"), limits), 3,
+                     {"/dev/zero: no file extension"});
+  EXPECT_FALSE(fs::exists(dir_ / "out.obj"));
 }
 
 TEST_F(CliFrictionTest, OutputMayBeTheInputItself) {
@@ -235,7 +275,7 @@ TEST_F(CliFrictionTest, DeformEndsWithASummaryUnlessQuiet) {
   EXPECT_TRUE(fs::exists(dir_ / "q.ply"));
 }
 
-TEST_F(CliFrictionTest, InfoDescribesARigWithoutBuildingIt) {
+TEST_F(CliFrictionTest, InfoChecksARigWithoutSolvingIt) {
   writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {2, 1, 1}), dir_ / "cage.obj");
   write("cage.json", R"({"method": "mvc", "cage": "cage.obj", "pose": "cage.obj"})");
   const CliResult cage = run("info " + path("cage.json"));
@@ -245,18 +285,31 @@ TEST_F(CliFrictionTest, InfoDescribesARigWithoutBuildingIt) {
   EXPECT_THAT(cage.out, HasSubstr("does:"));
 
   write("ffd.json", R"({"method": "ffd", "basis": "bspline", "origin": [0,0,0], "size": [1,1,1],
-                        "resolution": [4, 5, 6], "controlPoints": []})");
+                        "resolution": [4, 5, 6],
+                        "constraints": {"from": [[0.5, 0.5, 0.5]], "to": [[0.6, 0.5, 0.5]]}})");
   EXPECT_THAT(run("info " + path("ffd.json")).out, HasSubstr("[4,5,6] = 120 control points"));
 
-  // A graph too fine to build (deform refuses it) is still described: info does not solve.
+  // A graph is checked but not solved: no "did not converge" warning of its solve (which
+  // deform gives: no iteration allowed).
   write("graph.json", R"({"method": "compose", "warps": [)" + std::string(kShift) +
-                          R"(, {"method": "graph", "spacing": 1e-6, "handles": [[0,0,0],[1,1,1]],
-                              "targets": [[0,0,0],[1,1,1]]}]})");
+                          R"(, {"method": "graph", "spacing": 0.5, "maxIterations": 0,
+                              "handles": [[0,0,0],[1,1,1]], "targets": [[0,0,0],[1,1,1.5]]}]})");
   const CliResult compose = run("info " + path("graph.json"));
   ASSERT_EQ(compose.exitCode, 0) << compose.err;
+  EXPECT_EQ(compose.err, "");
   EXPECT_THAT(compose.out, HasSubstr("applies the 2 warps below in order"));
   EXPECT_THAT(compose.out, HasSubstr("warps[1]:\n  method:     graph"));
   EXPECT_THAT(compose.out, HasSubstr("  handles:    2, moved to as many targets"));
+  EXPECT_THAT(
+      run("deform --rig " + path("graph.json") + " " + path("cage.obj") + " -o " + path("o.obj"))
+          .err,
+      HasSubstr("did not converge"));
+
+  // What deform refuses before solving, info refuses too: here a graph too fine to build.
+  write("fine.json", R"({"method": "graph", "spacing": 1e-6, "handles": [[0,0,0],[1,1,1]],
+                         "targets": [[0,0,0],[1,1,1]]})");
+  expectOneLineError(run("info " + path("fine.json")), 3,
+                     {path("fine.json"), "'spacing' gives more than 2,000,000 grid nodes"});
 
   write("bad.json", R"({"method": "warp9"})");
   expectOneLineError(run("info " + path("bad.json")), 3, {path("bad.json"), "warp9"});

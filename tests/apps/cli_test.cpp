@@ -120,6 +120,26 @@ TEST_P(BadRigTest, FailsWithItsCodeInOneLineAndWritesNothing) {
     EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp")));
 }
 
+// `spacewarp info` checks a rig with the same code as deform (checkRig): what deform refuses
+// before its solve, info refuses with the same line and exit code, printing nothing on stdout.
+TEST_P(BadRigTest, InfoRefusesItAsDeformDoes) {
+  PolygonSoup cloud;
+  static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(0), Vec3(1), 10, 11);
+  writeSoup(cloud, dir_ / "cloud.ply");
+  write("rig.json", GetParam().json);
+  const test::CliResult deformed =
+      run("deform --rig " + (dir_ / "rig.json").string() + " " + (dir_ / "cloud.ply").string() +
+          " -o " + (dir_ / "out.ply").string());
+  const test::CliResult info = run("info " + (dir_ / "rig.json").string());
+  if (GetParam().solveOnly) {
+    EXPECT_EQ(info.exitCode, 0) << info.err;
+    return;
+  }
+  EXPECT_EQ(info.exitCode, deformed.exitCode) << info.err;
+  EXPECT_EQ(info.err, deformed.err);
+  EXPECT_EQ(info.out, "");
+}
+
 INSTANTIATE_TEST_SUITE_P(
     CoreRigs, BadRigTest,
     ::testing::Values(

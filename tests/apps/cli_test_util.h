@@ -104,7 +104,8 @@ inline std::string jsonPoints(std::span<const Vec3> points) {
 
 /// A malformed rig and what `spacewarp deform` must do with it: exit with `exitCode` (3 for
 /// bad input, 4 for a numerical failure), print one line naming the rig file and containing
-/// `message`, and write no output. Every rig method's test file instantiates BadRigTest with
+/// `message`, and write no output. `spacewarp info` must refuse it the same way, unless only
+/// the solve finds the fault (solveOnly). Every rig method's test file instantiates BadRigTest with
 /// its own list; the test itself is in cli_test.cpp.
 struct BadRig {
   BadRig(std::string name, std::string json, std::string message)
@@ -115,10 +116,19 @@ struct BadRig {
         message(std::move(message)),
         exitCode(exitCode) {}
 
+  /// This case marked as refused by the solve itself (a singular fit, a solver that gives up),
+  /// which `spacewarp info`, checking without solving, cannot find.
+  BadRig atSolve() const {
+    BadRig marked = *this;
+    marked.solveOnly = true;
+    return marked;
+  }
+
   std::string name;  ///< the test's name suffix
   std::string json;
   std::string message;
   int exitCode = 3;
+  bool solveOnly = false;
 };
 
 class BadRigTest : public CliFixture, public ::testing::WithParamInterface<BadRig> {

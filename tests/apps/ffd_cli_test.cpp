@@ -216,7 +216,7 @@ INSTANTIATE_TEST_SUITE_P(
             "ConstraintSizes",
             "{" SW_BOX
             R"("basis": "trilinear", "resolution": [2,2,2], "constraints": {"from": [[0.5,0.5,0.5]], "to": [[0,0,0],[1,1,1]]}})",
-            "1 points but 2 targets"},
+            "constraints: 'to' must have as many points as 'from' (1), not 2"},
         test::BadRig{
             "ConstraintTypo",
             "{" SW_BOX
@@ -226,7 +226,7 @@ INSTANTIATE_TEST_SUITE_P(
                      "{" SW_BOX
                      R"("basis": "trilinear", "resolution": [2,2,2], "smoothness": 1, )" SW_CORNERS
                      "}",
-                     "'smoothness' is not a key"}),
+                     "'smoothness' has no effect with the other keys given"}),
     [](const auto& info) { return std::string(info.param.name); });
 
 #undef SW_BOX

@@ -64,16 +64,20 @@ class IoSafetyCliTest : public test::CliFixture {
 
   /// Starts `spacewarp -q args...` with stdout to /dev/null and stderr to a pipe (which the
   /// file size limit does not cover); with a file size limit of `limit` bytes if not 0, and
-  /// block_fsync.so preloaded if `blockInSync`.
-  pid_t start(const std::vector<std::string>& args, rlim_t limit = 0, bool blockInSync = false) {
+  /// block_fsync.so preloaded if `blockInSync` (blocking only the files whose path contains
+  /// `blockName` if it is not empty).
+  pid_t start(const std::vector<std::string>& args, rlim_t limit = 0, bool blockInSync = false,
+              const std::string& blockName = "") {
     std::vector<std::string> arguments = {SPACEWARP_CLI, "-q"};
     arguments.insert(arguments.end(), args.begin(), args.end());
     std::vector<std::string> environment;
     for (char** e = environ; *e; ++e) {
       const std::string entry = *e;
-      if (!entry.starts_with("LD_PRELOAD=") && !entry.starts_with("ASAN_OPTIONS="))
+      if (!entry.starts_with("LD_PRELOAD=") && !entry.starts_with("ASAN_OPTIONS=") &&
+          !entry.starts_with("SPACEWARP_BLOCK_FSYNC_NAME="))
         environment.push_back(entry);
     }
+    if (!blockName.empty()) environment.push_back("SPACEWARP_BLOCK_FSYNC_NAME=" + blockName);
     if (blockInSync) {
       environment.push_back(std::string("LD_PRELOAD=") + SPACEWARP_BLOCK_FSYNC);
       // A sanitizer build's runtime must otherwise come first in the library list.
@@ -129,7 +133,17 @@ class IoSafetyCliTest : public test::CliFixture {
     return outcome;
   }
 
-  /// Every temporary (.<name>.<hex>.tmp) under the test's folder.
+  /// Every file of `folder` (not recursive) by name, with its content.
+  static std::map<std::string, std::string> folderContent(const fs::path& folder) {
+    std::map<std::string, std::string> content;
+    for (const auto& entry : fs::directory_iterator(folder))
+      content[entry.path().filename().string()] =
+          entry.is_regular_file() ? test::slurp(entry.path()) : "(not a file)";
+    return content;
+  }
+
+  /// Every temporary (.<name>.<hex>.tmp: a file, or a folder of compare) under the test's
+  /// folder.
   std::vector<fs::path> temporaries() const {
     std::vector<fs::path> found;
     for (const auto& entry : fs::recursive_directory_iterator(dir_)) {
@@ -253,56 +267,84 @@ TEST_F(IoSafetyCliTest, WeightsWritersFailCleanly) {
   }
 }
 
-// compare writes several files: for each, a limit of 3/4 of its size fails the run at the
-// first file above it, so that the images and the JSON report are in turn the file that fails
-// (3/4 rather than just below: the reports' timings change their size a little from run to
-// run). Each run starts from the previous run's complete output.
+// compare writes a folder of several files, as a whole. For each of its files, a limit of 3/4
+// of the file's size fails the run at the first file above it (3/4 rather than just below: the
+// reports' timings change their size a little from run to run), so that the images and the
+// JSON report are in turn the file that fails. The failing runs draw another slice than the
+// folder's previous run, so every file they write before the failure differs from the old one:
+// the whole folder must still be as it was, with no file added and no temporary left.
 TEST_F(IoSafetyCliTest, CompareWritersFailCleanly) {
   writeCubeCage("cage.obj", 1.0);
-  const std::vector<std::string> args = {"compare", "--cage",  path("cage.obj"), "--methods",
-                                         "mvc,ffd", "--slice", "z=0.2",          "--resolution",
-                                         "8",       "-o",      path("out")};
-  ASSERT_EQ(finish(start(args)).status, 0);
-  std::map<std::string, std::uintmax_t> sizes;
-  for (const auto& entry : fs::directory_iterator(dir_ / "out"))
-    sizes[entry.path().filename().string()] = entry.file_size();
-  ASSERT_THAT(sizes, ::testing::SizeIs(6)) << "mvc, ffd, compare, colour_bar .png, 2 reports";
+  const auto compare = [&](const std::string& slice, const std::string& output) {
+    return std::vector<std::string>{"compare",   "--cage", path("cage.obj"), "--methods", "mvc,ffd",
+                                    "--slice",   slice,    "--resolution",   "8",         "-o",
+                                    path(output)};
+  };
+  ASSERT_EQ(finish(start(compare("z=0.2", "out"))).status, 0);
+  const std::map<std::string, std::string> old = folderContent(dir_ / "out");
+  ASSERT_THAT(old, ::testing::SizeIs(6)) << "mvc, ffd, compare, colour_bar .png, 2 reports";
+  // The new run's files, written elsewhere: their sizes set the limits.
+  ASSERT_EQ(finish(start(compare("z=-0.3", "probe"))).status, 0);
+  const std::map<std::string, std::string> next = folderContent(dir_ / "probe");
+  ASSERT_THAT(next, ::testing::SizeIs(6));
+  EXPECT_NE(next.at("mvc.png"), old.at("mvc.png")) << "the runs must write other images";
 
   std::set<std::string> failed;
-  for (const auto& [name, size] : sizes) {
+  for (const auto& [name, content] : next) {
     SCOPED_TRACE(name);
-    std::map<std::string, std::string> before;
-    for (const auto& [other, ignored] : sizes) before[other] = test::slurp(dir_ / "out" / other);
-    const Outcome limited = finish(start(args, size * 3 / 4));
+    const std::uintmax_t limit = content.size() * 3 / 4;
+    const Outcome limited = finish(start(compare("z=-0.3", "out"), limit));
     ASSERT_EQ(limited.status, 3) << limited.err;
     EXPECT_EQ(std::count(limited.err.begin(), limited.err.end(), '\n'), 1) << limited.err;
     EXPECT_THAT(limited.err, HasSubstr(std::strerror(EFBIG)));
-    // The file named is one above the limit, and is as it was.
+    // The file named (by its name in the output folder) is one above the limit.
     std::string culprit;
-    for (const auto& [other, ignored] : sizes)
+    for (const auto& [other, ignored] : next)
       if (limited.err.find((dir_ / "out" / other).string() + "'") != std::string::npos)
         culprit = other;
     ASSERT_FALSE(culprit.empty()) << limited.err;
-    EXPECT_GT(sizes.at(culprit), size * 3 / 4) << culprit;
-    EXPECT_EQ(test::slurp(dir_ / "out" / culprit), before[culprit]) << culprit;
+    EXPECT_GT(next.at(culprit).size(), limit) << culprit;
+    EXPECT_EQ(folderContent(dir_ / "out"), old) << "failed at " << culprit;
     EXPECT_THAT(temporaries(), ::testing::IsEmpty());
     failed.insert(culprit);
-    ASSERT_EQ(finish(start(args)).status, 0);
   }
   EXPECT_TRUE(failed.contains("report.json"));
   EXPECT_TRUE(failed.contains("mvc.png"));
 
-  // report.md is written last and is smaller than report.json, so no size limit reaches it
-  // alone; a rename that fails (a folder in its place) does.
-  fs::remove(dir_ / "out" / "report.md");
-  fs::create_directory(dir_ / "out" / "report.md");
-  write("out/report.md/keep", "a folder in the way");
-  const Outcome blocked = finish(start(args));
-  EXPECT_EQ(blocked.status, 3) << blocked.err;
-  EXPECT_EQ(std::count(blocked.err.begin(), blocked.err.end(), '\n'), 1) << blocked.err;
-  EXPECT_THAT(blocked.err, HasSubstr((dir_ / "out" / "report.md").string()));
-  EXPECT_EQ(test::slurp(dir_ / "out" / "report.md" / "keep"), "a folder in the way");
+  // Without the limit the new run replaces the whole folder.
+  ASSERT_EQ(finish(start(compare("z=-0.3", "out"))).status, 0);
+  std::map<std::string, std::string> replaced = folderContent(dir_ / "out");
+  ASSERT_THAT(replaced, ::testing::SizeIs(6));
+  for (const std::string name : {"mvc.png", "ffd.png", "compare.png"})
+    EXPECT_EQ(replaced.at(name), next.at(name)) << name;
   EXPECT_THAT(temporaries(), ::testing::IsEmpty());
+}
+
+// Since the folder is replaced as a whole, anything in it that compare did not write (a folder
+// in the place of report.md, a file of the user's) is refused, named, and kept.
+TEST_F(IoSafetyCliTest, CompareKeepsAFolderWithFilesItDidNotWrite) {
+  writeCubeCage("cage.obj", 1.0);
+  const std::vector<std::string> args = {"compare", "--cage",  path("cage.obj"), "--methods",
+                                         "mvc",     "--slice", "z=0.2",          "--resolution",
+                                         "8",       "-o",      path("out")};
+  ASSERT_EQ(finish(start(args)).status, 0);
+  for (const std::string intruder : {"report.md/keep", "notes.txt"}) {
+    SCOPED_TRACE(intruder);
+    ASSERT_EQ(finish(start(args)).status, 0);
+    fs::remove(dir_ / "out" / "report.md");
+    fs::create_directories((dir_ / "out" / intruder).parent_path());
+    write("out/" + intruder, "the user's");
+    const std::map<std::string, std::string> before = folderContent(dir_ / "out");
+    const Outcome refused = finish(start(args));
+    EXPECT_EQ(refused.status, 3) << refused.err;
+    EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+    const std::string named = fs::path(intruder).begin()->string();
+    EXPECT_THAT(refused.err, HasSubstr((dir_ / "out" / named).string() + ": not an output of"));
+    EXPECT_EQ(folderContent(dir_ / "out"), before);
+    EXPECT_EQ(test::slurp(dir_ / "out" / intruder), "the user's");
+    EXPECT_THAT(temporaries(), ::testing::IsEmpty());
+    fs::remove_all(dir_ / "out" / named);
+  }
 }
 
 #ifdef SPACEWARP_WITH_OPENVDB
@@ -385,6 +427,40 @@ TEST_F(IoSafetyCliTest, InterruptedCompareRemovesItsTemporary) {
   expectCleanInterruption({"compare", "--cage", path("cage.obj"), "--methods", "mvc", "--slice",
                            "z=0.2", "--resolution", "32", "-o", path("out")},
                           dir_ / "out" / "mvc.png", SIGINT);
+}
+
+// Interrupted at its last file, when the images and report.json are complete in its
+// temporary folder: the previous folder (another slice) stays whole, and no temporary is left.
+TEST_F(IoSafetyCliTest, InterruptedCompareKeepsTheWholeOldFolder) {
+  writeCubeCage("cage.obj", 1.0);
+  const auto compare = [&](const std::string& slice) {
+    return std::vector<std::string>{"compare",  "--cage", path("cage.obj"), "--methods", "mvc,ffd",
+                                    "--slice",  slice,    "--resolution",   "16",        "-o",
+                                    path("out")};
+  };
+  ASSERT_EQ(finish(start(compare("z=0.2"))).status, 0);
+  const std::map<std::string, std::string> old = folderContent(dir_ / "out");
+  for (const int signal : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(signal);
+    const pid_t pid = start(compare("z=-0.3"), 0, /*blockInSync=*/true, "report.md");
+    bool seen = false;
+    for (auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+         !seen && std::chrono::steady_clock::now() < deadline;) {
+      for (const fs::path& t : temporaries())
+        seen = seen || t.filename().string().starts_with(".report.md.");
+      if (seen) break;
+      int status = 0;
+      ASSERT_NE(::waitpid(pid, &status, WNOHANG), pid)
+          << "the run ended before writing report.md: " << readStderr(pid);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_TRUE(seen) << "report.md's temporary did not appear";
+    ::kill(pid, signal);
+    const Outcome outcome = finish(pid);
+    EXPECT_EQ(outcome.status, 128 + signal) << outcome.err;
+    EXPECT_THAT(temporaries(), ::testing::IsEmpty());
+    EXPECT_EQ(folderContent(dir_ / "out"), old);
+  }
 }
 
 #ifdef SPACEWARP_WITH_OPENVDB

@@ -147,7 +147,27 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{"Singular",
                      R"({"method": "rbf", "kernel": "gaussian", "scale": 1e6, "centers": )" + kTet +
                          R"(, "targets": )" + kTet + "}",
-                     4, "singular"}),
+                     4, "singular"}
+            .atSolve(),
+        // Kernel scales whose kernel values under- or overflow are refused naming the key,
+        // rather than giving non-finite points blamed on the input.
+        test::BadRig{"GaussianScaleBeyondDouble",
+                     R"({"method": "rbf", "kernel": "gaussian", "scale": 1e-200, "centers": )" +
+                         kTet + R"(, "targets": )" + kTet + "}",
+                     3, "'scale' 1e-200 is outside [1e-150, 1e150]"},
+        test::BadRig{"GaussianScaleTooSmallForTheCentres",
+                     R"({"method": "rbf", "kernel": "gaussian", "scale": 1e-50, "centers": )" +
+                         kTet + R"(, "targets": )" + kTet + "}",
+                     3, "'scale' 1e-50 is too small for centres 1 apart (the closest two)"},
+        test::BadRig{"ScaleTooLargeForTheCentres",
+                     R"({"method": "rbf", "kernel": "inverse-multiquadric", "scale": 1e12,
+                        "centers": )" +
+                         kTet + R"(, "targets": )" + kTet + "}",
+                     3, "'scale' 1e+12 is too large for centres spanning 1.73"},
+        test::BadRig{"WendlandRadiusBeyondDouble",
+                     R"({"method": "rbf", "kernel": "wendland", "radius": 1e-300, "centers": )" +
+                         kTet + R"(, "targets": )" + kTet + "}",
+                     3, "'radius' must be within [1e-150, 1e150]"}),
     ::spacewarp::test::badRigName);
 
 }  // namespace

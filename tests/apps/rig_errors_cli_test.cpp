@@ -33,11 +33,11 @@ using ::spacewarp::test::BadRigTest;
 
 const std::string kTwist = R"("method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 1])";
 
-// A compose rig nested `depth` deep around a twist.
-std::string nestedCompose(int depth) {
+// A compose rig nested `depth` deep around a twist (`inner` ends its keys).
+std::string nestedCompose(int depth, const std::string& inner = R"(, "rate": 1)") {
   std::string rig;
   for (int i = 0; i < depth; ++i) rig += R"({"method": "compose", "warps": [)";
-  rig += "{" + kTwist + R"(, "rate": 1})";
+  rig += "{" + kTwist + inner + "}";
   for (int i = 0; i < depth; ++i) rig += "]}";
   return rig;
 }
@@ -59,7 +59,20 @@ INSTANTIATE_TEST_SUITE_P(
         // The NUL is printed escaped, so the message is not cut short at it.
         BadRig{"NulInAKey", "{" + kTwist + R"(, "rate": 1, "\u0000after": 2})",
                R"('\u0000after' is not a key of this method)"},
-        BadRig{"ComposeTooDeep", nestedCompose(70), "nests compose rigs deeper than 64 levels"},
+        BadRig{"ComposeTooDeep", nestedCompose(70),
+               "rig.json: warps[0].warps[0]...warps[0] (64 levels): 'warps' nests compose rigs "
+               "deeper than 64 levels"},
+        // A fault deep inside: the path is shortened, not "warps[0]: " 64 times.
+        BadRig{"FaultDeepInACompose", nestedCompose(64, ""),
+               "rig.json: warps[0].warps[0]...warps[0] (64 levels): 'rate' is missing"},
+        BadRig{"FaultInAShallowCompose",
+               R"({"method": "compose", "warps": [{"method": "compose", "warps": [{)" + kTwist +
+                   R"(, "rate": 1}, {)" + kTwist + R"(}]}]})",
+               "rig.json: warps[0].warps[1]: 'rate' is missing"},
+        // A misspelt key is reported rather than the required key it leaves missing.
+        BadRig{"MisspeltKeyBeforeTheMissingOne", "{" + kTwist + R"(, "rat": 1})",
+               "'rat' is not a key of this method (the keys of twist: origin, axis, rate, "
+               "limits)"},
         // The issue's case: 20,000 levels, refused while parsing, before any recursion.
         BadRig{"ComposeFarTooDeep", nestedCompose(20000),
                "nests arrays and objects deeper than 256 levels"},
@@ -72,7 +85,8 @@ INSTANTIATE_TEST_SUITE_P(
                R"({"method": "ffd", "basis": "trilinear", "origin": [0, 0, 0], "size": [1, 1, 1],
                    "resolution": [3, 3, 3], "smoothness": 0,
                    "constraints": {"from": [[0.1, 0.1, 0.1]], "to": [[0.2, 0.1, 0.1]]}})",
-               "'smoothness' is 0 and the fit is singular"}),
+               "'smoothness' is 0 and the fit is singular"}
+            .atSolve()),
     test::badRigName);
 
 class RigErrorsCliTest : public test::CliFixture {
@@ -100,6 +114,34 @@ class RigErrorsCliTest : public test::CliFixture {
       EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".tmp")));
   }
 };
+
+// The deepest allowed nesting with a fault at its bottom: one short line.
+TEST_F(RigErrorsCliTest, AFaultDeepInAComposeIsOneShortLine) {
+  write("rig.json", nestedCompose(64, ""));
+  const test::CliResult r = deform("rig.json");
+  expectRefused(r, dir_ / "out.ply");
+  EXPECT_LT(r.err.size(), (dir_ / "rig.json").string().size() + 120) << r.err;
+  EXPECT_EQ(r.err.find("warps[0]: warps[0]"), std::string::npos) << r.err;
+}
+
+// info refuses what deform refuses (here a mistyped rate inside a compose rig, and a cage file
+// that is missing), with the same line, and prints nothing on stdout, not even "file:".
+TEST_F(RigErrorsCliTest, InfoRefusesWhatDeformRefusesAndPrintsNothing) {
+  write("typed.json", R"({"method": "compose", "warps": [{"method": "twist", "origin": [0, 0, 0],
+                          "axis": [0, 0, 1], "rate": "x"}]})");
+  write("cage.json", R"({"method": "compose", "warps": [
+                          {"method": "twist", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": 1},
+                          {"method": "mvc", "cage": "missing.obj", "pose": "missing.obj"}]})");
+  for (const std::string rig : {"typed.json", "cage.json"}) {
+    SCOPED_TRACE(rig);
+    const test::CliResult deformed = deform(rig);
+    const test::CliResult info = run("info " + (dir_ / rig).string());
+    EXPECT_EQ(deformed.exitCode, 3) << deformed.err;
+    EXPECT_EQ(info.exitCode, 3) << info.err;
+    EXPECT_EQ(info.err, deformed.err);
+    EXPECT_EQ(info.out, "");
+  }
+}
 
 TEST_F(RigErrorsCliTest, AFolderAsTheRigIsNamed) {
   fs::create_directories(dir_ / "rigs.json");

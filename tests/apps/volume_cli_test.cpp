@@ -203,6 +203,78 @@ TEST_F(VolumeCliTest, ConserveMassKeepsTheFogTotal) {
   EXPECT_NEAR(after / before, 1.0, 0.03);
 }
 
+// -q silences the informational lines (one per grid, the summary), before or after the
+// subcommand, while warnings stay: here the unsupported grid's and --conserve-mass's.
+TEST_F(VolumeCliTest, QuietPrintsNoInformationForAVolume) {
+  writeInput();
+  const std::vector<openvdb::Vec3R> positions = {{0.1, 0.2, 0.3}, {-0.4, 0.0, 0.5}};
+  const auto xform = openvdb::math::Transform::createLinearTransform(kVoxel);
+  auto points =
+      openvdb::points::createPointDataGrid<openvdb::points::NullCodec,
+                                           openvdb::points::PointDataGrid>(positions, *xform);
+  points->setName("particles");
+  auto flags = openvdb::BoolGrid::create(false);
+  flags->setName("flags");
+  flags->tree().setValue(openvdb::Coord(0, 0, 0), true);
+  {
+    openvdb::io::File file((dir_ / "in.vdb").string());
+    file.write({sphere_, fog_, points, flags});
+    file.close();
+  }
+  write("squeeze.json", R"({"method": "affine", "matrix": [[1, 0, 0, 0], [0, 1, 0, 0],
+                                                           [0, 0, 1e-4, 0], [0, 0, 0, 1]]})");
+  const std::string rig = "--rig " + (dir_ / "squeeze.json").string() + " --conserve-mass ";
+  const CliResult loud = deformVolume(rig);
+  ASSERT_EQ(loud.exitCode, 0) << loud.err;
+  EXPECT_THAT(loud.out, HasSubstr("grid 'particles'"));
+  const std::string files = (dir_ / "in.vdb").string() + " -o " + (dir_ / "out.vdb").string();
+  for (const std::string& args : {"-q deform " + rig + files, "deform " + rig + "-q " + files,
+                                  "deform --quiet " + rig + files}) {
+    SCOPED_TRACE(args);
+    const CliResult quiet = run(args);
+    ASSERT_EQ(quiet.exitCode, 0) << quiet.err;
+    EXPECT_EQ(quiet.out, "");
+    EXPECT_EQ(quiet.err, loud.err) << "the same warnings";
+    EXPECT_THAT(quiet.err, HasSubstr("'flags'"));
+  }
+}
+
+// A warp that nearly collapses one axis (an affine squeeze by 1e-4 along z, or a taper whose
+// cross-section shrinks to 1/100 inside the fog) makes |det J| tiny: the densities divided by
+// it are far off the conserved total, and a counted one-line warning says so, naming the grid.
+TEST_F(VolumeCliTest, ConserveMassWarnsOfANearCollapse) {
+  writeInput();
+  write("squeeze.json", R"({"method": "affine", "matrix": [[1, 0, 0, 0], [0, 1, 0, 0],
+                                                           [0, 0, 1e-4, 0], [0, 0, 0, 1]]})");
+  write("taper.json", R"({"method": "taper", "origin": [0, 0, 0.45], "axis": [0, 0, 1],
+                           "rate": 1.16, "limits": [-0.85, 0]})");
+  for (const std::string rig : {"squeeze.json", "taper.json"}) {
+    SCOPED_TRACE(rig);
+    const CliResult r = deformVolume("--rig " + (dir_ / rig).string() + " --conserve-mass");
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const std::string start = "spacewarp: warning: " + (dir_ / "in.vdb").string() +
+                              ": grid 'density': --conserve-mass: the warp changes volumes";
+    const auto at = r.err.find(start);
+    ASSERT_NE(at, std::string::npos) << r.err;
+    const std::string line = r.err.substr(at, r.err.find('\n', at) - at);
+    EXPECT_THAT(line, HasSubstr("(mass ")) << "one line";
+    EXPECT_EQ(r.err.find("--conserve-mass", at + start.size()), std::string::npos) << r.err;
+    EXPECT_THAT(r.out, HasSubstr("warning")) << "counted in the summary: " << r.out;
+    EXPECT_THAT(r.err, ::testing::Not(HasSubstr("grid 'surface': --conserve-mass")))
+        << "level sets are not divided";
+  }
+  // A moderate taper conserves the mass: no such warning.
+  write("mild.json",
+        R"({"method": "taper", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": -0.5})");
+  const CliResult mild =
+      deformVolume("--rig " + (dir_ / "mild.json").string() + " --conserve-mass");
+  ASSERT_EQ(mild.exitCode, 0) << mild.err;
+  EXPECT_THAT(mild.err, ::testing::Not(HasSubstr("--conserve-mass")));
+  // Without --conserve-mass nothing is divided, nothing to warn of.
+  const CliResult plain = deformVolume("--rig " + (dir_ / "squeeze.json").string());
+  EXPECT_THAT(plain.err, ::testing::Not(HasSubstr("--conserve-mass")));
+}
+
 // Every rig method the tool has warps a volume file.
 struct RigCase {
   std::string name, json;

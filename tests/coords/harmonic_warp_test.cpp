@@ -101,5 +101,16 @@ TEST(HarmonicWarp, RejectsBadArguments) {
   EXPECT_THROW(HarmonicWarp(h, std::vector<Vec3>(3)), InvalidInput);
 }
 
+TEST(HarmonicWarp, IsWhatMakeWarpGivesForHarmonicCoordinates) {
+  const auto h = solveStar(HarmonicOutsidePolicy::Throw);
+  const std::vector<Vec3> posed = posedStar(h->cage());
+  const std::shared_ptr<const Warp> made = makeWarp(h, posed);
+  ASSERT_NE(dynamic_cast<const HarmonicWarp*>(made.get()), nullptr);
+  const HarmonicWarp direct(h, posed);
+  for (const Vec3& x : insidePoints(*h, 200)) EXPECT_EQ(made->apply(x), direct.apply(x));
+  EXPECT_THROW(makeWarp(nullptr, posed), InvalidInput);
+  EXPECT_THROW(makeWarp(h, std::vector<Vec3>(3, Vec3(0.0))), InvalidInput);
+}
+
 }  // namespace
 }  // namespace spacewarp

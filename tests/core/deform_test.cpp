@@ -290,6 +290,17 @@ TEST(Deform, SingularWarpReportsTheVerticesWithUndefinedNormals) {
     PointSet projected = samplePointSet(10, true);
     EXPECT_EQ(deform(project, projected).singularNormals, 10u) << scale;
   }
+  // Huge or tiny but regular (det J overflows to inf or underflows to 0): no vertex is
+  // singular, and the normals are those of the unscaled warp.
+  const Mat3 shear = Mat3(Vec3(2.0, 0.5, 0.0), Vec3(0.0, 1.0, 0.3), Vec3(0.1, 0.0, 3.0));
+  PointSet unscaled = samplePointSet(10, true);
+  deform(affine(shear, Vec3(0.0)), unscaled);
+  for (const double scale : {1e-300, 1e300}) {
+    PointSet scaled = samplePointSet(10, true);
+    EXPECT_EQ(deform(affine(scale * shear, Vec3(0.0)), scaled).singularNormals, 0u) << scale;
+    for (std::size_t i = 0; i < scaled.size(); ++i)
+      EXPECT_LT(test::relativeError(scaled.normals[i], unscaled.normals[i]), 1e-14) << scale;
+  }
   // Strongly anisotropic but invertible: the normals are defined (along z).
   const AffineWarp squash =
       affine(Mat3(Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1e-10)), Vec3(0.0));

@@ -108,6 +108,59 @@ TEST(Warp, TransformNormalOfACollapsedWarpIsZeroNotNaN) {
   EXPECT_EQ(n, Vec3(0.0));
 }
 
+// The verdict depends on how close J's columns are to dependent, not on J's size: a regular J
+// scaled to entries of 1e300 (whose determinant and column-length product overflow) or 1e-300
+// (which underflow) is regular, a singular one singular, at every scale.
+TEST(Warp, SingularJacobianIsScaleInvariant) {
+  const Mat3 regular = Mat3(glm::rotate(Mat4(1.0), 0.7, Vec3(1.0, 2.0, 3.0))) *
+                       Mat3(Vec3(1, 0, 0), Vec3(0.5, 2, 0), Vec3(0, 0.3, 3));
+  const Vec3 u = glm::normalize(Vec3(1.0, 2.0, 3.0));
+  const Mat3 projection = Mat3(1.0) - glm::outerProduct(u, u);  // rank 2, det ~ 1e-17
+  const Mat3 rankOne = glm::outerProduct(u, Vec3(1.0, -1.0, 2.0));
+  for (const double scale : {1e-300, 1e-150, 1e-6, 1.0, 1e6, 1e150, 1e300}) {
+    SCOPED_TRACE(scale);
+    EXPECT_FALSE(isSingularJacobian(scale * regular));
+    EXPECT_FALSE(isSingularJacobian(scale * Mat3(1.0)));
+    EXPECT_FALSE(isSingularJacobian(scale * Mat3(Vec3(-1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))));
+    EXPECT_TRUE(isSingularJacobian(scale * projection));
+    EXPECT_TRUE(isSingularJacobian(scale * rankOne));
+  }
+  // Columns of very different lengths: anisotropic, still regular.
+  EXPECT_FALSE(isSingularJacobian(Mat3(Vec3(1e300, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1e-300))));
+  EXPECT_TRUE(isSingularJacobian(Mat3(0.0)));
+  EXPECT_TRUE(isSingularJacobian(Mat3(Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0.0))));
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(isSingularJacobian(Mat3(Vec3(inf, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))));
+  EXPECT_TRUE(isSingularJacobian(
+      Mat3(Vec3(std::numeric_limits<double>::quiet_NaN(), 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1))));
+}
+
+// J^-T n normalised does not depend on J's scale: entries of 1e300 or 1e-300 give the same
+// normal as the unscaled J (their cofactors would overflow or underflow).
+TEST(Warp, TransformNormalOfAHugeOrTinyJacobian) {
+  const Mat3 j = Mat3(Vec3(2.0, 0.5, 0.0), Vec3(0.0, 1.0, 0.3), Vec3(0.1, 0.0, -3.0));
+  const Vec3 n = glm::normalize(Vec3(1.0, -2.0, 0.5));
+  const Vec3 expected = transformNormal(j, n);
+  ASSERT_NEAR(glm::length(expected), 1.0, 1e-15);
+  for (const double scale : {0x1p-1000, 0x1p-500, 0x1p500, 0x1p1000, 1e-300, 1e300}) {
+    SCOPED_TRACE(scale);
+    EXPECT_LT(relativeError(transformNormal(scale * j, n), expected), 1e-15);
+  }
+  // Scaling by powers of two is exact: the same bits.
+  EXPECT_EQ(transformNormal(0x1p1000 * j, n), expected);
+}
+
+TEST(Warp, InverseOfAHugeAffineWarpConverges) {
+  const Mat3 linear = 1e300 * Mat3(Vec3(2.0, 0.5, 0.0), Vec3(0.0, 1.0, 0.3), Vec3(0.1, 0.0, 3.0));
+  Mat4 m(1.0);
+  for (int c = 0; c < 3; ++c) m[c] = glm::dvec4(linear[c], 0.0);
+  const AffineWarp warp(m);
+  const Vec3 x(1e-300, -2e-300, 3e-301);
+  const InverseResult r = inverse(warp, warp.apply(x));
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT(relativeError(r.x, x), 1e-12);
+}
+
 TEST(Warp, NormalsOfTheDefaultJacobianStayPerpendicular) {
   const SinWarp warp;
   std::mt19937 rng(3);

@@ -178,5 +178,28 @@ TEST_P(LatticePlaced, WeightsAndPropertiesDoNotDependOnOffsetOrScale) {
 INSTANTIATE_TEST_SUITE_P(Placements, LatticePlaced, ::testing::ValuesIn(test::placements()),
                          [](const auto& info) { return test::placementName(info.param); });
 
+// makeWarp gives the lattice's own warp; a CoordinateWarp over the same (sparse) coordinates
+// sums only the non-zero weights, and its batch is bit-identical to its apply().
+TEST(LatticeCoordinates, MakeWarpGivesTheLatticeWarpAndTheGenericWarpSumsSparsely) {
+  std::mt19937 rng(24);
+  for (LatticeBasis basis : test::kAllBases) {
+    const Lattice lattice(test::orientedParams(basis, LatticeOutside::Clamp));
+    auto coords = std::make_shared<LatticeCoordinates>(lattice);
+    const std::vector<Vec3> posed = test::randomPose(lattice, rng, 0.4);
+    const std::vector<Vec3> points = test::boxPoints(lattice, rng, 3000, -0.3, 1.3);
+    const std::shared_ptr<const Warp> made = makeWarp(coords, posed);
+    ASSERT_NE(dynamic_cast<const LatticeWarp*>(made.get()), nullptr);
+    const LatticeWarp direct(lattice, posed);
+    const CoordinateWarp generic(coords, posed);
+    std::vector<Vec3> batch(points.size());
+    generic.applyBatch(points, batch);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      EXPECT_EQ(made->apply(points[i]), direct.apply(points[i]));
+      EXPECT_EQ(batch[i], generic.apply(points[i])) << test::basisName(basis) << i;
+      EXPECT_LE(test::relativeError(batch[i], direct.apply(points[i])), 1e-12);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace spacewarp

@@ -7,6 +7,7 @@
 #include <csignal>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -344,6 +345,147 @@ TEST(AtomicFileTest, RemoveAtomicTemporariesRemovesTheTemporaryInProgress) {
   // The slot is free again for the next write.
   writeFileAtomically(path, [](std::ostream& out) { out << "next"; });
   EXPECT_EQ(readFile(path), "next");
+}
+
+// ---- writeFolderAtomically -------------------------------------------------------------
+
+/// Writes `name` with `content` into `folder`, atomically.
+void put(const fs::path& folder, const std::string& name, const std::string& content) {
+  writeFileAtomically(folder / name, [&](std::ostream& out) { out << content; });
+}
+
+/// The files of `folder` with their contents.
+std::map<std::string, std::string> contentOf(const fs::path& folder) {
+  std::map<std::string, std::string> content;
+  for (const std::string& name : listDirectory(folder)) content[name] = readFile(folder / name);
+  return content;
+}
+
+TEST(AtomicFolderTest, CreatesTheFolderAndItsParents) {
+  TempDir dir;
+  const fs::path out = dir.path() / "parent" / "out";
+  writeFolderAtomically(out, [&](const fs::path& folder) {
+    EXPECT_EQ(folder.parent_path(), fs::path(dir.path() / "parent"));
+    EXPECT_TRUE(folder.filename().string().starts_with(".out."));
+    put(folder, "a.txt", "a");
+    put(folder, "b.txt", "b");
+  });
+  EXPECT_EQ(contentOf(out), (std::map<std::string, std::string>{{"a.txt", "a"}, {"b.txt", "b"}}));
+  EXPECT_EQ(listDirectory(dir.path() / "parent"), std::set<std::string>{"out"});
+}
+
+TEST(AtomicFolderTest, ReplacesTheOldFolderAsAWhole) {
+  TempDir dir;
+  const fs::path out = dir.path() / "out";
+  writeFolderAtomically(out, [](const fs::path& folder) {
+    put(folder, "a.txt", "old a");
+    put(folder, "b.txt", "old b");
+  });
+  ASSERT_EQ(::chmod(out.c_str(), 0750), 0);
+  writeFolderAtomically(dir.path() / "out/",
+                        [](const fs::path& folder) { put(folder, "a.txt", "new a"); });
+  EXPECT_EQ(contentOf(out), (std::map<std::string, std::string>{{"a.txt", "new a"}}));
+  EXPECT_EQ(permissionsOf(out), 0750u);
+  EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out"});
+}
+
+TEST(AtomicFolderTest, WritesThroughASymbolicLink) {
+  TempDir dir;
+  fs::create_directory(dir.path() / "real");
+  fs::create_directory_symlink("real", dir.path() / "link");
+  writeFolderAtomically(dir.path() / "link", [](const fs::path& folder) { put(folder, "a", "1"); });
+  EXPECT_TRUE(fs::is_symlink(dir.path() / "link"));
+  EXPECT_EQ(readFile(dir.path() / "real" / "a"), "1");
+  EXPECT_EQ(listDirectory(dir.path()), (std::set<std::string>{"link", "real"}));
+}
+
+// The old folder stays byte for byte whatever fails after some of the new files are complete:
+// an exception of the callback, or a write past the file size limit, whose IoError names the
+// file by its place in the final folder.
+TEST(AtomicFolderTest, FailureKeepsTheOldFolderWhole) {
+  TempDir dir;
+  const fs::path out = dir.path() / "out";
+  writeFolderAtomically(out, [](const fs::path& folder) {
+    put(folder, "a.txt", "old a");
+    put(folder, "b.txt", "old b");
+  });
+  const auto old = contentOf(out);
+  EXPECT_THROW(writeFolderAtomically(out,
+                                     [](const fs::path& folder) {
+                                       put(folder, "a.txt", "new a");
+                                       put(folder, "c.txt", "new c");
+                                       throw InvalidInput("bad report");
+                                     }),
+               InvalidInput);
+  EXPECT_EQ(contentOf(out), old);
+  EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out"});
+
+  std::string message;
+  {
+    FileSizeLimit limit(4096);
+    message = test::messageOf<IoError>([&] {
+      writeFolderAtomically(out, [](const fs::path& folder) {
+        put(folder, "a.txt", "new a");
+        put(folder, "big.bin", std::string(10000, 'x'));
+      });
+    });
+  }
+  EXPECT_THAT(message, HasSubstr("'" + (out / "big.bin").string() + "'"));
+  EXPECT_THAT(message, HasSubstr(std::strerror(EFBIG)));
+  EXPECT_THAT(message, ::testing::Not(HasSubstr(".tmp")));
+  EXPECT_EQ(contentOf(out), old);
+  EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out"});
+}
+
+TEST(AtomicFolderTest, RefusesWhatItCannotReplace) {
+  TempDir dir;
+  put(dir.path(), "file", "x");
+  EXPECT_THAT(test::messageOf<IoError>(
+                  [&] { writeFolderAtomically(dir.path() / "file", [](const fs::path&) {}); }),
+              HasSubstr("is not a folder"));
+  EXPECT_EQ(readFile(dir.path() / "file"), "x");
+  EXPECT_THROW(writeFolderAtomically(dir.path() / ".", [](const fs::path&) {}), IoError);
+  // The working folder (and so any of its parents) would vanish under the process.
+  fs::create_directory(dir.path() / "here");
+  const fs::path previous = fs::current_path();
+  fs::current_path(dir.path() / "here");
+  std::string message;
+  try {
+    message = test::messageOf<IoError>(
+        [&] { writeFolderAtomically(dir.path() / "here", [](const fs::path&) {}); });
+  } catch (...) {
+    fs::current_path(previous);
+    throw;
+  }
+  fs::current_path(previous);
+  EXPECT_THAT(message, HasSubstr("current working folder"));
+  EXPECT_EQ(listDirectory(dir.path()), (std::set<std::string>{"file", "here"}));
+}
+
+// What the CLI's signal handler relies on: the temporary folder, with the complete files and
+// the temporary file in it, is removed; the write then fails and the old folder stays.
+TEST(AtomicFolderTest, RemoveAtomicTemporariesRemovesTheTemporaryFolder) {
+  TempDir dir;
+  const fs::path out = dir.path() / "out";
+  writeFolderAtomically(out, [](const fs::path& folder) { put(folder, "a.txt", "old"); });
+  std::size_t before = 0;
+  EXPECT_THROW(writeFolderAtomically(out,
+                                     [&](const fs::path& folder) {
+                                       put(folder, "a.txt", "new");
+                                       writeFileAtomically(folder / "b.txt", [&](std::ostream& o) {
+                                         o << "partial";
+                                         before = listDirectory(folder).size();
+                                         removeAtomicTemporaries();
+                                       });
+                                     }),
+               IoError);
+  EXPECT_EQ(before, 2u) << "a.txt and b.txt's temporary";
+  EXPECT_EQ(contentOf(out), (std::map<std::string, std::string>{{"a.txt", "old"}}));
+  EXPECT_EQ(listDirectory(dir.path()), std::set<std::string>{"out"});
+  // The slots are free again.
+  for (int i = 0; i < 20; ++i)
+    writeFolderAtomically(out, [&](const fs::path& folder) { put(folder, "a.txt", "next"); });
+  EXPECT_EQ(readFile(out / "a.txt"), "next");
 }
 
 }  // namespace

@@ -13,6 +13,11 @@
 #include <gtest/gtest.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/detail/text_format.h>
+#include <spacewarp/core/io/obj.h>
+#include <spacewarp/core/io/off.h>
+#include <spacewarp/core/io/ply.h>
+#include "endless_input.h"
 #include "io_test_util.h"
 
 namespace spacewarp {
@@ -112,6 +117,59 @@ TEST(MeshIoTest, MissingFileThrowsCannotOpen) {
   const std::string message = readError(path);
   EXPECT_THAT(message, HasSubstr("cannot open"));
   EXPECT_THAT(message, HasSubstr(path.string()));
+}
+
+// The ASCII PLY header of one vertex: its values follow on line 8.
+const std::string kAsciiPlyHeader =
+    "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+    "property float z\nend_header\n";
+
+TEST(MeshIoTest, BinaryFilesAreRefusedAtTheirFirstNulNamingFileLineAndOffset) {
+  TempDir dir;
+  std::mt19937_64 rng(3);
+  std::string random(100000, ' ');
+  for (char& c : random) c = static_cast<char>(rng());
+  for (const std::string extension : {"obj", "off", "ply"}) {
+    SCOPED_TRACE(extension);
+    const fs::path zeros = dir.path() / ("zeros." + extension);
+    writeFile(zeros, std::string(1 << 20, '\0'));
+    EXPECT_EQ(readError(zeros),
+              zeros.string() + ":1: unexpected NUL byte (byte offset 0): not a text file");
+    // Random bytes; for PLY as the values of an ASCII file, where they fail as a value.
+    const fs::path noise = dir.path() / ("noise." + extension);
+    writeFile(noise, (extension == "ply" ? kAsciiPlyHeader : "") + random);
+    EXPECT_THAT(readError(noise), ::testing::StartsWith(noise.string() + ":"));
+  }
+  // A NUL after valid lines is found on its line, at its offset.
+  const fs::path late = dir.path() / "late.ply";
+  writeFile(late, kAsciiPlyHeader + "1 2 3\n" + std::string("\0", 1));
+  EXPECT_EQ(readError(late), late.string() + ":9: unexpected NUL byte (byte offset " +
+                                 std::to_string(kAsciiPlyHeader.size() + 6) + "): not a text file");
+}
+
+// Every text reader on input that never ends (as /dev/zero or a FIFO fed forever): NULs fail
+// within the first block read, a line that never ends at the line length limit; neither is
+// read on into memory. (The readers used to take the whole input before looking at it.)
+TEST(MeshIoTest, EndlessInputIsRefusedAfterABoundedRead) {
+  using Reader = PolygonSoup (*)(std::istream&, const std::string&);
+  const std::pair<Reader, std::string> readers[] = {
+      {readObj, ""}, {readOff, ""}, {readPly, ""}, {readPly, kAsciiPlyHeader}};
+  for (const auto& [read, prefix] : readers) {
+    SCOPED_TRACE(prefix.empty() ? "from the first byte" : "after an ASCII PLY header");
+    test::EndlessInput zeros(prefix, '\0');
+    std::istream zeroStream(&zeros);
+    EXPECT_THAT(test::messageOf<IoError>([&] { read(zeroStream, "endless"); }),
+                HasSubstr("unexpected NUL byte (byte offset " + std::to_string(prefix.size()) +
+                          "): not a text file"));
+    EXPECT_LE(zeros.served(), prefix.size() + test::EndlessInput::kBlockBound);
+
+    test::EndlessInput letters(prefix, '7');
+    std::istream letterStream(&letters);
+    EXPECT_THAT(test::messageOf<IoError>([&] { read(letterStream, "endless"); }),
+                HasSubstr("line too long"));
+    EXPECT_LE(letters.served(),
+              prefix.size() + detail::kMaxTextLine + test::EndlessInput::kBlockBound);
+  }
 }
 
 TEST(MeshIoTest, DirectoryThrowsIoError) {

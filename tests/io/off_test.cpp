@@ -201,6 +201,23 @@ TEST(OffTest, RejectsNanAndNonNumericTokens) {
               HasSubstr("mesh.off:3: vertex 0 has 2 values, expected 3"));
 }
 
+// A binary or corrupt file's bytes never reach the message raw: control characters as \uXXXX,
+// bytes that are not UTF-8 as \xXX (UTF-8 text is kept), in every kind of token.
+TEST(OffTest, MessagesEscapeTheFilesBytes) {
+  const std::string vertex = errorOf("OFF\n3 0 0\n0 0 0\n1 0 \x01\xff\n0 1 0\n");
+  EXPECT_THAT(vertex, HasSubstr("mesh.off:4: vertex 1: '\\u0001\\xff' is not a number"));
+  const std::string face = errorOf("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 \xc3\xa9\x80\n");
+  EXPECT_THAT(face, HasSubstr("face 0: '\xc3\xa9\\x80' is not an integer"));
+  const std::string header = errorOf("\x89PNG\r\n\x1a\n");
+  EXPECT_THAT(header, HasSubstr("found '\\x89PNG"));
+  for (const std::string& message : {vertex, face, header})
+    for (const char c : message) {
+      const auto byte = static_cast<unsigned char>(c);
+      EXPECT_TRUE(byte >= 0x20 && byte != 0x7f && byte != 0xff && byte != 0x80 && byte != 0x89)
+          << message;
+    }
+}
+
 TEST(OffTest, RejectsBadHeaderAndCounts) {
   EXPECT_THAT(errorOf(""), HasSubstr("mesh.off: empty file"));
   EXPECT_THAT(errorOf("# only a comment\nPLY\n"), HasSubstr("mesh.off:2: not an OFF file"));

@@ -3,6 +3,7 @@
 
 #include <spacewarp/rbf/rbf_coordinates.h>
 
+#include <cmath>
 #include <memory>
 #include <random>
 #include <vector>
@@ -178,6 +179,27 @@ std::vector<test::Placement> rbfPlacements() {
 
 INSTANTIATE_TEST_SUITE_P(Placements, RbfPlaced, ::testing::ValuesIn(rbfPlacements()),
                          [](const auto& info) { return test::placementName(info.param); });
+
+// makeWarp of RBF coordinates is the RbfWarp with the posed handles as targets.
+TEST(RbfCoordinates, MakeWarpGivesTheRbfWarpOfThePose) {
+  std::mt19937 rng(31);
+  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
+  const std::vector<Vec3> fixed = test::randomPoints(rng, 5, 1.5, 2.0);
+  std::vector<Vec3> targets = centres;
+  for (Vec3& t : targets) t += 0.1 * Vec3(std::sin(3.0 * t.y), std::cos(2.0 * t.z), t.x);
+  const std::vector<Vec3> points = test::randomPoints(rng, 300, -1.5, 1.5);
+  for (const RbfOptions& o : everyKernel(0.0)) {
+    auto coords = std::make_shared<const RbfCoordinates>(centres, fixed, o);
+    const std::shared_ptr<const Warp> made = makeWarp(coords, targets);
+    ASSERT_NE(dynamic_cast<const RbfWarp*>(made.get()), nullptr);
+    const RbfWarp direct(centres, targets, fixed, o);
+    const CoordinateWarp generic(coords, targets);
+    for (const Vec3& x : points) {
+      EXPECT_EQ(made->apply(x), direct.apply(x)) << rbfKernelName(o.kernel);
+      EXPECT_LE(relativeError(made->apply(x), generic.apply(x)), 1e-8) << rbfKernelName(o.kernel);
+    }
+  }
+}
 
 }  // namespace
 }  // namespace spacewarp

@@ -243,6 +243,59 @@ TEST(RbfWarp, RejectsNonFiniteInputNamingTheIndex) {
               HasSubstr("fixed centre 1 is not finite"));
 }
 
+// A Gaussian scale of 1e-200 made 1/ε² infinite: NaN at the centres themselves. Scales whose
+// kernel values under- or overflow for these centres are refused, by the constructor and by
+// check() alike, and the scales that suit them give finite points.
+TEST(RbfWarp, RejectsKernelScalesThatDoNotSuitTheCentres) {
+  const std::vector<Vec3> centres = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1),
+                                     Vec3(1, 1, 1)};
+  std::vector<Vec3> targets = centres;
+  targets[4] += Vec3(0.2, 0.0, 0.0);
+  struct Case {
+    RbfKernel kernel;
+    double scale;
+    const char* message;  // nullptr: accepted
+  };
+  for (const Case& c : {Case{RbfKernel::Gaussian, 1e-200, "is outside [1e-150, 1e150]"},
+                        Case{RbfKernel::Gaussian, 1e-50, "is too small for centres 1 apart"},
+                        Case{RbfKernel::Gaussian, 0.03, "is too small for centres 1 apart"},
+                        Case{RbfKernel::Gaussian, 0.5, nullptr},
+                        Case{RbfKernel::Gaussian, 1e200, "is outside [1e-150, 1e150]"},
+                        Case{RbfKernel::InverseMultiquadric, 1e12, "is too large for centres"},
+                        Case{RbfKernel::InverseMultiquadric, 1e-100, nullptr},
+                        Case{RbfKernel::InverseMultiquadric, 1e-160, "is outside"}}) {
+    SCOPED_TRACE(c.scale);
+    RbfOptions options;
+    options.kernel = c.kernel;
+    options.scale = c.scale;
+    if (c.message) {
+      EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(centres, targets, options); }),
+                  HasSubstr(c.message));
+      EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp::check(centres, targets, {}, options); }),
+                  HasSubstr(c.message));
+      EXPECT_FALSE(rbfScaleProblem(options, centres).empty());
+      continue;
+    }
+    EXPECT_NO_THROW(RbfWarp::check(centres, targets, {}, options));
+    const RbfWarp warp(centres, targets, options);
+    for (const Vec3& x : centres) EXPECT_TRUE(isFinite(warp.apply(x))) << x.x;
+    EXPECT_TRUE(isFinite(warp.apply(Vec3(0.3, 0.2, 0.1))));
+  }
+}
+
+TEST(RbfWarp, CheckFindsWhatTheConstructorRefusesWithoutTheFit) {
+  const std::vector<Vec3> plane = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0)};
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp::check(plane, plane, {}); }),
+              HasSubstr("coplanar"));
+  const std::vector<Vec3> twice = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1),
+                                   Vec3(0, 0, 0)};
+  std::vector<Vec3> conflicting = twice;
+  conflicting[4] = Vec3(1, 0, 0);
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp::check(twice, conflicting, {}); }),
+              HasSubstr("centre 0 and centre 4 coincide"));
+  EXPECT_NO_THROW(RbfWarp::check(twice, twice, {}));
+}
+
 TEST(RbfWarp, MergesDuplicatesWithAgreeingTargets) {
   std::mt19937 rng(11);
   Handles h = randomHandles(rng, 12);

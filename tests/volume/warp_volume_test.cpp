@@ -244,6 +244,26 @@ TEST(WarpVolume, ConservesMassUnderACompressiveWarpWhenAsked) {
   double sum = 0.0;
   for (auto it = kept.grid->cbeginValueOn(); it; ++it) sum += *it * double(it.getVoxelCount());
   EXPECT_NEAR(sum * 0.2 * 0.2 * 0.2, kept.report.massAfter, 1e-6 * kept.report.massAfter);
+  // |det J| of the squash: s(r)^2 (s + r s'(r)) stays within [0.6^3, 0.8^3 * 2]: not extreme.
+  EXPECT_GE(kept.report.minVolumeChange, 0.6 * 0.6 * 0.6 * 0.99);
+  EXPECT_LE(kept.report.maxVolumeChange, 1.1);
+  EXPECT_FALSE(hasExtremeVolumeChange(kept.report));
+  EXPECT_EQ(plain.report.maxVolumeChange, 0.0) << "nothing divided without conserveMass";
+}
+
+// A squeeze by 1e-4 along z: every density is divided by |det J| = 1e-4, the fog collapses
+// into one layer of voxels and its total is far off; the report says so.
+TEST(WarpVolume, ReportsExtremeVolumeChangesUnderConserveMass) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.1, 0.0, -0.1), 1.0, 0.2);
+  const FunctionWarp squeeze([](const Vec3& x) { return Vec3(x.x, x.y, 1e-4 * x.z); });
+  WarpVolumeOptions options;
+  options.conserveMass = true;
+  const auto squeezed = warpVolume(squeeze, *fog, options);
+  EXPECT_NEAR(squeezed.report.minVolumeChange, 1e-4, 1e-9);
+  EXPECT_NEAR(squeezed.report.maxVolumeChange, 1e-4, 1e-9);
+  EXPECT_EQ(squeezed.report.degenerateVolumeChanges, 0u);
+  EXPECT_TRUE(hasExtremeVolumeChange(squeezed.report));
+  EXPECT_GT(squeezed.report.massAfter / squeezed.report.massBefore, 10.0);
 }
 
 TEST(WarpVolume, CountsVoxelsWhereTheInverseDoesNotConverge) {

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <new>
 #include <system_error>
@@ -67,8 +68,88 @@ bool isSpace(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
 }
 
+std::string quotedToken(std::string_view token) {
+  std::string text(1, '\'');
+  text += printable(token.substr(0, 64));
+  text += token.size() > 64 ? "...'" : "'";
+  return text;
+}
+
 void failAt(const std::string& name, std::size_t line, const std::string& message) {
   throw IoError(name + ":" + std::to_string(line) + ": " + message);
+}
+
+void checkNoNul(std::string_view text, const std::string& name, std::size_t line,
+                std::uint64_t offset) {
+  const void* nul = std::memchr(text.data(), '\0', text.size());
+  if (nul == nullptr) return;
+  const auto at = offset + static_cast<std::uint64_t>(static_cast<const char*>(nul) - text.data());
+  failAt(name, line,
+         "unexpected NUL byte (byte offset " + std::to_string(at) + "): not a text file");
+}
+
+TextLines::TextLines(std::istream& in, const std::string& name, bool loneCrEndsLine)
+    : in_(in), name_(name), loneCrEndsLine_(loneCrEndsLine), buffer_(std::size_t{1} << 16) {}
+
+bool TextLines::refill() {
+  if (eof_) return false;
+  bufferOffset_ += end_;
+  in_.read(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+  if (in_.bad()) throw IoError(name_ + ": read error");
+  const auto count = static_cast<std::size_t>(in_.gcount());
+  if (count < buffer_.size()) eof_ = true;
+  pos_ = 0;
+  end_ = count;
+  // The whole block is checked at once, so that binary input fails at its first block even
+  // when its lines are long. The block starts inside the line after lineNumber_ (a "\n" that
+  // ends the last line read excepted); the lines up to the NUL are counted for the message.
+  const std::string_view block(buffer_.data(), count);
+  const std::size_t nul = block.find('\0');
+  if (nul != std::string_view::npos) {
+    std::size_t line = lineNumber_ + 1;
+    for (std::size_t i = (skipLf_ && block[0] == '\n') ? 1 : 0; i < nul; ++i) {
+      if (block[i] == '\n' || (loneCrEndsLine_ && block[i] == '\r' && block[i + 1] != '\n')) ++line;
+    }
+    checkNoNul(block, name_, line, bufferOffset_);
+  }
+  return count > 0;
+}
+
+bool TextLines::next(std::string_view& line) {
+  line_.clear();
+  bool any = false;
+  for (;;) {
+    if (pos_ == end_ && !refill()) break;
+    if (skipLf_) {
+      skipLf_ = false;
+      if (buffer_[pos_] == '\n') {
+        ++pos_;
+        continue;
+      }
+    }
+    any = true;
+    const char* begin = buffer_.data() + pos_;
+    const std::size_t available = end_ - pos_;
+    std::size_t length = 0;
+    while (length < available && begin[length] != '\n' &&
+           !(loneCrEndsLine_ && begin[length] == '\r'))
+      ++length;
+    if (line_.size() + length > kMaxTextLine) {
+      failAt(name_, lineNumber_ + 1,
+             "line too long (more than " + std::to_string(kMaxTextLine) + " bytes)");
+    }
+    line_.append(begin, length);
+    pos_ += length;
+    if (pos_ < end_) {
+      skipLf_ = begin[length] == '\r';  // "\r\n" is one line end, even across blocks
+      ++pos_;
+      break;
+    }
+  }
+  if (!any) return false;
+  ++lineNumber_;
+  line = line_;
+  return true;
 }
 
 void rethrowAsIoError(const std::string& name) {
