@@ -4,7 +4,9 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <string>
 
+#include <spacewarp/core/detail/batch.h>
 #include <spacewarp/core/detail/power_of_two_scale.h>
 #include <spacewarp/core/errors.h>
 
@@ -224,28 +226,30 @@ InverseResult continueInverse(const Warp& warp, const Vec3& y, const InverseAnch
 InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options,
                       const InverseHint& hint) {
   if (!isFinite(y)) throw InvalidInput("inverse: the target point is not finite");
-  if (options.closedForm && options.maxIterations > 0) {
-    if (const std::optional<Vec3> exact = warp.exactInverse(y); exact && isFinite(*exact)) {
-      InverseResult result;
-      result.x = *exact;
-      result.converged = true;
-      result.residual = glm::length(warp.apply(result.x) - y);
-      return result;
-    }
-  }
+  const std::optional<Vec3> exact = options.closedForm && options.maxIterations > 0
+                                        ? warp.exactInverse(y)
+                                        : std::optional<Vec3>();
+  const bool useExact = exact && isFinite(*exact);
   // warp(y) is needed only for the default seed and scale: callers that give both skip it.
   Vec3 fy(0.0);
-  if (!hint.seed || !(options.lengthScale > 0.0)) fy = warp.apply(y);
+  if ((!hint.seed && !useExact) || !(options.lengthScale > 0.0)) fy = warp.apply(y);
   const double scale = options.lengthScale > 0.0 ? options.lengthScale
                                                  : std::max({maxAbs(y), maxAbs(fy - y), 1e-300});
   const double tolerance = options.tolerance * scale;
 
   InverseResult result;
   Vec3 fx;
-  if (hint.seed) {
-    result.x = *hint.seed;
+  if (useExact || hint.seed) {
+    // The closed form is checked like any other point: if rounding left it above the
+    // tolerance, Newton finishes from it.
+    result.x = useExact ? *exact : *hint.seed;
     fx = warp.apply(result.x);
     result.residual = glm::length(fx - y);
+    if (useExact && result.residual <= tolerance) {
+      result.converged = true;
+      result.closedForm = true;
+      return result;
+    }
   } else {
     result.x = y - (fy - y);
     fx = warp.apply(result.x);
@@ -260,6 +264,23 @@ InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& opt
   if (std::isfinite(result.residual)) {
     newton(warp, y, fx, hint.chordInverse ? &*hint.chordInverse : nullptr, tolerance,
            options.maxIterations, result);
+  }
+  // Without a caller's seed, y itself is the second: where the displacement turns fast (a large
+  // rotation, a lattice whose faces moved) the reflected one can land across a kink or a jump
+  // of the warp that Newton cannot cross back, while the warp's Jacobian at y points the way.
+  if (!result.converged && !hint.seed && !(start == y)) {
+    InverseResult second;
+    second.x = y;
+    const Vec3 fyAgain = warp.apply(y);
+    second.residual = glm::length(fyAgain - y);
+    if (std::isfinite(second.residual))
+      newton(warp, y, fyAgain, nullptr, tolerance, options.maxIterations, second);
+    second.iterations += result.iterations;
+    if (second.converged || second.residual < result.residual) {
+      result = second;
+    } else {
+      result.iterations = second.iterations;
+    }
   }
   if (result.converged || !options.continuation) return result;
 
@@ -279,6 +300,33 @@ InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& opt
     result.converged = true;
   }
   return result;
+}
+
+void inverseBatch(const Warp& warp, std::span<const Vec3> targets, std::span<InverseResult> results,
+                  const InverseOptions& options, const ProgressCallback& progress) {
+  detail::requireSameSize("inverseBatch", targets.size(), results.size());
+  for (std::size_t i = 0; i < targets.size(); ++i)
+    if (!isFinite(targets[i]))
+      throw InvalidInput("inverse: point " + std::to_string(i) + " is not finite");
+  // A solve costs tens of warp evaluations: small ranges balance points of unequal cost.
+  constexpr std::size_t kGrain = 64;
+  const std::size_t n = targets.size();
+  ProgressTracker tracker(progress, "inverse", n);
+  forEachBlock(n, progress ? std::size_t{1} << 14 : 0, tracker,
+               [&](std::size_t begin, std::size_t count) {
+                 detail::forEachRange(count, kGrain, [&](std::size_t b, std::size_t e) {
+                   for (std::size_t i = begin + b; i != begin + e; ++i)
+                     results[i] = inverse(warp, targets[i], options);
+                   return UnmappedPoints{};
+                 });
+               });
+}
+
+Vec3 transformNormalByInverse(const Mat3& jacobianAtPreimage, const Vec3& n) {
+  const Vec3 v = glm::transpose(detail::scaledToUnit(jacobianAtPreimage)) * n;
+  const double length = glm::length(v);
+  if (!(length > 0.0) || !std::isfinite(length)) return Vec3(0.0);
+  return v / length;
 }
 
 }  // namespace spacewarp

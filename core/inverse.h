@@ -4,8 +4,10 @@
 // Jacobian, and a continuation fallback for warps that are only C⁰ (kinks stall Newton).
 
 #include <optional>
+#include <span>
 
 #include <spacewarp/core/math.h>
+#include <spacewarp/core/progress.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
@@ -26,8 +28,10 @@ struct InverseOptions {
   /// continueInverse()). Default on.
   bool continuation = true;
   /// Whether the warp's closed-form inverse (Warp::exactInverse()) is used where it has one:
-  /// the result is then that point, reported converged with its residual measured and no
-  /// iterations. Default on. Not used when maxIterations is 0 (the seed alone is evaluated).
+  /// the result is then that point, reported converged (with `closedForm` set) with its
+  /// residual measured and no iterations, as long as that residual meets the tolerance; if it
+  /// does not, the closed form seeds Newton. Default on. Not used when maxIterations is 0 (the
+  /// seed alone is evaluated).
   bool closedForm = true;
 };
 
@@ -37,7 +41,9 @@ struct InverseOptions {
 struct InverseResult {
   Vec3 x{0.0};
   bool converged = false;
-  int iterations = 0;  ///< Chord and Newton steps of the first solve.
+  int iterations = 0;  ///< Chord and Newton steps of the first solve (both seeds' steps).
+  /// Whether x is the warp's closed-form inverse (Warp::exactInverse()), with no iteration.
+  bool closedForm = false;
   /// Newton steps of the continuation fallback (0 when it did not run).
   int continuationIterations = 0;
   double residual = 0.0;  ///< |warp(x) - y| in world units.
@@ -56,8 +62,9 @@ struct InverseAnchor {
 /// Optional knowledge of the caller that makes the solve cheaper or more reliable.
 struct InverseHint {
   /// Where Newton starts (world units). Default: the reflected displacement y - (warp(y) - y),
-  /// or y itself when the warp is not finite there. A seed where the warp is not finite fails
-  /// the first solve.
+  /// or y itself when the warp is not finite there; where Newton from it fails, Newton from y
+  /// is tried too. A seed given here is the only one, and where the warp is not finite there
+  /// the first solve fails.
   std::optional<Vec3> seed;
   /// The inverse of a fixed Jacobian near the solution (e.g. of the seed's neighbourhood): the
   /// first steps are chord steps x -= chordInverse (warp(x) - y), no Jacobian evaluated, for
@@ -70,11 +77,25 @@ struct InverseHint {
 
 /// Finds x with warp(x) = y: the warp's closed form if it has one (options.closedForm), else damped
 /// Newton (backtracking on the residual) from the hint's seed (after chord steps if the hint has a
-/// chord matrix), then, if that fails and options.continuation is on, continueInverse() from the
+/// chord matrix) — without a seed from the hint, from the default seed and then, if that fails,
+/// from y itself —, then, if that fails and options.continuation is on, continueInverse() from the
 /// hint's anchor. Never throws for non-convergence: it reports it. Throws InvalidInput if y is not
 /// finite.
 InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options = {},
                       const InverseHint& hint = {});
+
+/// results[i] = inverse(warp, targets[i], options) for every i, in parallel (TBB), each from the
+/// default seed. The ranges depend only on the number of points, so the results do not depend on
+/// the number of threads. Reports the stage "inverse" to `progress`; a cancel throws Cancelled.
+/// Throws InvalidInput if the spans differ in size or a target is not finite (naming its index).
+void inverseBatch(const Warp& warp, std::span<const Vec3> targets, std::span<InverseResult> results,
+                  const InverseOptions& options = {}, const ProgressCallback& progress = {});
+
+/// The normal n at y = warp(x) carried through the warp's inverse, given the warp's Jacobian J
+/// at the preimage x: J^T n normalised (the inverse's Jacobian at y is J^-1, and J^-1's
+/// inverse transpose is J^T), a zero vector where that vanishes (never NaN). J is first scaled
+/// by a power of two, as in transformNormal(), so entries near 1e300 or 1e-300 give it too.
+Vec3 transformNormalByInverse(const Mat3& jacobianAtPreimage, const Vec3& n);
 
 /// The continuation fallback on its own: from the anchor along the segment from its image to y
 /// in steps of at most options.lengthScale (a sixteenth of the segment if 0), each solved by a
