@@ -41,4 +41,13 @@ std::string counted(std::size_t n, const std::string& noun) {
   return groupDigits(n) + " " + noun + (n == 1 ? "" : "s");
 }
 
+std::string summaryLine(const std::string& verb, const std::string& what, double seconds,
+                        const std::string& output, std::size_t warnings) {
+  char time[32];
+  std::snprintf(time, sizeof time, "%.3g s", seconds);
+  std::string line = verb + " " + what + " in " + time + " -> " + output;
+  if (warnings > 0) line += ", " + counted(warnings, "warning");
+  return line;
+}
+
 }  // namespace spacewarp::cli

@@ -41,4 +41,9 @@ std::string groupDigits(std::size_t n);
 /// "1 point", "10,000 points": `n` grouped, then `noun`, plural unless n is 1.
 std::string counted(std::size_t n, const std::string& noun);
 
+/// The line a command ends with: "<verb> <what> in 0.12 s -> <output>[, 1 warning]", e.g.
+/// "deformed 10,000 points (7,800 faces) in 0.12 s -> out.ply, 1 warning".
+std::string summaryLine(const std::string& verb, const std::string& what, double seconds,
+                        const std::string& output, std::size_t warnings);
+
 }  // namespace spacewarp::cli

@@ -2,7 +2,6 @@
 // a point cloud or (by extension) an OpenVDB volume.
 
 #include <chrono>
-#include <cstdio>
 
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/rig/rig.h>
@@ -22,16 +21,6 @@ struct DeformArgs {
   CageMethodOptions cageOptions;
   VolumeCliOptions volumeOptions;
 };
-
-// "deformed 10,000 points (7,800 faces) in 0.12 s -> out.ply, 1 warning".
-std::string summaryLine(const std::string& what, double seconds, const std::string& output,
-                        std::size_t warnings) {
-  char time[32];
-  std::snprintf(time, sizeof time, "%.3g s", seconds);
-  std::string line = "deformed " + what + " in " + time + " -> " + output;
-  if (warnings > 0) line += ", " + counted(warnings, "warning");
-  return line;
-}
 
 // --rig, or --method with --cage and --pose: where the warp comes from.
 void addWarpOptions(CLI::App* cmd, DeformArgs& args) {
@@ -80,7 +69,7 @@ void runDeform(const DeformArgs& args, const CliContext& context) {
   }
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  context.say(summaryLine(what, seconds, args.output, context.warnings()));
+  context.say(summaryLine("deformed", what, seconds, args.output, context.warnings()));
 }
 
 }  // namespace

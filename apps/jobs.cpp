@@ -17,10 +17,8 @@
 
 namespace spacewarp::cli {
 
-void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path& input,
-                const std::filesystem::path& output, bool ascii, const CliContext& context) {
-  const DeformReport report =
-      namingFile(input.string(), [&] { return deform(warp, soup, context.progress()); });
+void writeSoupFile(const PolygonSoup& soup, const std::filesystem::path& output, bool ascii,
+                   const CliContext& context) {
   WriteOptions options;
   if (ascii) options.plyEncoding = PlyEncoding::Ascii;
   writeSoup(soup, output, options);
@@ -34,12 +32,23 @@ void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path
     for (std::size_t k = 0; k < lost.size(); ++k) line += (k ? "; " : "") + lost[k];
     context.warn(line + "; they are not written");
   }
-  if (report.singularNormals > 0) {
-    context.warn(input.string() + ": the warp is singular at " +
-                 std::to_string(report.singularNormals) + " of " + std::to_string(soup.size()) +
-                 " vertices; their normals are undefined (written as the flattened surface's "
-                 "normal, or zero)");
-  }
+}
+
+void warnSingularNormals(const std::filesystem::path& input, std::size_t singular,
+                         std::size_t total, const CliContext& context) {
+  if (singular == 0) return;
+  context.warn(input.string() + ": the warp is singular at " + std::to_string(singular) + " of " +
+               std::to_string(total) +
+               " vertices; their normals are undefined (written as the flattened surface's "
+               "normal, or zero)");
+}
+
+void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path& input,
+                const std::filesystem::path& output, bool ascii, const CliContext& context) {
+  const DeformReport report =
+      namingFile(input.string(), [&] { return deform(warp, soup, context.progress()); });
+  writeSoupFile(soup, output, ascii, context);
+  warnSingularNormals(input, report.singularNormals, soup.size(), context);
 }
 
 void deformSoupFile(const Warp& warp, const std::filesystem::path& input,

@@ -14,6 +14,16 @@
 
 namespace spacewarp::cli {
 
+/// Writes `soup` to `output` atomically (`ascii`: PLY as ASCII), with a warning through
+/// `context` naming what the output's format cannot store.
+void writeSoupFile(const PolygonSoup& soup, const std::filesystem::path& output, bool ascii,
+                   const CliContext& context);
+
+/// A warning through `context` when `singular` of the `total` vertices of `input` had their
+/// normals carried through a singular Jacobian (nothing when there are none).
+void warnSingularNormals(const std::filesystem::path& input, std::size_t singular,
+                         std::size_t total, const CliContext& context);
+
 /// Warps `soup`, read from `input` (named in messages), and writes it to `output` atomically.
 /// `ascii` writes PLY as ASCII. Progress and warnings (formats that drop attributes, normals
 /// undefined where the warp is singular) go through `context`.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <spacewarp/core/errors.h>
@@ -81,6 +82,48 @@ BendWarp::BendWarp(const BendParams& params)
 
 Vec3 BendWarp::apply(const Vec3& x) const {
   return bendPoint({frame_.origin, frame_.axis, direction_, params_.rate, frame_.lo, frame_.hi}, x);
+}
+
+std::optional<Vec3> BendWarp::exactInverse(const Vec3& target) const {
+  const double k = params_.rate;
+  if (k == 0.0) return target;
+  const Vec3& a = frame_.axis;
+  const Vec3& d = direction_;
+  const Vec3 rel = target - frame_.origin;
+  const double Y = glm::dot(rel, a);
+  const double Z = glm::dot(rel, d);
+  // Candidates: the rigid parts beyond each limit, and the bent region (angle and distance
+  // from the centre of curvature, scaled by k). Beyond the bent region the parts can overlap
+  // (the bend folds far from the spine): the candidate that moves least is taken.
+  std::optional<Vec3> best;
+  double bestMove = std::numeric_limits<double>::infinity();
+  auto consider = [&](double y, double z) {
+    const double move = std::hypot(y - Y, z - Z);
+    if (move < bestMove) {
+      bestMove = move;
+      best = target + (y - Y) * a + (z - Z) * d;
+    }
+  };
+  // Beyond a limit the space moved rigidly with the end of the bent region: rotate back.
+  for (const double limit : {frame_.hi, frame_.lo}) {
+    if (!std::isfinite(limit)) continue;
+    const BendTrig g = bendTrig(k, limit);
+    const double c = 1.0 - g.oneMinusC;
+    const double du = Y - g.sOverK, dw = Z - g.oneMinusCOverK;
+    const double dy = c * du + g.s * dw;
+    if (limit == frame_.hi ? dy > 0.0 : dy < 0.0) consider(limit + dy, -g.s * du + c * dw);
+  }
+  const double u = k * Y, w = 1.0 - k * Z;
+  const double h = std::hypot(u, w);
+  const double angleY = std::atan2(u, w) / k;
+  const double y = frame_.clamp(angleY);
+  // The angle is rounded: a point on a limit may come out a hair beyond it (and then not
+  // beyond it in the rigid part's terms), where the two maps agree to first order: clamped.
+  const bool inside =
+      y == angleY || (!best && std::abs(y - angleY) <= 1e-9 * std::max(1.0, std::abs(y)));
+  // z = (1 - h) / k without cancellation: 1 - h² = k (2 Z - k (Y² + Z²)).
+  if (h > 0.0 && inside) consider(y, (2.0 * Z - k * (Y * Y + Z * Z)) / (1.0 + h));
+  return best;
 }
 
 Mat3 BendWarp::jacobian(const Vec3& x) const {

@@ -40,9 +40,9 @@ struct BendParams {
 /// limits and 0 beyond them (a pure rotation there); det J = 1 - k' z.
 ///
 /// Without limits the bend is periodic along the spine (period 2 pi / |k|) and folds at
-/// 1 - k z = 0, so a point has many preimages. The generic inverse() (Newton seeded by the
-/// reflected displacement) reliably returns the one with 1 - k z > 0 for bend angles |k ŷ| up to
-/// about 1 rad; at larger angles it can converge to another preimage.
+/// 1 - k z = 0, so a point has many preimages. exactInverse() (which inverse() uses) names one
+/// in closed form: of the one in the bent region with 1 - k z > 0 and bend angle k ŷ in (-π, π]
+/// and those in the rigid parts beyond the limits, the one that moves least.
 class BendWarp final : public Warp {
  public:
   /// Throws InvalidInput for a zero or non-finite axis or direction, a direction parallel to the
@@ -51,6 +51,12 @@ class BendWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
+  /// In the local frame, with Y, Z the target's coordinates: the bent region maps (y, z) to
+  /// (k Y, 1 - k Z) = (1 - k z)(sin k y, cos k y), so k y = atan2(k Y, 1 - k Z) and
+  /// 1 - k z = hypot(k Y, 1 - k Z), a candidate when y lies within the limits; the rigid motion
+  /// of each part beyond a limit undone is a candidate when the point lands beyond it. The
+  /// candidate nearest the target is returned; empty when there is none.
+  std::optional<Vec3> exactInverse(const Vec3& y) const override;
 
   /// The parameters as given (axis and direction not normalised or orthogonalised).
   const BendParams& params() const { return params_; }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include <spacewarp/core/detail/power_of_two_scale.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -18,6 +19,16 @@ AffineWarp::AffineWarp(const Mat4& m) : linear_(m), translation_(m[3]) {
   }
   if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
     throw InvalidInput("affine matrix: the last row must be (0, 0, 0, 1)");
+  singular_ = isSingularJacobian(linear_);
+  if (!singular_) linearInverse_ = detail::inverseScaled(linear_);  // entries of 1e300 too
+}
+
+std::optional<Vec3> AffineWarp::exactInverse(const Vec3& y) const {
+  if (singular_) return std::nullopt;
+  const Vec3 x = linearInverse_ * (y - translation_);
+  // One step of refinement on the residual: the rounding of the inverse matrix is then
+  // corrected to the accuracy of apply() itself.
+  return x + linearInverse_ * (y - apply(x));
 }
 
 ComposedWarp::ComposedWarp(std::shared_ptr<const Warp> first, std::shared_ptr<const Warp> second)
@@ -27,6 +38,12 @@ ComposedWarp::ComposedWarp(std::shared_ptr<const Warp> first, std::shared_ptr<co
 
 Mat3 ComposedWarp::jacobian(const Vec3& x) const {
   return second_->jacobian(first_->apply(x)) * first_->jacobian(x);
+}
+
+std::optional<Vec3> ComposedWarp::exactInverse(const Vec3& y) const {
+  const std::optional<Vec3> mid = second_->exactInverse(y);
+  if (!mid) return std::nullopt;
+  return first_->exactInverse(*mid);
 }
 
 std::size_t ComposedWarp::batchGrain() const {

@@ -14,6 +14,7 @@ class IdentityWarp final : public Warp {
  public:
   Vec3 apply(const Vec3& x) const override { return x; }
   Mat3 jacobian(const Vec3&) const override { return Mat3(1.0); }
+  std::optional<Vec3> exactInverse(const Vec3& y) const override { return y; }
 };
 
 /// x' = M [x, 1] for a 4 x 4 homogeneous matrix whose last row is (0, 0, 0, 1).
@@ -26,6 +27,8 @@ class AffineWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override { return linear_ * x + translation_; }
   Mat3 jacobian(const Vec3&) const override { return linear_; }
+  /// M⁻¹ (y - t); empty when the linear part is singular (isSingularJacobian).
+  std::optional<Vec3> exactInverse(const Vec3& y) const override;
 
   const Mat3& linear() const { return linear_; }
   const Vec3& translation() const { return translation_; }
@@ -33,6 +36,8 @@ class AffineWarp final : public Warp {
  private:
   Mat3 linear_;
   Vec3 translation_;
+  Mat3 linearInverse_{1.0};  // valid when !singular_
+  bool singular_ = false;
 };
 
 /// x' = second(first(x)); the Jacobian follows the chain rule, J = J_second(first(x)) J_first(x).
@@ -43,6 +48,8 @@ class ComposedWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override { return second_->apply(first_->apply(x)); }
   Mat3 jacobian(const Vec3& x) const override;
+  /// first⁻¹(second⁻¹(y)) when both stages have a closed-form inverse; empty otherwise.
+  std::optional<Vec3> exactInverse(const Vec3& y) const override;
 
  protected:
   /// The smaller of the stages' grains.

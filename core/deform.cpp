@@ -4,8 +4,10 @@
 #include <array>
 #include <bit>
 #include <cstdint>
+#include <iomanip>
 #include <map>
 #include <span>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/inverse.h>
 
 namespace spacewarp {
 namespace {
@@ -39,17 +42,18 @@ std::vector<Vec3> movedPositions(const Warp& warp, const std::vector<Vec3>& posi
   return moved;
 }
 
-/// The Jacobians at the positions whose `needed` flag is set (the others are left zero), and
-/// how many of those are singular.
-std::size_t jacobians(const Warp& warp, const std::vector<Vec3>& positions,
-                      const std::vector<char>& needed, std::vector<Mat3>& out) {
-  out.assign(positions.size(), Mat3(0.0));
+/// The Jacobians jacobianAt(i) of the vertices whose `needed` flag is set (the others are left
+/// zero), and how many of those are singular.
+template <class JacobianAt>
+std::size_t jacobians(std::size_t n, const std::vector<char>& needed, const JacobianAt& jacobianAt,
+                      std::vector<Mat3>& out) {
+  out.assign(n, Mat3(0.0));
   return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, positions.size(), 1024), std::size_t{0},
+      tbb::blocked_range<std::size_t>(0, n, 1024), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& r, std::size_t singular) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           if (!needed[i]) continue;
-          out[i] = warp.jacobian(positions[i]);
+          out[i] = jacobianAt(i);
           if (isSingularJacobian(out[i])) ++singular;
         }
         return singular;
@@ -57,11 +61,12 @@ std::size_t jacobians(const Warp& warp, const std::vector<Vec3>& positions,
       [](std::size_t a, std::size_t b) { return a + b; });
 }
 
-/// The corner normals carried through the Jacobians of their vertices, sharing kept where
-/// the results agree (see deform()).
+/// The corner normals carried by carry(J, n) through the Jacobians J of their vertices, sharing
+/// kept where the results agree (see deform()).
+template <class Carry>
 CornerAttribute transformedCornerNormals(const CornerAttribute& normals,
                                          const std::vector<std::uint32_t>& faceIndices,
-                                         const std::vector<Mat3>& jacobian) {
+                                         const std::vector<Mat3>& jacobian, const Carry& carry) {
   constexpr std::uint32_t kNone = CornerAttribute::kNone;
   const std::size_t corners = normals.indices.size();
   std::vector<Vec3> transformed(corners);
@@ -70,8 +75,7 @@ CornerAttribute transformedCornerNormals(const CornerAttribute& normals,
                       for (std::size_t c = r.begin(); c != r.end(); ++c) {
                         const std::uint32_t k = normals.indices[c];
                         if (k != kNone)
-                          transformed[c] =
-                              transformNormal(jacobian[faceIndices[c]], normals.values[k]);
+                          transformed[c] = carry(jacobian[faceIndices[c]], normals.values[k]);
                       }
                     });
 
@@ -113,29 +117,90 @@ CornerAttribute transformedCornerNormals(const CornerAttribute& normals,
   return result;
 }
 
+// The per-vertex normals of `points` carried by carry(J_i, n_i), J_i = jacobianAt(i); returns
+// how many J_i are singular. No stored Jacobians here: point clouds can be large. The count is
+// an integer sum, the same for any partition.
+template <class JacobianAt, class Carry>
+std::size_t carryVertexNormals(PointSet& points, const JacobianAt& jacobianAt, const Carry& carry) {
+  if (!points.hasNormals()) return 0;
+  std::vector<Vec3> normals(points.normals.size());
+  const std::size_t singular = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, normals.size(), 1024), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t singular) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Mat3 j = jacobianAt(i);
+          if (isSingularJacobian(j)) ++singular;
+          normals[i] = carry(j, points.normals[i]);
+        }
+        return singular;
+      },
+      [](std::size_t a, std::size_t b) { return a + b; });
+  points.normals = std::move(normals);
+  return singular;
+}
+
+// The per-corner normals of `soup` (validate() excludes per-vertex ones) carried the same way,
+// with Jacobians at the vertices that have them only.
+template <class JacobianAt, class Carry>
+std::size_t carryCornerNormals(PolygonSoup& soup, const JacobianAt& jacobianAt,
+                               const Carry& carry) {
+  std::vector<char> needed(soup.size(), 0);
+  for (std::size_t c = 0; c < soup.faceIndices.size(); ++c)
+    if (soup.cornerNormals.indices[c] != CornerAttribute::kNone) needed[soup.faceIndices[c]] = 1;
+  std::vector<Mat3> j;
+  const std::size_t singular = jacobians(soup.size(), needed, jacobianAt, j);
+  soup.cornerNormals = transformedCornerNormals(soup.cornerNormals, soup.faceIndices, j, carry);
+  return singular;
+}
+
+// A normal carried through the warp: J^-T n, normalised.
+Vec3 carryForward(const Mat3& j, const Vec3& n) { return transformNormal(j, n); }
+
+// The preimages of `positions` under `warp`, with the solves' counts in `report`. Throws
+// SolverError naming the first vertex whose solve did not converge.
+std::vector<Vec3> preimages(const Warp& warp, const std::vector<Vec3>& positions,
+                            const InverseOptions& options, const ProgressCallback& progress,
+                            InverseDeformReport& report) {
+  const std::size_t n = positions.size();
+  std::vector<InverseResult> results(n);
+  inverseBatch(warp, positions, results, options, progress);
+  std::vector<Vec3> x(n);
+  std::size_t failures = 0, first = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const InverseResult& r = results[i];
+    if (!r.converged && failures++ == 0) first = i;
+    x[i] = r.x;
+    ++(r.closedForm ? report.closedForm : report.iterative);
+    if (r.continuationIterations > 0) ++report.continuation;
+    report.maxResidual = std::max(report.maxResidual, r.residual);
+  }
+  if (failures > 0) {
+    const InverseResult& r = results[first];
+    const Vec3& y = positions[first];
+    // The tolerance the solve was held to (inverse()'s scale, recomputed for this one point).
+    const double scale = options.lengthScale > 0.0
+                             ? options.lengthScale
+                             : std::max({maxAbs(y), maxAbs(warp.apply(y) - y), 1e-300});
+    std::ostringstream m;
+    m << std::setprecision(17) << "the inverse of the warp did not converge at " << failures
+      << " of " << n << " vertices; the first is vertex " << first << " at (" << y.x << ", " << y.y
+      << ", " << y.z << ")" << std::setprecision(3) << ": residual " << r.residual
+      << " > tolerance " << options.tolerance * scale << " (world units) after "
+      << r.iterations + r.continuationIterations << " iterations; the warp may fold space or "
+      << "flatten it there, so that the point has no preimage or several";
+    throw SolverError(m.str());
+  }
+  return x;
+}
+
 }  // namespace
 
 DeformReport deform(const Warp& warp, PointSet& points, const ProgressCallback& progress) {
   points.validate();
   std::vector<Vec3> moved = movedPositions(warp, points.positions, progress);
   DeformReport report;
-  if (points.hasNormals()) {
-    // No stored Jacobians here: point clouds can be large. The count is an integer sum, the
-    // same for any partition.
-    std::vector<Vec3> normals(points.normals.size());
-    report.singularNormals = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, normals.size(), 1024), std::size_t{0},
-        [&](const tbb::blocked_range<std::size_t>& r, std::size_t singular) {
-          for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            const Mat3 j = warp.jacobian(points.positions[i]);
-            if (isSingularJacobian(j)) ++singular;
-            normals[i] = transformNormal(j, points.normals[i]);
-          }
-          return singular;
-        },
-        [](std::size_t a, std::size_t b) { return a + b; });
-    points.normals = std::move(normals);
-  }
+  report.singularNormals = carryVertexNormals(
+      points, [&](std::size_t i) { return warp.jacobian(points.positions[i]); }, carryForward);
   points.positions = std::move(moved);
   return report;
 }
@@ -143,17 +208,35 @@ DeformReport deform(const Warp& warp, PointSet& points, const ProgressCallback& 
 DeformReport deform(const Warp& warp, PolygonSoup& soup, const ProgressCallback& progress) {
   soup.validate();
   if (soup.cornerNormals.empty()) return deform(warp, static_cast<PointSet&>(soup), progress);
-
-  // Per-corner normals (validate() excludes per-vertex ones): Jacobians at their vertices only.
   std::vector<Vec3> moved = movedPositions(warp, soup.positions, progress);
-  std::vector<char> needed(soup.size(), 0);
-  for (std::size_t c = 0; c < soup.faceIndices.size(); ++c)
-    if (soup.cornerNormals.indices[c] != CornerAttribute::kNone) needed[soup.faceIndices[c]] = 1;
-  std::vector<Mat3> j;
   DeformReport report;
-  report.singularNormals = jacobians(warp, soup.positions, needed, j);
-  soup.cornerNormals = transformedCornerNormals(soup.cornerNormals, soup.faceIndices, j);
+  report.singularNormals = carryCornerNormals(
+      soup, [&](std::size_t i) { return warp.jacobian(soup.positions[i]); }, carryForward);
   soup.positions = std::move(moved);
+  return report;
+}
+
+InverseDeformReport deformInverse(const Warp& warp, PointSet& points, const InverseOptions& options,
+                                  const ProgressCallback& progress) {
+  points.validate();
+  InverseDeformReport report;
+  std::vector<Vec3> x = preimages(warp, points.positions, options, progress, report);
+  report.singularNormals = carryVertexNormals(
+      points, [&](std::size_t i) { return warp.jacobian(x[i]); }, transformNormalByInverse);
+  points.positions = std::move(x);
+  return report;
+}
+
+InverseDeformReport deformInverse(const Warp& warp, PolygonSoup& soup,
+                                  const InverseOptions& options, const ProgressCallback& progress) {
+  soup.validate();
+  if (soup.cornerNormals.empty())
+    return deformInverse(warp, static_cast<PointSet&>(soup), options, progress);
+  InverseDeformReport report;
+  std::vector<Vec3> x = preimages(warp, soup.positions, options, progress, report);
+  report.singularNormals = carryCornerNormals(
+      soup, [&](std::size_t i) { return warp.jacobian(x[i]); }, transformNormalByInverse);
+  soup.positions = std::move(x);
   return report;
 }
 

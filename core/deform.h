@@ -1,7 +1,9 @@
 #pragma once
-// Applying a warp to geometry: positions move through the warp, normals through J^-T.
+// Applying a warp or its inverse to geometry: positions move through the map, normals through
+// the inverse transpose of its Jacobian.
 
 #include <spacewarp/core/geometry.h>
+#include <spacewarp/core/inverse.h>
 #include <spacewarp/core/progress.h>
 #include <spacewarp/core/warp.h>
 
@@ -29,5 +31,41 @@ DeformReport deform(const Warp& warp, PointSet& points, const ProgressCallback& 
 /// appended to cornerNormals.values. Normals that no corner uses are left as they are.
 /// Polygons, face attributes and texture coordinates are untouched.
 DeformReport deform(const Warp& warp, PolygonSoup& soup, const ProgressCallback& progress = {});
+
+/// What deformInverse() found.
+struct InverseDeformReport {
+  /// Vertices whose preimage is the warp's closed form (Warp::exactInverse()), and those solved
+  /// iteratively (Newton from the default seed, then continuation), of which `continuation`
+  /// needed the continuation fallback.
+  std::size_t closedForm = 0;
+  std::size_t iterative = 0;
+  std::size_t continuation = 0;
+  /// The largest |warp(x) - y| over the vertices, world units.
+  double maxResidual = 0.0;
+  /// Vertices whose normals were carried through a singular Jacobian of the warp at their
+  /// preimage (the inverse is not differentiable there), as in DeformReport.
+  std::size_t singularNormals = 0;
+};
+
+/// The inverse of deform(): moves every position y to its preimage x under `warp` (warp(x) = y,
+/// found by inverse() with `options`, in parallel), so that deform(warp, ·) of the result gives
+/// the positions back to the tolerance; normals n are carried through the inverse's Jacobian,
+/// J(x)^T n normalised (transformNormalByInverse()). Other attributes are untouched. The
+/// tolerance is options.tolerance × options.lengthScale when that is positive (e.g. the
+/// input's bounding-box diagonal), otherwise relative to each point (see InverseOptions).
+/// All or nothing: throws SolverError if the solve of any vertex did not converge, naming the
+/// first (index, position, residual, tolerance) and how many failed, and InvalidInput if a
+/// position is not finite; the set is then unchanged. Reports the stage "inverse" to
+/// `progress`; a cancel throws Cancelled and leaves the set unchanged.
+InverseDeformReport deformInverse(const Warp& warp, PointSet& points,
+                                  const InverseOptions& options = {},
+                                  const ProgressCallback& progress = {});
+
+/// The same for a polygon soup's vertices; per-corner normals are carried through the Jacobians
+/// at their vertices' preimages, sharing kept as in deform(). Polygons, face attributes and
+/// texture coordinates are untouched.
+InverseDeformReport deformInverse(const Warp& warp, PolygonSoup& soup,
+                                  const InverseOptions& options = {},
+                                  const ProgressCallback& progress = {});
 
 }  // namespace spacewarp

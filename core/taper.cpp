@@ -38,6 +38,16 @@ Vec3 TaperWarp::apply(const Vec3& x) const {
   return taperPoint({frame_.origin, frame_.axis, params_.rate, frame_.lo, frame_.hi}, x);
 }
 
+std::optional<Vec3> TaperWarp::exactInverse(const Vec3& y) const {
+  const Vec3 d = y - frame_.origin;
+  const double s = glm::dot(d, frame_.axis);
+  const double rMinus1 = params_.rate * frame_.clamp(s);
+  const double r = 1.0 + rMinus1;
+  if (!(r != 0.0)) return std::nullopt;
+  // x = y + (1/r - 1) p with 1/r - 1 = -(r - 1)/r, so that rate = 0 is exactly the identity.
+  return y - (rMinus1 / r) * (d - s * frame_.axis);
+}
+
 Mat3 TaperWarp::jacobian(const Vec3& x) const {
   const Vec3& a = frame_.axis;
   const Vec3 d = x - frame_.origin;

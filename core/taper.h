@@ -38,6 +38,9 @@ class TaperWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
+  /// The taper keeps s, so x = origin + s a + p(y) / r(ŝ); empty where r(ŝ) = 0 (the
+  /// cross-section collapsed onto the axis: no unique preimage).
+  std::optional<Vec3> exactInverse(const Vec3& y) const override;
 
   /// The parameters as given (the axis not normalised).
   const TaperParams& params() const { return params_; }

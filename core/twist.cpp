@@ -44,6 +44,10 @@ TwistWarp::TwistWarp(const TwistParams& params)
 
 Vec3 TwistWarp::apply(const Vec3& x) const { return twistPoint(kernelOf(frame_, params_.rate), x); }
 
+std::optional<Vec3> TwistWarp::exactInverse(const Vec3& y) const {
+  return twistPoint(kernelOf(frame_, -params_.rate), y);
+}
+
 Mat3 TwistWarp::jacobian(const Vec3& x) const {
   const Vec3& a = frame_.axis;
   const double s = frame_.axial(x);

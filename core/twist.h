@@ -34,6 +34,8 @@ class TwistWarp final : public Warp {
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
+  /// The turn back: a rotation keeps s, so x = origin + R(-rate ŝ(y)) (y - origin). Always.
+  std::optional<Vec3> exactInverse(const Vec3& y) const override;
 
   /// The parameters as given (the axis not normalised).
   const TwistParams& params() const { return params_; }

@@ -6,6 +6,7 @@
 #include <string>
 
 #include <spacewarp/core/detail/batch.h>
+#include <spacewarp/core/detail/power_of_two_scale.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -15,23 +16,6 @@ namespace {
 // Columns of J^-T scaled by det(J): the cofactor matrix, well defined even when J is singular.
 Mat3 cofactor(const Mat3& j) {
   return Mat3(glm::cross(j[1], j[2]), glm::cross(j[2], j[0]), glm::cross(j[0], j[1]));
-}
-
-// v times 2^-e, e the exponent of `magnitude` (> 0, finite): exact (no rounding, as long as
-// no result is subnormal), so that products of such entries neither overflow nor underflow.
-Vec3 scaledDown(const Vec3& v, double magnitude) {
-  const int e = std::ilogb(magnitude);
-  return {std::scalbn(v.x, -e), std::scalbn(v.y, -e), std::scalbn(v.z, -e)};
-}
-
-// J scaled by the power of two that brings its largest entry into [1, 2): the same
-// directions, signs and ratios, so J^-T n normalised and the sign of det J are unchanged,
-// while the cofactors of entries near 1e300 or 1e-300 no longer overflow or underflow.
-// J unchanged when it is zero or not finite.
-Mat3 scaledToUnit(const Mat3& j) {
-  const double m = std::max({maxAbs(j[0]), maxAbs(j[1]), maxAbs(j[2])});
-  if (!(m > 0.0) || !std::isfinite(m)) return j;
-  return Mat3(scaledDown(j[0], m), scaledDown(j[1], m), scaledDown(j[2], m));
 }
 
 }  // namespace
@@ -45,7 +29,7 @@ bool isSingularJacobian(const Mat3& j) {
     if (!isFinite(j[c])) return true;
     const double m = maxAbs(j[c]);
     if (m == 0.0) return true;
-    const Vec3 column = scaledDown(j[c], m);
+    const Vec3 column = detail::scaledDown(j[c], m);
     unit[c] = column / glm::length(column);
   }
   return std::abs(glm::determinant(unit)) <= 1e-14;
@@ -64,6 +48,8 @@ Mat3 Warp::jacobian(const Vec3& x) const {
   }
   return j;
 }
+
+std::optional<Vec3> Warp::exactInverse(const Vec3&) const { return std::nullopt; }
 
 void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
   detail::requireSameSize("Warp::applyBatch", in.size(), out.size());
@@ -90,7 +76,7 @@ Vec3 transformNormal(const Warp& warp, const Vec3& x, const Vec3& n) {
 }
 
 Vec3 transformNormal(const Mat3& jacobian, const Vec3& n) {
-  const Mat3 j = scaledToUnit(jacobian);
+  const Mat3 j = detail::scaledToUnit(jacobian);
   Vec3 v = cofactor(j) * n;  // = det(J) J^-T n
   if (glm::determinant(j) < 0.0) v = -v;
   const double len = glm::length(v);
@@ -100,51 +86,6 @@ Vec3 transformNormal(const Mat3& jacobian, const Vec3& n) {
 
 Vec3 transformVector(const Warp& warp, const Vec3& x, const Vec3& v) {
   return warp.jacobian(x) * v;
-}
-
-InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options) {
-  if (!isFinite(y)) throw InvalidInput("inverse: the target point is not finite");
-  const Vec3 fy = warp.apply(y);
-  const double scale = options.lengthScale > 0.0 ? options.lengthScale
-                                                 : std::max({maxAbs(y), maxAbs(fy - y), 1e-300});
-  const double tolerance = options.tolerance * scale;
-
-  InverseResult result;
-  result.x = y - (fy - y);
-  double residual = glm::length(warp.apply(result.x) - y);
-  if (!std::isfinite(residual)) {  // the seed left the warp's domain: start from y instead
-    result.x = y;
-    residual = glm::length(fy - y);
-  }
-  for (;;) {
-    result.residual = residual;
-    if (residual <= tolerance) {
-      result.converged = true;
-      return result;
-    }
-    if (result.iterations >= options.maxIterations) return result;
-    const Mat3 j = warp.jacobian(result.x);
-    if (isSingularJacobian(j)) return result;
-    // J^-1 r as (2^-e J)^-1 (2^-e r): the same step, without overflow for huge J.
-    const Mat3 unit = scaledToUnit(j);
-    const double m = std::max({maxAbs(j[0]), maxAbs(j[1]), maxAbs(j[2])});
-    const Vec3 r = warp.apply(result.x) - y;
-    const Vec3 dx = -(glm::inverse(unit) * scaledDown(r, m));
-    // Backtracking: halve the step until the residual decreases.
-    bool accepted = false;
-    for (double t = 1.0; t > 1e-10; t *= 0.5) {
-      const Vec3 candidate = result.x + t * dx;
-      const double r = glm::length(warp.apply(candidate) - y);
-      if (r < residual) {
-        result.x = candidate;
-        residual = r;
-        accepted = true;
-        break;
-      }
-    }
-    ++result.iterations;
-    if (!accepted) return result;  // stalled: report the best point found
-  }
 }
 
 }  // namespace spacewarp

@@ -1,10 +1,12 @@
 #pragma once
 // The Warp interface: a map x -> x' of 3D space. Every warp in spacewarp implements it, and
 // everything that consumes warps (soups, point sets, volumes, inversion, normals) takes it.
+// Inversion lives in core/inverse.h.
 
 #include <algorithm>
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <span>
 
 #include <spacewarp/core/math.h>
@@ -53,6 +55,13 @@ class Warp {
   /// warps whose math allows it override this with the analytic Jacobian.
   virtual Mat3 jacobian(const Vec3& x) const;
 
+  /// The preimage of y in closed form, for warps that have one (twist, taper, bend within its
+  /// range, affine, compositions of these): inverse() then returns it instead of iterating.
+  /// Empty (the default) where there is none, or where y has no preimage the warp can name
+  /// (e.g. a singular affine map). What it returns is not checked here: inverse() measures
+  /// its residual.
+  virtual std::optional<Vec3> exactInverse(const Vec3& y) const;
+
   /// out[i] = apply(in[i]) for every i, in parallel (TBB): [0, n) is cut into ranges of
   /// batchGrain() points, each warped by applyRange(). The ranges depend only on n, so the
   /// result does not depend on the number of threads. `in` and `out` must have the same size;
@@ -100,30 +109,5 @@ bool isSingularJacobian(const Mat3& jacobian);
 
 /// The tangent vector v at x carried through the warp: J v (not normalised).
 Vec3 transformVector(const Warp& warp, const Vec3& x, const Vec3& v);
-
-/// Options of inverse().
-struct InverseOptions {
-  /// Newton iterations at most.
-  int maxIterations = 50;
-  /// Converged when |warp(x) - y| <= tolerance * scale, where scale is `lengthScale` if it is
-  /// positive, and otherwise max(|y|_inf, |warp(y) - y|_inf, 1e-300).
-  double tolerance = 1e-12;
-  /// World-unit length that the tolerance is relative to; 0 means "derive from y".
-  double lengthScale = 0.0;
-};
-
-/// What inverse() found. `converged` is false when the iterations ran out, the Jacobian was
-/// singular, or the residual stopped decreasing; `x` is then the best point found.
-struct InverseResult {
-  Vec3 x{0.0};
-  bool converged = false;
-  int iterations = 0;
-  double residual = 0.0;  ///< |warp(x) - y| in world units.
-};
-
-/// Finds x with warp(x) = y by damped Newton (backtracking on the residual), seeded by the
-/// reflected displacement x0 = y - (warp(y) - y). Never throws for non-convergence: it
-/// reports it. Throws InvalidInput if y is not finite.
-InverseResult inverse(const Warp& warp, const Vec3& y, const InverseOptions& options = {});
 
 }  // namespace spacewarp

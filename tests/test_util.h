@@ -20,6 +20,7 @@
 #include <tbb/task_arena.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/inverse.h>
 #include <spacewarp/core/math.h>
 #include <spacewarp/core/warp.h>
 

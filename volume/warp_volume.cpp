@@ -64,12 +64,6 @@ double spectralNorm(const Mat3& m) {
   return std::sqrt(lambda);
 }
 
-bool isSingular(const Mat3& j) {
-  const double det = glm::determinant(j);
-  const double scale = glm::length(j[0]) * glm::length(j[1]) * glm::length(j[2]);
-  return !std::isfinite(det) || std::abs(det) <= 1e-14 * scale;
-}
-
 // The linear (affine) voxel transform as world = a i + t, and its inverse.
 struct IndexFrame {
   Mat3 a{1.0}, aInverse{1.0};
@@ -100,200 +94,6 @@ IndexFrame indexFrame(const openvdb::GridBase& grid) {
   f.aInverse = glm::inverse(f.a);
   f.voxelSize = std::cbrt(std::abs(det));
   return f;
-}
-
-// Damped Newton for warp(x) = y from the seed x (world units), backtracking on the residual.
-struct Solve {
-  Vec3 x{0.0};
-  int iterations = 0;
-  bool converged = false;
-};
-
-// Solves warp(x) = y from the seed x (world units). Steps first use `chordInverse`, the
-// inverse Jacobian of the seed's cell (a chord method: no Jacobian evaluation), while they
-// reduce the residual at least fourfold; then damped Newton with the warp's Jacobian,
-// backtracking on the residual.
-Solve solveInverse(const Warp& warp, const Vec3& y, const Vec3& seed, const Mat3& chordInverse,
-                   double tolerance, int maxIterations) {
-  Solve s;
-  s.x = seed;
-  Vec3 fx = warp.apply(s.x);
-  double residual = glm::length(fx - y);
-  if (!std::isfinite(residual)) return s;
-  bool chord = true;
-  for (;;) {
-    if (residual <= tolerance) {
-      s.converged = true;
-      return s;
-    }
-    if (s.iterations >= maxIterations) return s;
-    if (chord) {
-      const Vec3 candidate = s.x - chordInverse * (fx - y);
-      const Vec3 fc = warp.apply(candidate);
-      const double r = glm::length(fc - y);
-      if (r <= 0.25 * residual) {  // false for NaN
-        s.x = candidate;
-        fx = fc;
-        residual = r;
-        ++s.iterations;
-        continue;
-      }
-      chord = false;
-    }
-    const Mat3 j = warp.jacobian(s.x);
-    if (isSingular(j)) return s;
-    const Vec3 dx = -(glm::inverse(j) * (fx - y));
-    bool accepted = false;
-    for (double t = 1.0; t > 1e-6; t *= 0.5) {
-      const Vec3 candidate = s.x + t * dx;
-      const Vec3 fc = warp.apply(candidate);
-      const double r = glm::length(fc - y);
-      if (r < residual) {  // false for NaN
-        s.x = candidate;
-        fx = fc;
-        residual = r;
-        accepted = true;
-        break;
-      }
-    }
-    ++s.iterations;
-    if (!accepted) return s;
-  }
-}
-
-// The Jacobian of the warp by central differences of step h (world units): for a warp that is
-// only C⁰ it is the Jacobian of the warp averaged over a box of edge 2h, so it models the warp
-// over that box across kinks, where the Jacobian at a point models it over no distance at all.
-Mat3 secantJacobian(const Warp& warp, const Vec3& x, double h) {
-  Mat3 j;
-  for (int c = 0; c < 3; ++c) {
-    Vec3 e(0.0);
-    e[c] = h;
-    j[c] = (warp.apply(x + e) - warp.apply(x - e)) / (2.0 * h);
-  }
-  return j;
-}
-
-// Newton for warp(x) = y from x that tolerates kinks: each step is tried with the warp's
-// Jacobian at x, then with secant Jacobians over boxes of the residual's size and of four times
-// that (at most `maxStep`), with backtracking until the residual decreases; when none does, the
-// residual is minimised along each step by golden-section search, which finds the way into thin
-// layers where the warp is steep (between close kinks) that backtracking steps over.
-Solve robustNewton(const Warp& warp, const Vec3& y, const Vec3& seed, double tolerance,
-                   double minStep, double maxStep, int maxIterations) {
-  Solve s;
-  s.x = seed;
-  Vec3 fx = warp.apply(s.x);
-  double residual = glm::length(fx - y);
-  if (!std::isfinite(residual)) return s;
-  auto residualAt = [&](const Vec3& x, Vec3& fc) {
-    fc = warp.apply(x);
-    const double r = glm::length(fc - y);
-    return std::isfinite(r) ? r : std::numeric_limits<double>::infinity();
-  };
-  for (;;) {
-    if (residual <= tolerance) {
-      s.converged = true;
-      return s;
-    }
-    if (s.iterations >= maxIterations) return s;
-    ++s.iterations;
-    bool accepted = false;
-    const double h = std::clamp(residual, minStep, maxStep);
-    // Backtracking first, then golden-section search, each over the three Jacobians.
-    for (int pass = 0; pass < 2 && !accepted; ++pass)
-      for (int attempt = 0; attempt < 3 && !accepted; ++attempt) {
-        const Mat3 j = attempt == 0   ? warp.jacobian(s.x)
-                       : attempt == 1 ? secantJacobian(warp, s.x, h)
-                                      : secantJacobian(warp, s.x, std::min(4.0 * h, maxStep));
-        if (isSingular(j)) continue;
-        Vec3 dx = -(glm::inverse(j) * (fx - y));
-        const double length = glm::length(dx);
-        if (length > maxStep) dx *= maxStep / length;  // stay on this sheet of the warp
-        if (pass == 0) {
-          for (double t = 1.0; t > 1e-3 && !accepted; t *= 0.5) {
-            Vec3 fc;
-            const double r = residualAt(s.x + t * dx, fc);
-            if (r < residual) {
-              s.x += t * dx;
-              fx = fc;
-              residual = r;
-              accepted = true;
-            }
-          }
-          continue;
-        }
-        // The smallest residual on the step, t in [0, 1], by golden-section search.
-        constexpr double kGolden = 0.6180339887498949;
-        double a = 0.0, b = 1.0;
-        double t1 = b - kGolden * (b - a), t2 = a + kGolden * (b - a);
-        Vec3 f1, f2;
-        double r1 = residualAt(s.x + t1 * dx, f1), r2 = residualAt(s.x + t2 * dx, f2);
-        for (int i = 0; i < 40; ++i) {
-          if (r1 <= r2) {
-            b = t2;
-            t2 = t1;
-            r2 = r1;
-            f2 = f1;
-            t1 = b - kGolden * (b - a);
-            r1 = residualAt(s.x + t1 * dx, f1);
-          } else {
-            a = t1;
-            t1 = t2;
-            r1 = r2;
-            f1 = f2;
-            t2 = a + kGolden * (b - a);
-            r2 = residualAt(s.x + t2 * dx, f2);
-          }
-        }
-        if (std::min(r1, r2) < residual) {
-          s.x += (r1 <= r2 ? t1 : t2) * dx;
-          fx = r1 <= r2 ? f1 : f2;
-          residual = std::min(r1, r2);
-          accepted = true;
-        }
-      }
-    if (!accepted) return s;
-  }
-}
-
-// The second chance of a voxel whose preimage solveInverse() did not find: continuation from
-// x0, whose image y0 is known, along the segment to y in steps of about a voxel (`voxel`, world
-// units), each solved by robustNewton() from the previous preimage; a step that fails is
-// halved. For a warp that is invertible along the way (however non-smooth) every step has a
-// preimage near the previous one; where the warp folds space the path runs into the fold and
-// the steps shrink until they give up. Deterministic: it depends on y, x0 and y0 only.
-Solve continueInverse(const Warp& warp, const Vec3& y, const Vec3& x0, const Vec3& y0,
-                      double orientation, double tolerance, double voxel, int maxIterations) {
-  Solve s;
-  s.x = x0;
-  const double distance = glm::length(y - y0);
-  if (!std::isfinite(distance)) return s;
-  double at = 0.0;
-  const double maxStep = distance > voxel ? voxel / distance : 1.0;
-  double step = maxStep;
-  const double minStep = 1e-3 * voxel;
-  const int budget = 4 * maxIterations;
-  while (at < 1.0) {
-    if (s.iterations >= 8 * budget || step < 1.0 / 1024.0) return s;
-    const double next = std::min(1.0, at + step);
-    const bool last = next >= 1.0;
-    const Vec3 target = last ? y : y0 + next * (y - y0);
-    // Intermediate targets need not be hit exactly: they only guide the path.
-    const Solve part =
-        robustNewton(warp, target, s.x, last ? tolerance : 0.05 * voxel, minStep, voxel, budget);
-    s.iterations += part.iterations;
-    if (part.converged &&
-        glm::determinant(secantJacobian(warp, part.x, 1e-2 * voxel)) * orientation > 0.0) {
-      s.x = part.x;
-      at = next;
-      step = std::min(2.0 * step, maxStep);
-    } else {
-      step *= 0.5;
-    }
-  }
-  s.converged = true;
-  return s;
 }
 
 // True when a voxel within `radius` (per axis) of x (index space) is active.
@@ -358,7 +158,7 @@ bool evaluateCell(const Warp& warp, const IndexFrame& frame,
 
   cell.image = frame.toIndex(imageWorld);
   const Mat3 j = frame.aInverse * jWorld * frame.a;
-  if (!isFinite(cell.image) || isSingular(j)) return rigid;
+  if (!isFinite(cell.image) || isSingularJacobian(j)) return rigid;
   cell.jacobianInverse = glm::inverse(j);
   cell.worldJacobianInverse = frame.a * cell.jacobianInverse * frame.aInverse;
   // Deviation of the corners from the affine model, in output and input voxels.
@@ -569,7 +369,7 @@ bool transformVector(const Warp& warp, const IndexFrame& frame, VectorRule rule,
     v = j * v;
     return isFinite(v);
   }
-  if (isSingular(j)) return false;
+  if (isSingularJacobian(j)) return false;
   const Vec3 w = glm::transpose(glm::inverse(j)) * v;
   const double length = glm::length(w);
   if (rule == VectorRule::Covariant || !(length > 0.0)) {
@@ -580,14 +380,8 @@ bool transformVector(const Warp& warp, const IndexFrame& frame, VectorRule rule,
   return isFinite(v);
 }
 
-template <typename GridT>
-WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
-                           const WarpVolumeOptions& options) {
-  using TreeT = typename GridT::TreeType;
-  using ValueT = typename GridT::ValueType;
-  using LeafT = typename TreeT::LeafNodeType;
-  constexpr bool kScalar = std::is_floating_point_v<ValueT>;
-
+// Throws InvalidInput for options out of their ranges.
+void validate(const WarpVolumeOptions& options) {
   if (!(options.cacheSpacing >= 0.0) || !std::isfinite(options.cacheSpacing)) {
     throw InvalidInput("warpVolume: cacheSpacing must be finite and >= 0, got " +
                        std::to_string(options.cacheSpacing));
@@ -603,394 +397,536 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   if (!(options.maxCandidateVoxels > 0.0)) {
     throw InvalidInput("warpVolume: maxCandidateVoxels must be > 0");
   }
-  if (options.maxNewtonIterations < 1 || !(options.inverseTolerance > 0.0)) {
-    throw InvalidInput("warpVolume: maxNewtonIterations must be >= 1 and inverseTolerance > 0");
+  if (options.inverse.maxIterations < 1 || !(options.inverse.tolerance > 0.0)) {
+    throw InvalidInput("warpVolume: inverse.maxIterations must be >= 1 and inverse.tolerance > 0");
   }
-  const bool levelSet = kScalar && in.getGridClass() == openvdb::GRID_LEVEL_SET;
-  const IndexFrame frame = indexFrame(in);
-  if (levelSet && !in.transform().hasUniformScale()) {
-    throw InvalidInput("warpVolume: level set '" + in.getName() +
-                       "' has non-cubic voxels; level sets need a uniform voxel scale");
-  }
-  const bool conserveMass = kScalar && !levelSet && options.conserveMass;
-  const TreeT& inTree = in.tree();
-  const int c = options.seedSpacing;
+}
 
-  WarpedGrid<GridT> result;
-  WarpVolumeReport& report = result.report;
-  report.inputActiveVoxels = static_cast<std::size_t>(in.activeVoxelCount());
-  const double voxelVolume = std::abs(glm::determinant(frame.a));
-  if constexpr (kScalar) {
-    if (!levelSet) {
-      double mass = 0.0;
-      for (auto it = inTree.cbeginValueOn(); it; ++it)
-        mass += static_cast<double>(*it) * static_cast<double>(it.getVoxelCount());
-      report.massBefore = mass * voxelVolume;
-    }
-    if (levelSet) report.halfWidth = static_cast<double>(in.background()) / frame.voxelSize;
-  }
+// The (leaf origin, cell) pairs of the output leaves that a cell may reach.
+using LeafCellPair = std::pair<Coord, std::uint32_t>;
 
-  // 1. The coarse cells that hold active voxels or tiles, sorted.
-  std::vector<Coord> cellKeys;
-  {
-    std::vector<const LeafT*> leaves;
-    leaves.reserve(inTree.leafCount());
-    for (auto it = inTree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
-    std::vector<std::vector<Coord>> perLeaf(leaves.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 16),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t l = r.begin(); l != r.end(); ++l) {
-                          std::vector<Coord>& keys = perLeaf[l];
-                          for (auto v = leaves[l]->cbeginValueOn(); v; ++v) {
-                            const Coord ijk = v.getCoord();
-                            keys.emplace_back(floorDiv(ijk.x(), c), floorDiv(ijk.y(), c),
-                                              floorDiv(ijk.z(), c));
-                          }
-                          std::sort(keys.begin(), keys.end(), coordLess);
-                          keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-                        }
-                      });
-    for (const auto& keys : perLeaf) cellKeys.insert(cellKeys.end(), keys.begin(), keys.end());
-    typename TreeT::ValueOnCIter tiles = inTree.cbeginValueOn();
-    tiles.setMaxDepth(TreeT::ValueOnCIter::LEAF_DEPTH - 1);
-    for (; tiles; ++tiles) {
-      if (!tiles.isTileValue()) continue;
-      const CoordBBox box = tiles.getBoundingBox();
-      const Coord lo(floorDiv(box.min().x(), c), floorDiv(box.min().y(), c),
-                     floorDiv(box.min().z(), c));
-      const Coord hi(floorDiv(box.max().x(), c), floorDiv(box.max().y(), c),
-                     floorDiv(box.max().z(), c));
-      for (int x = lo.x(); x <= hi.x(); ++x)
-        for (int y = lo.y(); y <= hi.y(); ++y)
-          for (int z = lo.z(); z <= hi.z(); ++z) cellKeys.emplace_back(x, y, z);
-    }
-    std::sort(cellKeys.begin(), cellKeys.end(), coordLess);
-    cellKeys.erase(std::unique(cellKeys.begin(), cellKeys.end()), cellKeys.end());
-  }
+// What the stages of resampleGrid() share: the input, the warp (exact or cached), the seeding
+// cells and which of them may reach which output leaf.
+template <typename GridT>
+struct GridPlan {
+  using TreeT = typename GridT::TreeType;
+  using ValueT = typename GridT::ValueType;
+  using LeafT = typename TreeT::LeafNodeType;
+  static constexpr bool kScalar = std::is_floating_point_v<ValueT>;
 
-  // The warp itself, or its displacement sampled on a lattice over the cells.
-  std::unique_ptr<CachedWarp> cached;
-  if (options.cacheSpacing > 0.0) {
-    cached = std::make_unique<CachedWarp>(exactWarp, frame, options.cacheSpacing, cellKeys, c);
-    report.cacheError = cached->error();
-  }
-  const Warp& warp = cached ? static_cast<const Warp&>(*cached) : exactWarp;
+  GridPlan(const GridT& grid, const WarpVolumeOptions& opts)
+      : in(grid), options(opts), frame(indexFrame(grid)) {}
 
-  // 2. Forward images: the warp at every cell corner and centre, the Jacobian at centres.
-  // Cells whose affine model is poor (the corners deviate from it by more than half a voxel)
-  // are split until it is good or they are single voxels.
-  std::unordered_map<Coord, Vec3, CoordHash> cornerImages;  // key m: index position m - 1/2
-  auto addCornerImages = [&](const std::vector<Cell>& batch) {
-    std::vector<Coord> need;
-    for (const Cell& cell : batch)
-      for (int d = 0; d < 8; ++d) {
-        const Coord key = cornerKey(cell, d);
-        if (cornerImages.find(key) == cornerImages.end()) need.push_back(key);
-      }
-    std::sort(need.begin(), need.end(), coordLess);
-    need.erase(std::unique(need.begin(), need.end()), need.end());
-    std::vector<Vec3> world(need.size()), images(need.size());
-    for (std::size_t i = 0; i < need.size(); ++i)
-      world[i] = frame.toWorld(Vec3(need[i].x(), need[i].y(), need[i].z()) - Vec3(0.5));
-    warp.applyBatch(world, images);
-    for (std::size_t i = 0; i < need.size(); ++i)
-      cornerImages.emplace(need[i], frame.toIndex(images[i]));
-  };
-
+  const GridT& in;
+  const WarpVolumeOptions& options;
+  IndexFrame frame;
+  bool levelSet = false;
+  bool conserveMass = false;
+  double voxelVolume = 1.0;
+  std::unique_ptr<CachedWarp> cached;  // set with options.cacheSpacing
+  const Warp* warp = nullptr;          // *cached, or the caller's warp
   std::vector<Cell> cells;
+  bool rigid = true;                    // Jᵀ J = I at every cell centre
+  std::vector<LeafCellPair> pairs;      // sorted by leaf, then cell
+  std::vector<std::size_t> groupStart;  // pairs[groupStart[g] .. groupStart[g+1]): leaf g
+
+  std::size_t groups() const { return groupStart.size() - 1; }
+  const TreeT& tree() const { return in.tree(); }
+};
+
+// The coarse cells (edge c voxels) that hold active voxels or tiles, sorted.
+template <typename TreeT>
+std::vector<Coord> activeCellKeys(const TreeT& inTree, int c) {
+  using LeafT = typename TreeT::LeafNodeType;
+  std::vector<Coord> cellKeys;
+  std::vector<const LeafT*> leaves;
+  leaves.reserve(inTree.leafCount());
+  for (auto it = inTree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+  std::vector<std::vector<Coord>> perLeaf(leaves.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, leaves.size(), 16),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                        std::vector<Coord>& keys = perLeaf[l];
+                        for (auto v = leaves[l]->cbeginValueOn(); v; ++v) {
+                          const Coord ijk = v.getCoord();
+                          keys.emplace_back(floorDiv(ijk.x(), c), floorDiv(ijk.y(), c),
+                                            floorDiv(ijk.z(), c));
+                        }
+                        std::sort(keys.begin(), keys.end(), coordLess);
+                        keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+                      }
+                    });
+  for (const auto& keys : perLeaf) cellKeys.insert(cellKeys.end(), keys.begin(), keys.end());
+  typename TreeT::ValueOnCIter tiles = inTree.cbeginValueOn();
+  tiles.setMaxDepth(TreeT::ValueOnCIter::LEAF_DEPTH - 1);
+  for (; tiles; ++tiles) {
+    if (!tiles.isTileValue()) continue;
+    const CoordBBox box = tiles.getBoundingBox();
+    const Coord lo(floorDiv(box.min().x(), c), floorDiv(box.min().y(), c),
+                   floorDiv(box.min().z(), c));
+    const Coord hi(floorDiv(box.max().x(), c), floorDiv(box.max().y(), c),
+                   floorDiv(box.max().z(), c));
+    for (int x = lo.x(); x <= hi.x(); ++x)
+      for (int y = lo.y(); y <= hi.y(); ++y)
+        for (int z = lo.z(); z <= hi.z(); ++z) cellKeys.emplace_back(x, y, z);
+  }
+  std::sort(cellKeys.begin(), cellKeys.end(), coordLess);
+  cellKeys.erase(std::unique(cellKeys.begin(), cellKeys.end()), cellKeys.end());
+  return cellKeys;
+}
+
+using CornerImages = std::unordered_map<Coord, Vec3, CoordHash>;  // key m: index position m - 1/2
+
+// Adds the images of the corners of the cells that are not known yet, one batch.
+void addCornerImages(const Warp& warp, const IndexFrame& frame, const std::vector<Cell>& batch,
+                     CornerImages& cornerImages) {
+  std::vector<Coord> need;
+  for (const Cell& cell : batch)
+    for (int d = 0; d < 8; ++d) {
+      const Coord key = cornerKey(cell, d);
+      if (cornerImages.find(key) == cornerImages.end()) need.push_back(key);
+    }
+  std::sort(need.begin(), need.end(), coordLess);
+  need.erase(std::unique(need.begin(), need.end()), need.end());
+  std::vector<Vec3> world(need.size()), images(need.size());
+  for (std::size_t i = 0; i < need.size(); ++i)
+    world[i] = frame.toWorld(Vec3(need[i].x(), need[i].y(), need[i].z()) - Vec3(0.5));
+  warp.applyBatch(world, images);
+  for (std::size_t i = 0; i < need.size(); ++i)
+    cornerImages.emplace(need[i], frame.toIndex(images[i]));
+}
+
+// Appends the children of a cell (half its size; single voxels for odd sizes) that hold active
+// values.
+template <typename AccessorT>
+void splitCell(const Cell& cell, AccessorT& acc, std::vector<Cell>& next) {
+  const int s = cell.size % 2 == 0 ? cell.size / 2 : 1;
+  for (int x = 0; x < cell.size; x += s)
+    for (int y = 0; y < cell.size; y += s)
+      for (int z = 0; z < cell.size; z += s) {
+        Cell child;
+        child.lo = cell.lo + Coord(x, y, z);
+        child.size = s;
+        bool active = false;
+        const CoordBBox box(child.lo, child.lo + Coord(s - 1));
+        for (auto ijk = box.begin(); ijk && !active; ++ijk) active = acc.isValueOn(*ijk);
+        if (active) next.push_back(child);
+      }
+}
+
+// Stage 2. Forward images: the warp at every cell corner and centre, the Jacobian at centres.
+// Cells whose affine model is poor (the corners deviate from it by more than half a voxel) are
+// split until it is good or they are single voxels.
+template <typename GridT>
+void buildCells(GridPlan<GridT>& plan, const std::vector<Coord>& cellKeys, int c) {
+  CornerImages cornerImages;
   std::vector<Cell> pending(cellKeys.size());
   for (std::size_t i = 0; i < cellKeys.size(); ++i) {
     pending[i].lo = Coord(cellKeys[i].x() * c, cellKeys[i].y() * c, cellKeys[i].z() * c);
     pending[i].size = c;
   }
-  bool rigid = true;
   while (!pending.empty()) {
-    addCornerImages(pending);
+    addCornerImages(*plan.warp, plan.frame, pending, cornerImages);
     std::vector<char> cellRigid(pending.size(), 0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pending.size(), 64),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         for (std::size_t i = r.begin(); i != r.end(); ++i)
-                          cellRigid[i] = evaluateCell(warp, frame, cornerImages, pending[i]);
+                          cellRigid[i] =
+                              evaluateCell(*plan.warp, plan.frame, cornerImages, pending[i]);
                       });
-    rigid = rigid && std::all_of(cellRigid.begin(), cellRigid.end(), [](char x) { return x != 0; });
+    plan.rigid = plan.rigid &&
+                 std::all_of(cellRigid.begin(), cellRigid.end(), [](char x) { return x != 0; });
     std::vector<Cell> next;
-    openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
+    openvdb::tree::ValueAccessor<const typename GridPlan<GridT>::TreeT> acc(plan.tree());
     for (const Cell& cell : pending) {
       if (!cell.poor || cell.size == 1) {
-        cells.push_back(cell);
+        plan.cells.push_back(cell);
         continue;
       }
-      // Children of half the size (single voxels for odd sizes) that hold active values.
-      const int s = cell.size % 2 == 0 ? cell.size / 2 : 1;
-      for (int x = 0; x < cell.size; x += s)
-        for (int y = 0; y < cell.size; y += s)
-          for (int z = 0; z < cell.size; z += s) {
-            Cell child;
-            child.lo = cell.lo + Coord(x, y, z);
-            child.size = s;
-            bool active = false;
-            const CoordBBox box(child.lo, child.lo + Coord(s - 1));
-            for (auto ijk = box.begin(); ijk && !active; ++ijk) active = acc.isValueOn(*ijk);
-            if (active) next.push_back(child);
-          }
+      splitCell(cell, acc, next);
     }
     pending = std::move(next);
   }
-  {
-    openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
-    for (const Cell& cell : cells) {
-      if (cell.beyondRange) {
-        // Not a failure of the warp: the result cannot be stored at this voxel size.
-        const Vec3 at = frame.toWorld(cell.centre);
-        std::ostringstream m;
-        m << std::setprecision(6) << "warpVolume: grid '" << in.getName()
-          << "': the warp sends the voxels near world (" << at.x << ", " << at.y << ", " << at.z
-          << ") beyond index " << kIndexLimit << " of the output grid, more than its 32-bit voxel "
-          << "coordinates hold at this voxel size; use larger voxels or move the grid";
-        throw InvalidInput(m.str());
-      }
-      if (cell.valid) continue;
-      const CoordBBox box(cell.lo, cell.lo + Coord(cell.size - 1));
-      for (auto ijk = box.begin(); ijk; ++ijk)
-        if (acc.isValueOn(*ijk)) ++report.unmappedVoxels;
-    }
-  }
+}
 
-  // The work and memory below follow the images of the cells: refuse before allocating when a
-  // warp that is not smooth at the voxel scale spreads them over far more than the bound.
-  {
-    double candidates = 0.0, worst = 0.0;
-    const Cell* worstCell = nullptr;
-    for (const Cell& cell : cells) {
-      if (!cell.valid) continue;
-      const Vec3 extent =
-          Vec3(cell.outBox.max().x(), cell.outBox.max().y(), cell.outBox.max().z()) -
-          Vec3(cell.outBox.min().x(), cell.outBox.min().y(),
-               cell.outBox.min().z()) +
-          Vec3(1.0);  // in double: int32 extents may overflow
-      candidates += extent.x * extent.y * extent.z;
-      const double stretch = maxAbs(extent) / cell.size;
-      if (stretch > worst) {
-        worst = stretch;
-        worstCell = &cell;
-      }
-    }
-    if (candidates > options.maxCandidateVoxels && worstCell) {
-      const Vec3 at = frame.toWorld(worstCell->centre);
+// Throws for cells whose image cannot be stored; counts the active voxels of cells where the
+// warp is not usable.
+template <typename GridT>
+void checkCells(const GridPlan<GridT>& plan, WarpVolumeReport& report) {
+  openvdb::tree::ValueAccessor<const typename GridPlan<GridT>::TreeT> acc(plan.tree());
+  for (const Cell& cell : plan.cells) {
+    if (cell.beyondRange) {
+      // Not a failure of the warp: the result cannot be stored at this voxel size.
+      const Vec3 at = plan.frame.toWorld(cell.centre);
       std::ostringstream m;
-      m << std::setprecision(3) << "warpVolume: grid '" << in.getName()
-        << "': the warp is not smooth at the scale of its voxels: it spreads the "
-        << report.inputActiveVoxels << " active voxels over about " << candidates
-        << " output voxels (more than maxCandidateVoxels = " << options.maxCandidateVoxels
-        << "); near world (" << at.x << ", " << at.y << ", " << at.z << ") one voxel's image spans "
-        << worst << " voxels. Use finer voxels or a gentler warp there";
+      m << std::setprecision(6) << "warpVolume: grid '" << plan.in.getName()
+        << "': the warp sends the voxels near world (" << at.x << ", " << at.y << ", " << at.z
+        << ") beyond index " << kIndexLimit << " of the output grid, more than its 32-bit voxel "
+        << "coordinates hold at this voxel size; use larger voxels or move the grid";
       throw InvalidInput(m.str());
     }
+    if (cell.valid) continue;
+    const CoordBBox box(cell.lo, cell.lo + Coord(cell.size - 1));
+    for (auto ijk = box.begin(); ijk; ++ijk)
+      if (acc.isValueOn(*ijk)) ++report.unmappedVoxels;
   }
+}
 
-  // 3. Which cells may reach which output leaf: (leaf origin, cell) pairs, sorted.
-  using Pair = std::pair<Coord, std::uint32_t>;
-  std::vector<Pair> pairs;
-  {
-    std::vector<std::vector<Pair>> perCell(cells.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 64),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                          if (!cells[i].valid) continue;
-                          const CoordBBox& b = cells[i].outBox;
-                          const Coord lo = b.min() & ~(LeafT::DIM - 1);
-                          const Coord hi = b.max() & ~(LeafT::DIM - 1);
-                          for (int x = lo.x(); x <= hi.x(); x += LeafT::DIM)
-                            for (int y = lo.y(); y <= hi.y(); y += LeafT::DIM)
-                              for (int z = lo.z(); z <= hi.z(); z += LeafT::DIM)
-                                perCell[i].emplace_back(Coord(x, y, z),
-                                                        static_cast<std::uint32_t>(i));
-                        }
-                      });
-    for (const auto& p : perCell) pairs.insert(pairs.end(), p.begin(), p.end());
-    std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
-      if (a.first != b.first) return coordLess(a.first, b.first);
-      return a.second < b.second;
-    });
+// The work and memory below follow the images of the cells: refuse before allocating when a
+// warp that is not smooth at the voxel scale spreads them over far more than the bound.
+template <typename GridT>
+void checkCandidateBound(const GridPlan<GridT>& plan, const WarpVolumeReport& report) {
+  double candidates = 0.0, worst = 0.0;
+  const Cell* worstCell = nullptr;
+  for (const Cell& cell : plan.cells) {
+    if (!cell.valid) continue;
+    const Vec3 extent = Vec3(cell.outBox.max().x(), cell.outBox.max().y(), cell.outBox.max().z()) -
+                        Vec3(cell.outBox.min().x(), cell.outBox.min().y(), cell.outBox.min().z()) +
+                        Vec3(1.0);  // in double: int32 extents may overflow
+    candidates += extent.x * extent.y * extent.z;
+    const double stretch = maxAbs(extent) / cell.size;
+    if (stretch > worst) {
+      worst = stretch;
+      worstCell = &cell;
+    }
   }
-  std::vector<std::size_t> groupStart;  // pairs[groupStart[g] .. groupStart[g+1]) share a leaf
+  if (candidates > plan.options.maxCandidateVoxels && worstCell) {
+    const Vec3 at = plan.frame.toWorld(worstCell->centre);
+    std::ostringstream m;
+    m << std::setprecision(3) << "warpVolume: grid '" << plan.in.getName()
+      << "': the warp is not smooth at the scale of its voxels: it spreads the "
+      << report.inputActiveVoxels << " active voxels over about " << candidates
+      << " output voxels (more than maxCandidateVoxels = " << plan.options.maxCandidateVoxels
+      << "); near world (" << at.x << ", " << at.y << ", " << at.z << ") one voxel's image spans "
+      << worst << " voxels. Use finer voxels or a gentler warp there";
+    throw InvalidInput(m.str());
+  }
+}
+
+// Stage 3. Which cells may reach which output leaf: (leaf origin, cell) pairs, sorted, and
+// where each leaf's pairs start.
+template <typename GridT>
+void pairCellsWithLeaves(GridPlan<GridT>& plan) {
+  using LeafT = typename GridPlan<GridT>::LeafT;
+  const std::vector<Cell>& cells = plan.cells;
+  std::vector<LeafCellPair>& pairs = plan.pairs;
+  std::vector<std::vector<LeafCellPair>> perCell(cells.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 64),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        if (!cells[i].valid) continue;
+                        const CoordBBox& b = cells[i].outBox;
+                        const Coord lo = b.min() & ~(LeafT::DIM - 1);
+                        const Coord hi = b.max() & ~(LeafT::DIM - 1);
+                        for (int x = lo.x(); x <= hi.x(); x += LeafT::DIM)
+                          for (int y = lo.y(); y <= hi.y(); y += LeafT::DIM)
+                            for (int z = lo.z(); z <= hi.z(); z += LeafT::DIM)
+                              perCell[i].emplace_back(Coord(x, y, z),
+                                                      static_cast<std::uint32_t>(i));
+                      }
+                    });
+  for (const auto& p : perCell) pairs.insert(pairs.end(), p.begin(), p.end());
+  std::sort(pairs.begin(), pairs.end(), [](const LeafCellPair& a, const LeafCellPair& b) {
+    if (a.first != b.first) return coordLess(a.first, b.first);
+    return a.second < b.second;
+  });
   for (std::size_t i = 0; i < pairs.size(); ++i)
-    if (i == 0 || pairs[i].first != pairs[i - 1].first) groupStart.push_back(i);
-  const std::size_t groups = groupStart.size();
-  groupStart.push_back(pairs.size());
+    if (i == 0 || pairs[i].first != pairs[i - 1].first) plan.groupStart.push_back(i);
+  plan.groupStart.push_back(pairs.size());
+}
 
-  // 4. Every output leaf: seed, solve, test, sample.
-  struct Retry {
-    int n;               // offset in the leaf
-    std::uint32_t cell;  // the seeding cell
-  };
-  struct LeafResult {
-    std::unique_ptr<LeafT> leaf;
-    std::vector<Retry> retries;  // voxels where the first solve failed
-    std::size_t solved = 0, failures = 0, vectorFailures = 0, iterations = 0;
-    int maxIterations = 0;
-    double mass = 0.0;
-    // conserveMass: the range of |det J| the densities were divided by, and the voxels left
-    // out because it was 0 or not finite.
-    double minVolumeChange = std::numeric_limits<double>::infinity();
-    double maxVolumeChange = 0.0;
-    std::size_t degenerateVolumeChanges = 0;
-  };
-  std::vector<LeafResult> leafResults(groups);
-  ProgressTracker tracker(options.progress, "warp volume", groups);
-  const double tolerance = options.inverseTolerance * frame.voxelSize;
-  const ValueT background = in.background();
-  const bool toDistance = levelSet && options.redistance == LevelSetRedistance::Normalize && !rigid;
-  const VectorRule vectors = vectorRule(options.vectors, in.getVectorType());
-  const bool localVectors = !in.isInWorldSpace();
-  if constexpr (!kScalar) report.vectors = describe(vectors);
+// Stages 1 to 3: the plan of a grid, with the input's measures in the report.
+template <typename GridT>
+GridPlan<GridT> makePlan(const Warp& exactWarp, const GridT& in, const WarpVolumeOptions& options,
+                         WarpVolumeReport& report) {
+  using TreeT = typename GridPlan<GridT>::TreeT;
+  constexpr bool kScalar = GridPlan<GridT>::kScalar;
+  GridPlan<GridT> plan(in, options);
+  plan.levelSet = kScalar && in.getGridClass() == openvdb::GRID_LEVEL_SET;
+  if (plan.levelSet && !in.transform().hasUniformScale()) {
+    throw InvalidInput("warpVolume: level set '" + in.getName() +
+                       "' has non-cubic voxels; level sets need a uniform voxel scale");
+  }
+  plan.conserveMass = kScalar && !plan.levelSet && options.conserveMass;
+  const TreeT& inTree = in.tree();
+  const int c = options.seedSpacing;
 
-  // Samples the input at the preimage x (world) of voxel n of the leaf at `origin`.
-  auto settle = [&](openvdb::tree::ValueAccessor<const TreeT>& acc, LeafResult& out,
-                    const Coord& origin, int n, const Vec3& x, std::uint32_t seedCell) {
-    const Vec3 xIndex = frame.toIndex(x);
+  report.inputActiveVoxels = static_cast<std::size_t>(in.activeVoxelCount());
+  plan.voxelVolume = std::abs(glm::determinant(plan.frame.a));
+  if constexpr (kScalar) {
+    if (!plan.levelSet) {
+      double mass = 0.0;
+      for (auto it = inTree.cbeginValueOn(); it; ++it)
+        mass += static_cast<double>(*it) * static_cast<double>(it.getVoxelCount());
+      report.massBefore = mass * plan.voxelVolume;
+    }
+    if (plan.levelSet) {
+      report.halfWidth = static_cast<double>(in.background()) / plan.frame.voxelSize;
+    }
+  }
+
+  // 1. The coarse cells that hold active voxels or tiles.
+  const std::vector<Coord> cellKeys = activeCellKeys(inTree, c);
+  // The warp itself, or its displacement sampled on a lattice over the cells.
+  if (options.cacheSpacing > 0.0) {
+    plan.cached =
+        std::make_unique<CachedWarp>(exactWarp, plan.frame, options.cacheSpacing, cellKeys, c);
+    report.cacheError = plan.cached->error();
+  }
+  plan.warp = plan.cached ? static_cast<const Warp*>(plan.cached.get()) : &exactWarp;
+  buildCells(plan, cellKeys, c);
+  checkCells(plan, report);
+  checkCandidateBound(plan, report);
+  pairCellsWithLeaves(plan);
+  return plan;
+}
+
+// A voxel whose first solve failed: its offset in the leaf and its seeding cell.
+struct Retry {
+  int n;
+  std::uint32_t cell;
+};
+
+// What the solves of one output leaf produced.
+template <typename LeafT>
+struct LeafResult {
+  std::unique_ptr<LeafT> leaf;
+  std::vector<Retry> retries;  // voxels where the first solve failed
+  std::size_t solved = 0, failures = 0, vectorFailures = 0, iterations = 0;
+  int maxIterations = 0;
+  double mass = 0.0;
+  // conserveMass: the range of |det J| the densities were divided by, and the voxels left
+  // out because it was 0 or not finite.
+  double minVolumeChange = std::numeric_limits<double>::infinity();
+  double maxVolumeChange = 0.0;
+  std::size_t degenerateVolumeChanges = 0;
+};
+
+// Samples the input at the preimage of an output voxel and stores the value, transformed as
+// the grid's kind asks (mass, distance, vector rules).
+template <typename GridT>
+class VoxelSampler {
+ public:
+  using TreeT = typename GridPlan<GridT>::TreeT;
+  using ValueT = typename GridPlan<GridT>::ValueT;
+  using LeafT = typename GridPlan<GridT>::LeafT;
+  using Accessor = openvdb::tree::ValueAccessor<const TreeT>;
+
+  explicit VoxelSampler(const GridPlan<GridT>& plan)
+      : plan_(plan),
+        background_(plan.in.background()),
+        toDistance_(plan.levelSet && plan.options.redistance == LevelSetRedistance::Normalize &&
+                    !plan.rigid),
+        vectors_(vectorRule(plan.options.vectors, plan.in.getVectorType())),
+        localVectors_(!plan.in.isInWorldSpace()) {}
+
+  VectorRule vectors() const { return vectors_; }
+
+  // Voxel n of the leaf at `origin` takes the input's value at its preimage x (world), found
+  // from the cell `seedCell`; nothing is stored where x is not in an active input voxel.
+  void settle(Accessor& acc, LeafResult<LeafT>& out, const Coord& origin, int n, const Vec3& x,
+              std::uint32_t seedCell) const {
+    const Vec3 xIndex = plan_.frame.toIndex(x);
     if (!acc.isValueOn(roundToCoord(xIndex))) return;
     ValueT value;
-    if (options.sampler == VolumeSampler::Triquadratic) {
+    if (plan_.options.sampler == VolumeSampler::Triquadratic) {
       value = openvdb::tools::QuadraticSampler::sample(acc, toVdb(xIndex));
     } else {
       value = openvdb::tools::BoxSampler::sample(acc, toVdb(xIndex));
     }
-    if constexpr (kScalar) {
-      if (conserveMass) {
-        const double det = std::abs(glm::determinant(warp.jacobian(x)));
-        if (!(det > 0.0) || !std::isfinite(det)) {
-          ++out.failures;
-          ++out.degenerateVolumeChanges;
-          return;
-        }
-        out.minVolumeChange = std::min(out.minVolumeChange, det);
-        out.maxVolumeChange = std::max(out.maxVolumeChange, det);
-        value = static_cast<ValueT>(static_cast<double>(value) / det);
-      }
-      if (toDistance) {
-        // ψ = φ∘F⁻¹ has gradient J⁻ᵀ∇φ: dividing by its relative length makes the
-        // resampled values distances to first order, so the band is trimmed right.
-        const Coord i = roundToCoord(xIndex);
-        const Vec3 g(
-            double(acc.getValue(i.offsetBy(1, 0, 0))) - double(acc.getValue(i.offsetBy(-1, 0, 0))),
-            double(acc.getValue(i.offsetBy(0, 1, 0))) - double(acc.getValue(i.offsetBy(0, -1, 0))),
-            double(acc.getValue(i.offsetBy(0, 0, 1))) - double(acc.getValue(i.offsetBy(0, 0, -1))));
-        const double warped = glm::length(glm::transpose(cells[seedCell].jacobianInverse) * g);
-        const double plain = glm::length(g);
-        if (warped > 0.0 && plain > 0.0) {
-          value = static_cast<ValueT>(static_cast<double>(value) *
-                                      std::clamp(plain / warped, 0.2, 5.0));
-        }
-      }
-      if (!levelSet) out.mass += static_cast<double>(value);
+    if constexpr (GridPlan<GridT>::kScalar) {
+      if (!scalar(acc, out, x, xIndex, seedCell, value)) return;
     } else {
       Vec3 v(value[0], value[1], value[2]);
-      if (!transformVector(warp, frame, vectors, localVectors, x, v)) {
+      if (!transformVector(*plan_.warp, plan_.frame, vectors_, localVectors_, x, v)) {
         ++out.vectorFailures;
         return;
       }
       value = ValueT(static_cast<float>(v.x), static_cast<float>(v.y), static_cast<float>(v.z));
     }
-    if (!out.leaf) out.leaf = std::make_unique<LeafT>(origin, background, false);
+    if (!out.leaf) out.leaf = std::make_unique<LeafT>(origin, background_, false);
     out.leaf->setValueOn(static_cast<openvdb::Index>(n), value);
-  };
+  }
 
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, groups, 4), [&](const tbb::blocked_range<std::size_t>& r) {
-        openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
-        constexpr int kSize = static_cast<int>(LeafT::SIZE);
-        std::vector<double> best(kSize);
-        std::vector<Vec3> seeds(kSize);
-        std::vector<std::uint32_t> seedCellOf(kSize);
-        for (std::size_t g = r.begin(); g != r.end(); ++g) {
-          tracker.advance();
-          const Coord origin = pairs[groupStart[g]].first;
-          const CoordBBox leafBox = CoordBBox::createCube(origin, LeafT::DIM);
-          std::fill(best.begin(), best.end(), std::numeric_limits<double>::infinity());
-          for (std::size_t p = groupStart[g]; p < groupStart[g + 1]; ++p) {
-            const Cell& cell = cells[pairs[p].second];
-            CoordBBox box = cell.outBox;
-            box.intersect(leafBox);
-            if (box.empty()) continue;
-            const double half = 0.5 * cell.size;
-            const Vec3 stepZ = cell.jacobianInverse[2];
-            for (int x = box.min().x(); x <= box.max().x(); ++x)
-              for (int y = box.min().y(); y <= box.max().y(); ++y) {
-                Vec3 offset = cell.jacobianInverse * (Vec3(x, y, box.min().z()) - cell.image);
-                for (int z = box.min().z(); z <= box.max().z(); ++z, offset += stepZ) {
-                  const double outside = maxAbs(offset) - half;
-                  if (outside > cell.slack) continue;
-                  const int n = static_cast<int>(LeafT::coordToOffset(Coord(x, y, z)));
-                  if (outside < best[n]) {
-                    best[n] = outside;
-                    seeds[n] = cell.centre + offset;
-                    seedCellOf[n] = pairs[p].second;
-                  }
-                }
-              }
-          }
-          LeafResult& out = leafResults[g];
-          for (int n = 0; n < kSize; ++n) {
-            if (!(best[n] < std::numeric_limits<double>::infinity())) continue;
-            // The preimage is within the cell's slack of the seed; it must be in an active voxel.
-            const Cell& seedCell = cells[seedCellOf[n]];
-            if (!nearActive(acc, seeds[n], seedCell.slack)) continue;
-            const Coord ijk = origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(n));
-            const Vec3 y = frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
-            const Solve s =
-                solveInverse(warp, y, frame.toWorld(seeds[n]), seedCell.worldJacobianInverse,
-                             tolerance, options.maxNewtonIterations);
-            ++out.solved;
-            out.iterations += static_cast<std::size_t>(s.iterations);
-            out.maxIterations = std::max(out.maxIterations, s.iterations);
-            if (!s.converged) {
-              out.retries.push_back({n, seedCellOf[n]});
-              continue;
-            }
-            settle(acc, out, origin, n, s.x, seedCellOf[n]);
+ private:
+  // Scalar grids: the value scaled for mass conservation or towards distances; false (and a
+  // failure counted) where the Jacobian's determinant is unusable for mass conservation.
+  bool scalar(Accessor& acc, LeafResult<LeafT>& out, const Vec3& x, const Vec3& xIndex,
+              std::uint32_t seedCell, ValueT& value) const {
+    if (plan_.conserveMass) {
+      const double det = std::abs(glm::determinant(plan_.warp->jacobian(x)));
+      if (!(det > 0.0) || !std::isfinite(det)) {
+        ++out.failures;
+        ++out.degenerateVolumeChanges;
+        return false;
+      }
+      out.minVolumeChange = std::min(out.minVolumeChange, det);
+      out.maxVolumeChange = std::max(out.maxVolumeChange, det);
+      value = static_cast<ValueT>(static_cast<double>(value) / det);
+    }
+    if (toDistance_) {
+      // ψ = φ∘F⁻¹ has gradient J⁻ᵀ∇φ: dividing by its relative length makes the
+      // resampled values distances to first order, so the band is trimmed right.
+      const Coord i = roundToCoord(xIndex);
+      const Vec3 g(
+          double(acc.getValue(i.offsetBy(1, 0, 0))) - double(acc.getValue(i.offsetBy(-1, 0, 0))),
+          double(acc.getValue(i.offsetBy(0, 1, 0))) - double(acc.getValue(i.offsetBy(0, -1, 0))),
+          double(acc.getValue(i.offsetBy(0, 0, 1))) - double(acc.getValue(i.offsetBy(0, 0, -1))));
+      const double warped = glm::length(glm::transpose(plan_.cells[seedCell].jacobianInverse) * g);
+      const double plain = glm::length(g);
+      if (warped > 0.0 && plain > 0.0) {
+        value =
+            static_cast<ValueT>(static_cast<double>(value) * std::clamp(plain / warped, 0.2, 5.0));
+      }
+    }
+    if (!plan_.levelSet) out.mass += static_cast<double>(value);
+    return true;
+  }
+
+  const GridPlan<GridT>& plan_;
+  ValueT background_;
+  bool toDistance_;
+  VectorRule vectors_;
+  bool localVectors_;
+};
+
+// The seeds of the voxels of output leaf g: for each voxel the cell whose affine model puts its
+// preimage least far outside the cell (best[n] = how far, infinity for none), and that point.
+template <typename GridT>
+void seedLeaf(const GridPlan<GridT>& plan, std::size_t g, std::vector<double>& best,
+              std::vector<Vec3>& seeds, std::vector<std::uint32_t>& seedCellOf) {
+  using LeafT = typename GridPlan<GridT>::LeafT;
+  const Coord origin = plan.pairs[plan.groupStart[g]].first;
+  const CoordBBox leafBox = CoordBBox::createCube(origin, LeafT::DIM);
+  std::fill(best.begin(), best.end(), std::numeric_limits<double>::infinity());
+  for (std::size_t p = plan.groupStart[g]; p < plan.groupStart[g + 1]; ++p) {
+    const Cell& cell = plan.cells[plan.pairs[p].second];
+    CoordBBox box = cell.outBox;
+    box.intersect(leafBox);
+    if (box.empty()) continue;
+    const double half = 0.5 * cell.size;
+    const Vec3 stepZ = cell.jacobianInverse[2];
+    for (int x = box.min().x(); x <= box.max().x(); ++x)
+      for (int y = box.min().y(); y <= box.max().y(); ++y) {
+        Vec3 offset = cell.jacobianInverse * (Vec3(x, y, box.min().z()) - cell.image);
+        for (int z = box.min().z(); z <= box.max().z(); ++z, offset += stepZ) {
+          const double outside = maxAbs(offset) - half;
+          if (outside > cell.slack) continue;
+          const int n = static_cast<int>(LeafT::coordToOffset(Coord(x, y, z)));
+          if (outside < best[n]) {
+            best[n] = outside;
+            seeds[n] = cell.centre + offset;
+            seedCellOf[n] = plan.pairs[p].second;
           }
         }
-      });
-  tracker.check();
+      }
+  }
+}
 
-  // 5. Second chance for the voxels where the first solve failed (few, and only where the warp
-  // is not smooth or not invertible): continuation from the centre of the seeding cell, whose
-  // image is known. Each depends only on its own voxel, so the result is thread-independent.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groups, 16),
+// Stage 4. Every output leaf: seed, solve (chord and Newton steps from the seed), test, sample.
+// Voxels whose solve fails are left in their leaf's retries.
+template <typename GridT>
+void solveLeaves(const GridPlan<GridT>& plan, const VoxelSampler<GridT>& sampler,
+                 const InverseOptions& firstSolve,
+                 std::vector<LeafResult<typename GridPlan<GridT>::LeafT>>& leafResults,
+                 ProgressTracker& tracker) {
+  using LeafT = typename GridPlan<GridT>::LeafT;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, plan.groups(), 4),
                     [&](const tbb::blocked_range<std::size_t>& r) {
-                      openvdb::tree::ValueAccessor<const TreeT> acc(inTree);
+                      typename VoxelSampler<GridT>::Accessor acc(plan.tree());
+                      constexpr int kSize = static_cast<int>(LeafT::SIZE);
+                      std::vector<double> best(kSize);
+                      std::vector<Vec3> seeds(kSize);
+                      std::vector<std::uint32_t> seedCellOf(kSize);
                       for (std::size_t g = r.begin(); g != r.end(); ++g) {
-                        LeafResult& out = leafResults[g];
-                        if (out.retries.empty()) continue;
-                        const Coord origin = pairs[groupStart[g]].first;
-                        for (const Retry& retry : out.retries) {
-                          const Cell& cell = cells[retry.cell];
-                          const Coord ijk = origin + LeafT::offsetToLocalCoord(
-                                                         static_cast<openvdb::Index>(retry.n));
-                          const Vec3 y = frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
-                          // The preimage must keep the orientation of the cell's affine model along
-                          // the whole path: where the warp turns space inside out, it folds.
-                          const double orientation =
-                              glm::determinant(cell.worldJacobianInverse) > 0.0 ? 1.0 : -1.0;
-                          const Solve s = continueInverse(
-                              warp, y, frame.toWorld(cell.centre), frame.toWorld(cell.image),
-                              orientation, tolerance, frame.voxelSize, options.maxNewtonIterations);
+                        tracker.advance();
+                        const Coord origin = plan.pairs[plan.groupStart[g]].first;
+                        seedLeaf(plan, g, best, seeds, seedCellOf);
+                        auto& out = leafResults[g];
+                        for (int n = 0; n < kSize; ++n) {
+                          if (!(best[n] < std::numeric_limits<double>::infinity())) continue;
+                          // The preimage is within the cell's slack of the seed; it must be in an
+                          // active voxel.
+                          const Cell& seedCell = plan.cells[seedCellOf[n]];
+                          if (!nearActive(acc, seeds[n], seedCell.slack)) continue;
+                          const Coord ijk =
+                              origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(n));
+                          const Vec3 y = plan.frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
+                          InverseHint hint;
+                          hint.seed = plan.frame.toWorld(seeds[n]);
+                          hint.chordInverse = seedCell.worldJacobianInverse;
+                          const InverseResult s = inverse(*plan.warp, y, firstSolve, hint);
+                          ++out.solved;
                           out.iterations += static_cast<std::size_t>(s.iterations);
                           out.maxIterations = std::max(out.maxIterations, s.iterations);
                           if (!s.converged) {
-                            ++out.failures;
+                            out.retries.push_back({n, seedCellOf[n]});
                             continue;
                           }
-                          settle(acc, out, origin, retry.n, s.x, retry.cell);
+                          sampler.settle(acc, out, origin, n, s.x, seedCellOf[n]);
                         }
-                        out.retries = {};
                       }
                     });
+}
 
-  auto tree = std::make_shared<TreeT>(background);
+// Stage 5. Second chance for the voxels where the first solve failed (few, and only where the
+// warp is not smooth or not invertible): continuation from the centre of the seeding cell, whose
+// image is known. Each depends only on its own voxel, so the result is thread-independent.
+template <typename GridT>
+void retryFailures(const GridPlan<GridT>& plan, const VoxelSampler<GridT>& sampler,
+                   const InverseOptions& inverseOptions,
+                   std::vector<LeafResult<typename GridPlan<GridT>::LeafT>>& leafResults) {
+  using LeafT = typename GridPlan<GridT>::LeafT;
+  const IndexFrame& frame = plan.frame;
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, plan.groups(), 16),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        typename VoxelSampler<GridT>::Accessor acc(plan.tree());
+        for (std::size_t g = r.begin(); g != r.end(); ++g) {
+          auto& out = leafResults[g];
+          if (out.retries.empty()) continue;
+          if (!inverseOptions.continuation) {
+            out.failures += out.retries.size();
+            out.retries = {};
+            continue;
+          }
+          const Coord origin = plan.pairs[plan.groupStart[g]].first;
+          for (const Retry& retry : out.retries) {
+            const Cell& cell = plan.cells[retry.cell];
+            const Coord ijk =
+                origin + LeafT::offsetToLocalCoord(static_cast<openvdb::Index>(retry.n));
+            const Vec3 y = frame.toWorld(Vec3(ijk.x(), ijk.y(), ijk.z()));
+            // The preimage must keep the orientation of the cell's affine model along the
+            // whole path: where the warp turns space inside out, it folds.
+            const double orientation =
+                glm::determinant(cell.worldJacobianInverse) > 0.0 ? 1.0 : -1.0;
+            const InverseResult s = continueInverse(
+                *plan.warp, y, {frame.toWorld(cell.centre), frame.toWorld(cell.image), orientation},
+                inverseOptions);
+            out.iterations += static_cast<std::size_t>(s.iterations);
+            out.maxIterations = std::max(out.maxIterations, s.iterations);
+            if (!s.converged) {
+              ++out.failures;
+              continue;
+            }
+            sampler.settle(acc, out, origin, retry.n, s.x, retry.cell);
+          }
+          out.retries = {};
+        }
+      });
+}
+
+// The output grid from the solved leaves, with the input's transform, name, class and metadata;
+// the leaves' counts go into the report. Returns the grid and Σ value over its voxels.
+template <typename GridT>
+std::pair<typename GridT::Ptr, double> assembleGrid(
+    const GridPlan<GridT>& plan,
+    std::vector<LeafResult<typename GridPlan<GridT>::LeafT>>& leafResults,
+    WarpVolumeReport& report) {
+  const GridT& in = plan.in;
+  auto tree = std::make_shared<typename GridPlan<GridT>::TreeT>(in.background());
   double massAfter = 0.0;
-  for (LeafResult& lr : leafResults) {
+  for (auto& lr : leafResults) {
     report.solvedVoxels += lr.solved;
     report.inverseFailures += lr.failures;
     report.vectorFailures += lr.vectorFailures;
@@ -1014,41 +950,79 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
   }
   grid->setName(in.getName());
   grid->setGridClass(in.getGridClass());
+  return {grid, massAfter};
+}
 
-  if constexpr (kScalar) {
-    if (levelSet) {
-      openvdb::tools::signedFloodFill(grid->tree());
-      if (options.redistance == LevelSetRedistance::Rebuild && !rigid) {
-        const float w = static_cast<float>(report.halfWidth);
-        typename GridT::Ptr rebuilt = openvdb::tools::levelSetRebuild(*grid, 0.0f, w, w);
-        rebuilt->setTransform(in.transform().copy());
-        for (auto it = grid->beginMeta(); it != grid->endMeta(); ++it)
-          rebuilt->insertMeta(it->first, *it->second);
-        grid = rebuilt;
-        report.redistanced = true;
-      } else if (options.redistance == LevelSetRedistance::Normalize && !rigid) {
-        // Where the warp compresses by σ, the resampled band is σ times as wide: grow it.
-        double sigmaMin = 1.0;
-        for (const Cell& cell : cells)
-          if (cell.valid) sigmaMin = std::min(sigmaMin, 1.0 / spectralNorm(cell.jacobianInverse));
-        const double w = report.halfWidth;
-        const int layers = static_cast<int>(std::clamp(
-            std::ceil(w / std::max(sigmaMin, 1e-3) - w - 1e-6), 0.0, 2.0 * std::ceil(w)));
-        openvdb::tools::LevelSetTracker<GridT> redistance(*grid);
-        redistance.setNormCount(options.normCount);
-        redistance.setSpatialScheme(openvdb::math::FIRST_BIAS);
-        redistance.setTemporalScheme(openvdb::math::TVD_RK1);
-        if (layers > 0) redistance.dilate(layers);
-        redistance.normalize();
-        if (layers > 0) {
-          openvdb::tools::changeLevelSetBackground(grid->tree(), background);
-        }
-        redistance.prune();
-        report.redistanced = true;
-        report.bandLayersAdded = layers;
-      }
+// Level sets: a proper narrow band again (see LevelSetRedistance), unless the warp is rigid.
+template <typename GridT>
+void redistanceLevelSet(const GridPlan<GridT>& plan, typename GridT::Ptr& grid,
+                        WarpVolumeReport& report) {
+  const WarpVolumeOptions& options = plan.options;
+  openvdb::tools::signedFloodFill(grid->tree());
+  if (options.redistance == LevelSetRedistance::Rebuild && !plan.rigid) {
+    const float w = static_cast<float>(report.halfWidth);
+    typename GridT::Ptr rebuilt = openvdb::tools::levelSetRebuild(*grid, 0.0f, w, w);
+    rebuilt->setTransform(plan.in.transform().copy());
+    for (auto it = grid->beginMeta(); it != grid->endMeta(); ++it)
+      rebuilt->insertMeta(it->first, *it->second);
+    grid = rebuilt;
+    report.redistanced = true;
+  } else if (options.redistance == LevelSetRedistance::Normalize && !plan.rigid) {
+    // Where the warp compresses by σ, the resampled band is σ times as wide: grow it.
+    double sigmaMin = 1.0;
+    for (const Cell& cell : plan.cells)
+      if (cell.valid) sigmaMin = std::min(sigmaMin, 1.0 / spectralNorm(cell.jacobianInverse));
+    const double w = report.halfWidth;
+    const int layers = static_cast<int>(
+        std::clamp(std::ceil(w / std::max(sigmaMin, 1e-3) - w - 1e-6), 0.0, 2.0 * std::ceil(w)));
+    openvdb::tools::LevelSetTracker<GridT> redistance(*grid);
+    redistance.setNormCount(options.normCount);
+    redistance.setSpatialScheme(openvdb::math::FIRST_BIAS);
+    redistance.setTemporalScheme(openvdb::math::TVD_RK1);
+    if (layers > 0) redistance.dilate(layers);
+    redistance.normalize();
+    if (layers > 0) {
+      openvdb::tools::changeLevelSetBackground(grid->tree(), plan.in.background());
+    }
+    redistance.prune();
+    report.redistanced = true;
+    report.bandLayersAdded = layers;
+  }
+}
+
+// warpVolume() for one grid type: plan (cells, leaves), solve, second chance, assemble, and
+// re-distance level sets.
+template <typename GridT>
+WarpedGrid<GridT> resampleGrid(const Warp& exactWarp, const GridT& in,
+                               const WarpVolumeOptions& options) {
+  validate(options);
+  WarpedGrid<GridT> result;
+  WarpVolumeReport& report = result.report;
+  const GridPlan<GridT> plan = makePlan(exactWarp, in, options, report);
+
+  // The solver's tolerance and continuation steps are in voxels.
+  InverseOptions inverseOptions = options.inverse;
+  inverseOptions.lengthScale = plan.frame.voxelSize;
+  InverseOptions firstSolve = inverseOptions;
+  firstSolve.continuation = false;  // the second chance runs apart, after every first solve
+  // The seeded solve takes 1–3 steps on smooth warps; closed forms are not used, so volumes
+  // do not depend on which warps have one.
+  firstSolve.closedForm = false;
+
+  std::vector<LeafResult<typename GridPlan<GridT>::LeafT>> leafResults(plan.groups());
+  ProgressTracker tracker(options.progress, "warp volume", plan.groups());
+  const VoxelSampler<GridT> sampler(plan);
+  if constexpr (!GridPlan<GridT>::kScalar) report.vectors = describe(sampler.vectors());
+  solveLeaves(plan, sampler, firstSolve, leafResults, tracker);
+  tracker.check();
+  retryFailures(plan, sampler, inverseOptions, leafResults);
+
+  auto [grid, massAfter] = assembleGrid(plan, leafResults, report);
+  if constexpr (GridPlan<GridT>::kScalar) {
+    if (plan.levelSet) {
+      redistanceLevelSet(plan, grid, report);
     } else {
-      report.massAfter = massAfter * voxelVolume;
+      report.massAfter = massAfter * plan.voxelVolume;
     }
   }
   tracker.finish();
@@ -1061,17 +1035,17 @@ WarpedGrid<GridT> warpGrid(const Warp& exactWarp, const GridT& in,
 
 WarpedGrid<openvdb::FloatGrid> warpVolume(const Warp& warp, const openvdb::FloatGrid& grid,
                                           const WarpVolumeOptions& options) {
-  return warpGrid(warp, grid, options);
+  return resampleGrid(warp, grid, options);
 }
 
 WarpedGrid<openvdb::DoubleGrid> warpVolume(const Warp& warp, const openvdb::DoubleGrid& grid,
                                            const WarpVolumeOptions& options) {
-  return warpGrid(warp, grid, options);
+  return resampleGrid(warp, grid, options);
 }
 
 WarpedGrid<openvdb::Vec3SGrid> warpVolume(const Warp& warp, const openvdb::Vec3SGrid& grid,
                                           const WarpVolumeOptions& options) {
-  return warpGrid(warp, grid, options);
+  return resampleGrid(warp, grid, options);
 }
 
 }  // namespace spacewarp

@@ -36,6 +36,7 @@
 
 #include <openvdb/openvdb.h>
 
+#include <spacewarp/core/inverse.h>
 #include <spacewarp/core/progress.h>
 #include <spacewarp/core/warp.h>
 
@@ -107,14 +108,16 @@ struct WarpVolumeOptions {
   /// makes them distances to first order, so one step (the default) suffices for smooth warps.
   int normCount = 1;
 
-  /// Chord and Newton steps at most per voxel in the first solve. Default 20; a smooth warp
-  /// typically needs 1–3. Voxels where it fails get the second chance (see the top of this
-  /// file), whose budget is 32 times this (4 times per continuation step).
-  int maxNewtonIterations = 20;
-
-  /// Newton stops when |warp(x) - y| <= inverseTolerance × voxel size (voxel size = cube root
-  /// of the voxel volume). Default 1e-4 voxels, far below the sampling error.
-  double inverseTolerance = 1e-4;
+  /// The inverse solve of each output voxel (core/inverse.h), seeded by the voxel's cell:
+  /// `maxIterations` chord and Newton steps at most in the first solve (default here 20; a
+  /// smooth warp typically needs 1–3), the continuation fallback for voxels where it fails (see
+  /// the top of this file) with its budget of 32 times that; converged when |warp(x) - y| <=
+  /// `tolerance` × voxel size (voxel size = cube root of the voxel volume; default here 1e-4
+  /// voxels, far below the sampling error). `lengthScale` is ignored: warpVolume() sets it to
+  /// the voxel size, which is also the continuation's step. `continuation` is honoured (default
+  /// on): off, voxels where the first solve fails are counted as inverse failures.
+  /// `closedForm` is not used: every voxel is solved from its seed, whatever the warp.
+  InverseOptions inverse{.maxIterations = 20, .tolerance = 1e-4};
 
   /// Edge of the coarse seeding cells, in input voxels (≥ 1). The warp and its Jacobian are
   /// evaluated once per cell to seed Newton and bound the output region. Default 4.

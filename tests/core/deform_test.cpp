@@ -314,5 +314,98 @@ TEST(Deform, EmptySetIsFine) {
   EXPECT_TRUE(set.positions.empty());
 }
 
+// The identity plus a smooth perturbation of Lipschitz constant 0.3: injective, no closed-form
+// inverse, so deformInverse() solves every point by Newton.
+class WobbleWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override {
+    return x + 0.1 * Vec3(std::sin(3.0 * x.y), std::sin(3.0 * x.z), std::sin(3.0 * x.x));
+  }
+};
+
+// deformInverse() after deform() gives the positions and normals back (per vertex and per
+// corner), by the closed form where the warp has one and by Newton where it has not.
+TEST(DeformInverse, UndoesDeform) {
+  const TwistWarp twist = sampleTwist();
+  const WobbleWarp wobble;
+  for (const Warp* warp : {static_cast<const Warp*>(&twist), static_cast<const Warp*>(&wobble)}) {
+    const bool closedForm = warp == &twist;
+    SCOPED_TRACE(closedForm ? "twist" : "wobble");
+    const PointSet before = samplePointSet(500, true);
+    PointSet set = before;
+    deform(*warp, set);
+    const InverseDeformReport report = deformInverse(*warp, set);
+    EXPECT_EQ(report.closedForm, closedForm ? 500u : 0u);
+    EXPECT_EQ(report.iterative, closedForm ? 0u : 500u);
+    EXPECT_EQ(report.singularNormals, 0u);
+    EXPECT_LE(report.maxResidual, 1e-12 * 3.0);  // |y| <= 2 + 0.5: inverse()'s own scale
+    for (std::size_t i = 0; i < before.size(); ++i) {
+      EXPECT_LT(glm::length(set.positions[i] - before.positions[i]), 1e-11) << i;
+      EXPECT_LT(glm::length(set.normals[i] - before.normals[i]), 1e-10) << i;
+    }
+    expectSameAttributes(before, set);
+
+    const PolygonSoup soupBefore = attributedSoup();
+    PolygonSoup soup = soupBefore;
+    deform(*warp, soup);
+    deformInverse(*warp, soup);
+    ASSERT_EQ(soup.cornerNormals.indices.size(), soupBefore.cornerNormals.indices.size());
+    for (std::size_t c = 0; c < soup.faceIndices.size(); ++c) {
+      const std::uint32_t k = soupBefore.cornerNormals.indices[c];
+      if (k == CornerAttribute::kNone) continue;
+      const Vec3 n = soup.cornerNormals.values[soup.cornerNormals.indices[c]];
+      EXPECT_LT(glm::length(n - soupBefore.cornerNormals.values[k]), 1e-10) << "corner " << c;
+    }
+    for (std::size_t i = 0; i < soup.size(); ++i)
+      EXPECT_LT(glm::length(soup.positions[i] - soupBefore.positions[i]), 1e-11) << i;
+    EXPECT_EQ(soup.faceIndices, soupBefore.faceIndices);
+    EXPECT_EQ(soup.texcoords.indices, soupBefore.texcoords.indices);
+  }
+}
+
+// Under an affine warp the inverse carries normals by J^T: checked against the closed form.
+TEST(DeformInverse, CarriesNormalsByTheTransposedJacobian) {
+  const Mat3 j = Mat3(Vec3(2, 0.3, 0), Vec3(0, 0.5, 0.1), Vec3(0.2, 0, 3));
+  const AffineWarp warp = affine(j, Vec3(1, 2, 3));
+  const PointSet before = samplePointSet(50, true);
+  PointSet set = before;
+  deformInverse(warp, set);
+  for (std::size_t i = 0; i < set.size(); ++i) {
+    EXPECT_LT(glm::length(warp.apply(set.positions[i]) - before.positions[i]), 1e-14) << i;
+    const Vec3 expected = glm::normalize(glm::transpose(j) * before.normals[i]);
+    EXPECT_LT(glm::length(set.normals[i] - expected), 1e-14) << i;
+  }
+}
+
+// z -> z^2 / 4 + 0.01: folds space at z = 0, so that points with z < 0.01 have no preimage.
+class FoldWarp final : public Warp {
+ public:
+  Vec3 apply(const Vec3& x) const override { return Vec3(x.x, x.y, 0.25 * x.z * x.z + 0.01); }
+};
+
+// Points that a folding warp never reaches have no preimage: SolverError naming the first of
+// them and how many failed, and the set left as it was.
+TEST(DeformInverse, NonConvergenceThrowsNamingTheFirstVertexAndLeavesTheSetUnchanged) {
+  const FoldWarp fold;
+  PointSet set = samplePointSet(6, true);
+  const double z[] = {0.5, 0.1, -0.3, 0.2, -0.7, 0.0};
+  for (std::size_t i = 0; i < 6; ++i) set.positions[i].z = z[i];
+  const PointSet before = set;
+  const std::string message = test::messageOf<SolverError>([&] { deformInverse(fold, set); });
+  EXPECT_NE(message.find("at 3 of 6 vertices"), std::string::npos) << message;
+  EXPECT_NE(message.find("vertex 2 at ("), std::string::npos) << message;
+  EXPECT_NE(message.find("residual"), std::string::npos) << message;
+  expectUnchanged(set, before);
+}
+
+TEST(DeformInverse, NaNPositionThrowsAndLeavesTheSetUnchanged) {
+  PointSet set = samplePointSet(5, false);
+  set.positions[3].y = kNaN;
+  const PointSet before = set;
+  EXPECT_THROW(deformInverse(sampleTwist(), set), InvalidInput);
+  EXPECT_EQ(set.positions.size(), before.positions.size());
+  EXPECT_TRUE(std::isnan(set.positions[3].y));
+}
+
 }  // namespace
 }  // namespace spacewarp

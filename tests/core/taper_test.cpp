@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/inverse.h>
 #include "test_util.h"
 
 namespace spacewarp {

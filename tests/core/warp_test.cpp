@@ -14,6 +14,7 @@
 
 #include <spacewarp/core/bend.h>
 #include <spacewarp/core/combinators.h>
+#include <spacewarp/core/inverse.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/taper.h>
 #include <spacewarp/core/twist.h>

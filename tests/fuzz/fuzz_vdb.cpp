@@ -84,7 +84,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static const TwistWarp twist(
       TwistParams{.origin = Vec3(0.0), .axis = Vec3(0, 0, 1), .rate = 0.3});
   WarpVolumeOptions options;
-  options.maxNewtonIterations = 8;
+  options.inverse.maxIterations = 8;
   for (const openvdb::GridBase::Ptr& grid : file.grids) {
     if (!isWarpableGrid(*grid) || grid->activeVoxelCount() > kMaxWarpedVoxels) continue;
     try {

@@ -272,7 +272,7 @@ TEST(WarpVolume, CountsVoxelsWhereTheInverseDoesNotConverge) {
   const FunctionWarp fold(
       [](const Vec3& x) { return Vec3(x.x + (2.5 / 3.0) * std::sin(3.0 * x.x), x.y, x.z); });
   WarpVolumeOptions options;
-  options.maxNewtonIterations = 10;
+  options.inverse.maxIterations = 10;
   const auto warped = warpVolume(fold, *fog, options);
   EXPECT_GT(warped.report.inverseFailures, 0u);
   EXPECT_LE(warped.report.inverseFailures, warped.report.solvedVoxels);
