@@ -92,6 +92,7 @@ Command addInverseCommand(CLI::App& app, const CliContext& context) {
               return deformInverse(*rig.warp, soup, options, context.progress());
             });
             writeSoupFile(soup, args->output, args->ascii, context);
+            warnNotKept(args->input, soup, context);
             warnSingularNormals(args->input, report.singularNormals, soup.size(), context);
             std::string what = counted(soup.size(), "point") + " (";
             if (soup.polygonCount() > 0) what += counted(soup.polygonCount(), "face") + "; ";

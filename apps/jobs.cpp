@@ -22,16 +22,19 @@ void writeSoupFile(const PolygonSoup& soup, const std::filesystem::path& output,
   WriteOptions options;
   if (ascii) options.plyEncoding = PlyEncoding::Ascii;
   writeSoup(soup, output, options);
-  if (!soup.notKept.empty()) {
-    std::string line = input.string() + ": spacewarp does not keep the input's ";
-    for (std::size_t k = 0; k < soup.notKept.size(); ++k) line += (k ? "; " : "") + soup.notKept[k];
-    context.warn(line + "; they are not in the output");
-  }
   if (const auto lost = unstoredContent(soup, formatFromPath(output)); !lost.empty()) {
     std::string line = output.string() + ": the format cannot store the input's ";
     for (std::size_t k = 0; k < lost.size(); ++k) line += (k ? "; " : "") + lost[k];
     context.warn(line + "; they are not written");
   }
+}
+
+void warnNotKept(const std::filesystem::path& input, const PolygonSoup& soup,
+                 const CliContext& context) {
+  if (soup.notKept.empty()) return;
+  std::string line = input.string() + ": spacewarp does not keep the input's ";
+  for (std::size_t k = 0; k < soup.notKept.size(); ++k) line += (k ? "; " : "") + soup.notKept[k];
+  context.warn(line + "; they are not in the output");
 }
 
 void warnSingularNormals(const std::filesystem::path& input, std::size_t singular,
@@ -48,6 +51,7 @@ void deformSoup(const Warp& warp, PolygonSoup& soup, const std::filesystem::path
   const DeformReport report =
       namingFile(input.string(), [&] { return deform(warp, soup, context.progress()); });
   writeSoupFile(soup, output, ascii, context);
+  warnNotKept(input, soup, context);
   warnSingularNormals(input, report.singularNormals, soup.size(), context);
 }
 

@@ -19,6 +19,11 @@ namespace spacewarp::cli {
 void writeSoupFile(const PolygonSoup& soup, const std::filesystem::path& output, bool ascii,
                    const CliContext& context);
 
+/// Warns (one counted line naming `input`) about what the reader read through but the soup
+/// does not keep (PolygonSoup::notKept); nothing when there is none.
+void warnNotKept(const std::filesystem::path& input, const PolygonSoup& soup,
+                 const CliContext& context);
+
 /// A warning through `context` when `singular` of the `total` vertices of `input` had their
 /// normals carried through a singular Jacobian (nothing when there are none).
 void warnSingularNormals(const std::filesystem::path& input, std::size_t singular,
