@@ -46,7 +46,7 @@ const std::map<std::string, Method>& factories() {
       {"twist",
        {{"origin", "axis", "rate", "limits"},
         [](RigReader& r) {
-          TwistParams p;
+          TwistOptions p;
           p.origin = r.vec3("origin");
           p.axis = r.vec3("axis");
           p.rate = r.number("rate");
@@ -56,7 +56,7 @@ const std::map<std::string, Method>& factories() {
       {"bend",
        {{"origin", "axis", "direction", "rate", "limits"},
         [](RigReader& r) {
-          BendParams p;
+          BendOptions p;
           p.origin = r.vec3("origin");
           p.axis = r.vec3("axis");
           p.direction = r.vec3("direction");
@@ -67,7 +67,7 @@ const std::map<std::string, Method>& factories() {
       {"taper",
        {{"origin", "axis", "rate", "limits"},
         [](RigReader& r) {
-          TaperParams p;
+          TaperOptions p;
           p.origin = r.vec3("origin");
           p.axis = r.vec3("axis");
           p.rate = r.number("rate");
@@ -175,6 +175,8 @@ Rig buildRig(const json& rig, const std::filesystem::path& baseDir, const detail
     result = it->second.build(reader);
   } catch (const InvalidInput& e) {
     throw InvalidInput(located(e.what()));
+  } catch (const OutOfMemory& e) {  // before its base, SolverError: exit 3, not 4
+    throw OutOfMemory(located(e.what()));
   } catch (const SolverError& e) {
     throw SolverError(located(e.what()));
   } catch (const IoError& e) {
