@@ -84,7 +84,7 @@ std::map<std::string, Method> methodTable() {
   ffd.make = [](auto cage, const auto&, const auto&) {
     const BoundingBox box = boundingBox(cage->vertices());
     const Vec3 pad(0.05 * cage->diagonal());
-    LatticeParams params;
+    LatticeOptions params;
     params.origin = box.min - pad;
     params.extents = box.max - box.min + 2.0 * pad;
     params.resolution = {kFfdResolution, kFfdResolution, kFfdResolution};
@@ -105,7 +105,7 @@ struct Slice {
   double uMin = 0, uMax = 0, vMin = 0, vMax = 0;
   int width = 0, height = 0;
 
-  Vec3 pixelCentre(int i, int j) const {
+  Vec3 pixelCenter(int i, int j) const {
     const double a = uMin + (uMax - uMin) * (i + 0.5) / width;
     const double b = vMax - (vMax - vMin) * (j + 0.5) / height;  // row 0 at the top
     return origin + a * u + b * v;
@@ -349,7 +349,7 @@ std::vector<std::string> checkRequest(const CompareRequest& request,
 
 /// The pixels of the slice inside the cage: the only places where every method is defined.
 struct InsidePixels {
-  std::vector<Vec3> points;        ///< pixel centres, world units
+  std::vector<Vec3> points;        ///< pixel centers, world units
   std::vector<std::size_t> pixel;  ///< their index in the image, row-major
 };
 
@@ -358,13 +358,13 @@ InsidePixels insidePixels(const Cage& cage, const Slice& slice) {
   std::vector<char> isInside(std::size_t(slice.width) * slice.height);
   tbb::parallel_for(0, slice.height, [&](int j) {
     for (int i = 0; i < slice.width; ++i)
-      isInside[std::size_t(j) * slice.width + i] = cage.contains(slice.pixelCentre(i, j));
+      isInside[std::size_t(j) * slice.width + i] = cage.contains(slice.pixelCenter(i, j));
   });
   InsidePixels inside;
   for (int j = 0; j < slice.height; ++j)
     for (int i = 0; i < slice.width; ++i)
       if (isInside[std::size_t(j) * slice.width + i]) {
-        inside.points.push_back(slice.pixelCentre(i, j));
+        inside.points.push_back(slice.pixelCenter(i, j));
         inside.pixel.push_back(std::size_t(j) * slice.width + i);
       }
   return inside;
@@ -512,7 +512,7 @@ SideBySide sideBySide(const std::vector<Result>& results, const std::vector<Imag
   json panels = json::array();
   for (std::size_t k = 0; k < images.size(); ++k) {
     const int left = static_cast<int>(k) * (slice.width + gap);
-    // The title centred over its panel and clipped to it, so long names never run into the
+    // The title centered over its panel and clipped to it, so long names never run into the
     // next one.
     Image title(slice.width, titleHeight, Rgb{255, 255, 255});
     title.text(std::max(0, (slice.width - textWidth(results[k].name, textScale)) / 2), gap / 2,

@@ -48,11 +48,11 @@ class Describer {
       ffd();
     } else if (method == "rbf") {
       line("method", "rbf (" + get("kernel", "triharmonic") + " kernel)");
-      line("centres", count(rig_, "centers") + ", moved to as many targets");
+      line("centers", count(rig_, "centers") + ", moved to as many targets");
       line("fixed", rig_.contains("fixed") ? count(rig_, "fixed") : "0");
       line("smoothing", get("smoothing", "0 (interpolation)"));
       line("does",
-           "fits a radial-basis warp (plus a linear part) that takes each centre to its "
+           "fits a radial-basis warp (plus a linear part) that takes each center to its "
            "target and keeps the fixed points, then moves every point by it");
     } else if (method == "graph") {
       line("method", "graph (embedded deformation)");

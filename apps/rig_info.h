@@ -7,7 +7,7 @@
 namespace spacewarp::cli {
 
 /// Prints the rig's method, its controls (counts of cage vertices and faces, lattice
-/// resolution, handles, centres, nodes; the cage files are read for their counts) and a
+/// resolution, handles, centers, nodes; the cage files are read for their counts) and a
 /// sentence of what it will do; the warps of a "compose" rig are described in turn. The rig
 /// is first checked as `deform` checks it (checkRig: the same code, without the solves), so
 /// info refuses what deform refuses, with the same message, and prints nothing then. Throws

@@ -312,7 +312,7 @@ void printVolumeInfo(const std::filesystem::path& path, const CliContext& contex
       const openvdb::Coord lo = box.min(), hi = box.max();
       std::printf("  active index box: [%d %d %d] .. [%d %d %d]\n", lo.x(), lo.y(), lo.z(), hi.x(),
                   hi.y(), hi.z());
-      // World box of the active voxels' extents (voxel centres +- half a voxel).
+      // World box of the active voxels' extents (voxel centers +- half a voxel).
       const openvdb::BBoxd world =
           grid->transform().indexToWorld(openvdb::BBoxd(lo.asVec3d() - 0.5, hi.asVec3d() + 0.5));
       std::printf("  active world box: [%.17g %.17g %.17g] .. [%.17g %.17g %.17g]\n",

@@ -36,7 +36,7 @@ BENCHMARK(BM_CopyBaseline)->Unit(benchmark::kMillisecond)->UseRealTime();
 void BM_TwistApplyBatch(benchmark::State& state) {
   const auto& in = cloud();
   std::vector<Vec3> out(in.size());
-  TwistParams params;
+  TwistOptions params;
   params.axis = Vec3(0.3, 0.4, 1.0);
   params.rate = std::numbers::pi / 2;
   const TwistWarp twist(params);

@@ -24,7 +24,7 @@ using spacewarp::bench::reportPoints;
 
 // A lattice on [-1, 1]³ (every point inside) with randomly displaced controls.
 LatticeWarp posedLattice(LatticeBasis basis, int resolution) {
-  LatticeParams p;
+  LatticeOptions p;
   p.origin = Vec3(-1.0);
   p.extents = Vec3(2.0);
   p.resolution = {resolution, resolution, resolution};

@@ -47,8 +47,8 @@ const openvdb::FloatGrid& sphere() {
 }
 
 // A twist about the z axis through (10, 0, 0), 0.01 rad per world unit: 1 rad over the sphere.
-TwistParams twistParams() {
-  TwistParams p;
+TwistOptions twistParams() {
+  TwistOptions p;
   p.origin = Vec3(10.0, 0.0, 0.0);
   p.rate = 0.01;
   return p;
@@ -123,7 +123,7 @@ void BM_VolumeTwistOpenVdbGridResampler(benchmark::State& state) {
   double total = 0.0;
   for (auto _ : state) {
     total += timed([&] {
-      const TwistParams p = twistParams();
+      const TwistOptions p = twistParams();
       out = openVdbTwistResample(grid, openvdb::Vec3d(p.origin.x, p.origin.y, p.origin.z), p.rate,
                                  kVoxel);
     });
@@ -208,7 +208,7 @@ const CoordinateWarp& sparseCageWarp(double distance) {
 void BM_VolumeSparseSpheres(benchmark::State& state) {
   const double distance = std::pow(10.0, static_cast<double>(state.range(1)));
   const auto& grid = sparseSpheres(distance);
-  TwistParams twistAlongX;
+  TwistOptions twistAlongX;
   twistAlongX.axis = Vec3(1.0, 0.0, 0.0);
   twistAlongX.rate = 0.5;
   const TwistWarp twistX(twistAlongX);

@@ -110,21 +110,21 @@ void checkSoup(const PolygonSoup& soup, const std::string& name) {
   }
 }
 
-// The centre is the box's, rounded to a multiple of the (power-of-two) scale: then the frame
+// The center is the box's, rounded to a multiple of the (power-of-two) scale: then the frame
 // of a cage around the origin is an exact power-of-two scaling (its TetGen mesh is the one of
 // the world coordinates, scaled), while local coordinates stay within ~1 of zero.
 CageFrame cageFrame(const BoundingBox& box) {
   CageFrame frame;
   frame.scale = std::exp2(std::ceil(std::log2(box.diagonal())));
-  frame.centre = frame.scale * glm::round(0.5 * (box.min + box.max) / frame.scale);
+  frame.center = frame.scale * glm::round(0.5 * (box.min + box.max) / frame.scale);
   return frame;
 }
 
-// 6 × the signed volume of the cone from `centre` (the box centre) over triangle t. About the
-// centre, not the origin: far from the origin the products of absolute coordinates cancel
+// 6 × the signed volume of the cone from `center` (the box center) over triangle t. About the
+// center, not the origin: far from the origin the products of absolute coordinates cancel
 // catastrophically (a unit box at 1e8 got a volume wrong by orders of magnitude).
-double coneVolume(std::span<const Vec3> vertices, const Vec3& centre, const Triangle& t) {
-  const Vec3 a = vertices[t.x] - centre, b = vertices[t.y] - centre, c = vertices[t.z] - centre;
+double coneVolume(std::span<const Vec3> vertices, const Vec3& center, const Triangle& t) {
+  const Vec3 a = vertices[t.x] - center, b = vertices[t.y] - center, c = vertices[t.z] - center;
   return glm::dot(a, glm::cross(b, c));
 }
 
@@ -213,7 +213,7 @@ std::vector<std::vector<std::pair<std::uint32_t, bool>>> neighbours(const EdgeUs
 // opposite directions, then the whole component is flipped if its signed volume is negative.
 std::vector<int> outwardFlips(std::span<const Triangle> triangles,
                               std::span<const std::uint32_t> source, const EdgeUses& edges,
-                              std::span<const Vec3> vertices, const Vec3& centre,
+                              std::span<const Vec3> vertices, const Vec3& center,
                               const std::string& name) {
   const auto next = neighbours(edges, triangles.size());
   std::vector<int> flip(triangles.size(), -1);  // -1 unvisited, 0 keep, 1 flip
@@ -238,7 +238,7 @@ std::vector<int> outwardFlips(std::span<const Triangle> triangles,
     // Outward: the component's signed volume (after the consistent flips) must be positive.
     double signedVolume = 0.0;
     for (std::uint32_t t : component) {
-      const double v = coneVolume(vertices, centre, triangles[t]);
+      const double v = coneVolume(vertices, center, triangles[t]);
       signedVolume += flip[t] ? -v : v;
     }
     if (signedVolume < 0.0)
@@ -264,14 +264,14 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
   checkEveryVertexUsed(vertices_.size(), triangles_, name_);
   const EdgeUses edges = manifoldEdges(triangles_, name_);
   const std::vector<int> flip =
-      outwardFlips(triangles_, triangleSource_, edges, vertices_, frame_.centre, name_);
+      outwardFlips(triangles_, triangleSource_, edges, vertices_, frame_.center, name_);
   for (std::size_t t = 0; t < triangles_.size(); ++t) {
     if (flip[t]) {
       std::swap(triangles_[t].y, triangles_[t].z);
       ++reorientedCount_;
     }
   }
-  for (const Triangle& t : triangles_) volume_ += coneVolume(vertices_, frame_.centre, t) / 6.0;
+  for (const Triangle& t : triangles_) volume_ += coneVolume(vertices_, frame_.center, t) / 6.0;
   if (!(volume_ > 0.0)) fail(name_, "the cage encloses no volume");
 }
 

@@ -16,19 +16,19 @@ namespace spacewarp {
 
 using Triangle = glm::u32vec3;  ///< Three vertex indices.
 
-/// A cage-relative frame: local = (world − centre) / scale. Computations whose round-off would
+/// A cage-relative frame: local = (world − center) / scale. Computations whose round-off would
 /// otherwise grow with the distance from the world origin (meshing, assembling, locating) run
 /// in it, so their accuracy depends only on the cage's shape, not on where it is or how big.
 struct CageFrame {
-  /// The centre of the cage's bounding box rounded to a multiple of `scale`, world units (0 for
+  /// The center of the cage's bounding box rounded to a multiple of `scale`, world units (0 for
   /// a cage around the origin, whose frame is then an exact scaling).
-  Vec3 centre{0.0};
+  Vec3 center{0.0};
   /// The power of two at or above the bounding-box diagonal (a power of two makes the scaling
   /// exact), world units.
   double scale = 1.0;
 
-  Vec3 toLocal(const Vec3& world) const { return (world - centre) / scale; }
-  Vec3 toWorld(const Vec3& local) const { return local * scale + centre; }
+  Vec3 toLocal(const Vec3& world) const { return (world - center) / scale; }
+  Vec3 toWorld(const Vec3& local) const { return local * scale + center; }
 };
 
 /// A validated cage. Polygons are triangulated (a fan for convex faces, ear clipping
@@ -66,7 +66,7 @@ class Cage {
   /// The enclosed volume (positive: triangles face outward).
   double volume() const { return volume_; }
 
-  /// The cage-relative frame (bounding-box centre, power-of-two scale).
+  /// The cage-relative frame (bounding-box center, power-of-two scale).
   const CageFrame& frame() const { return frame_; }
 
   /// Unit outward normal and area of triangle t.

@@ -270,7 +270,7 @@ double HarmonicCoordinates::memoryEstimate(const Cage& cage, const HarmonicOptio
 }
 
 double HarmonicCoordinates::tetVolumeBound(const Cage& cage, const HarmonicOptions& options) {
-  if (options.maxTetVolume > 0.0) return options.maxTetVolume * cage.volume();
+  if (options.maxTetVolumeFraction > 0.0) return options.maxTetVolumeFraction * cage.volume();
   return cage.volume() / (kMeanVolumeFraction * static_cast<double>(options.targetTetCount));
 }
 
@@ -279,12 +279,12 @@ namespace {
 void checkOptions(const HarmonicOptions& options) {
   if (options.targetTetCount < 1)
     throw InvalidInput("HarmonicCoordinates: targetTetCount must be >= 1");
-  if (!(std::isfinite(options.maxTetVolume) && options.maxTetVolume >= 0.0 &&
-        options.maxTetVolume <= 1.0)) {
+  if (!(std::isfinite(options.maxTetVolumeFraction) && options.maxTetVolumeFraction >= 0.0 &&
+        options.maxTetVolumeFraction <= 1.0)) {
     throw InvalidInput(
-        "HarmonicCoordinates: maxTetVolume must be in [0, 1] (relative to the cage "
+        "HarmonicCoordinates: maxTetVolumeFraction must be in [0, 1] (relative to the cage "
         "volume), got " +
-        number(options.maxTetVolume));
+        number(options.maxTetVolumeFraction));
   }
   if (options.outside != HarmonicOutsidePolicy::Throw &&
       options.outside != HarmonicOutsidePolicy::NearestPoint)
@@ -361,7 +361,7 @@ Laplacian assembleLaplacian(const Cage& cage, const TetMesh& mesh, const std::ve
 detail::SparseCholesky factoriseLaplacian(const SparseMatrix& a) {
   detail::SparseCholesky cholesky(
       {"HarmonicCoordinates",
-       "use a coarser mesh (a smaller targetTetCount or a larger maxTetVolume)",
+       "use a coarser mesh (a smaller targetTetCount or a larger maxTetVolumeFraction)",
        detail::CholeskyOrdering::CholmodDefault});
   cholesky.analyzePattern(a);
   if (!cholesky.factorize(a)) {
@@ -450,7 +450,7 @@ std::vector<double> solveValues(const Cage& cage, const TetMesh& mesh, bool nonN
 // coordinates (a few ulps of the largest), in frame units: points on the cage surface far from
 // the origin are on it only to that precision, which can exceed the relative tolerance.
 std::unique_ptr<TetLocator> makeLocator(const TetMesh& mesh) {
-  const double reach = maxAbs(mesh.frame.centre) + mesh.frame.scale;
+  const double reach = maxAbs(mesh.frame.center) + mesh.frame.scale;
   const double slack = 16.0 * std::numeric_limits<double>::epsilon() * reach / mesh.frame.scale;
   return std::make_unique<TetLocator>(mesh.localVertices, mesh.tets, 1e-10, slack);
 }
@@ -498,10 +498,9 @@ const TetMesh& HarmonicCoordinates::mesh() const { return impl_->mesh; }
 std::span<const double> HarmonicCoordinates::vertexValues() const { return impl_->values; }
 double HarmonicCoordinates::meshVolumeBound() const { return impl_->volumeBound; }
 
-HarmonicCoordinates::Location HarmonicCoordinates::locate(const Vec3& x) const {
+TetLocator::Hit HarmonicCoordinates::locate(const Vec3& x) const {
   if (!isFinite(x)) throw InvalidInput("HarmonicCoordinates: the query point is not finite");
-  const TetLocator::Hit hit = impl_->locator->locate(impl_->mesh.frame.toLocal(x));
-  return {hit.found, hit.tet, hit.barycentric};
+  return impl_->locator->locate(impl_->mesh.frame.toLocal(x));
 }
 
 void HarmonicCoordinates::weights(const Vec3& x, std::span<double> row) const {

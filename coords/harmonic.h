@@ -35,6 +35,7 @@
 #include <string>
 
 #include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/tet_locator.h>
 #include <spacewarp/coords/tet_mesh.h>
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/progress.h>
@@ -53,7 +54,7 @@ enum class HarmonicOutsidePolicy {
 
 /// Options of HarmonicCoordinates.
 struct HarmonicOptions {
-  /// The size of the tetrahedralisation as a target tet count, used when maxTetVolume is 0:
+  /// The size of the tetrahedralisation as a target tet count, used when maxTetVolumeFraction is 0:
   /// the volume bound is then derived from the cage's volume so that the mesh has roughly
   /// this many tets (within a factor ~1.5; coarse cages get more, since the quality bound
   /// refines near small cage features). The default gives the Ju et al. armadillo cage about
@@ -62,7 +63,7 @@ struct HarmonicOptions {
   std::size_t targetTetCount = 200000;
   /// Upper bound on every tet's volume, relative to the cage's volume (0: use targetTetCount).
   /// Must be finite and in [0, 1].
-  double maxTetVolume = 0.0;
+  double maxTetVolumeFraction = 0.0;
   /// Upper bound on each tet's circumradius / shortest edge (TetGen's -q); see TetMeshOptions.
   double radiusEdgeRatio = 2.0;
   /// Whether to enforce non-negative coordinates. The linear-FEM solution obeys the discrete
@@ -171,14 +172,9 @@ class HarmonicCoordinates final : public Coordinates {
   /// for points outside the cage (callers then use finite differences).
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
 
-  /// Where x is in the mesh (TetLocator::Hit: found, tet, barycentric coordinates). Throws
-  /// InvalidInput if x is not finite.
-  struct Location {
-    bool inside = false;
-    std::uint32_t tet = 0;
-    std::array<double, 4> barycentric{};
-  };
-  Location locate(const Vec3& x) const;
+  /// Where x is in the mesh: whether it is in a tet, which, and its barycentric coordinates
+  /// there. Throws InvalidInput if x is not finite.
+  TetLocator::Hit locate(const Vec3& x) const;
 
   const Cage& cage() const;
   const HarmonicOptions& options() const;

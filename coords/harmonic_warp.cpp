@@ -35,8 +35,8 @@ HarmonicWarp::HarmonicWarp(std::shared_ptr<const HarmonicCoordinates> coordinate
 }
 
 bool HarmonicWarp::displacement(const Vec3& x, Vec3& d) const {
-  const HarmonicCoordinates::Location at = coordinates_->locate(x);
-  if (at.inside) {
+  const TetLocator::Hit at = coordinates_->locate(x);
+  if (at.found) {
     const auto& tet = coordinates_->mesh().tets[at.tet];
     d = at.barycentric[0] * vertexDisplacement_[tet[0]] +
         at.barycentric[1] * vertexDisplacement_[tet[1]] +
@@ -93,8 +93,8 @@ void HarmonicWarp::throwUnmapped(const UnmappedPoints& unmapped, std::span<const
 
 Mat3 HarmonicWarp::jacobian(const Vec3& x) const {
   if (!isFinite(x)) throw InvalidInput("HarmonicWarp: the point is not finite");
-  const HarmonicCoordinates::Location at = coordinates_->locate(x);
-  if (!at.inside) {
+  const TetLocator::Hit at = coordinates_->locate(x);
+  if (!at.found) {
     if (coordinates_->options().outside != HarmonicOutsidePolicy::NearestPoint)
       throw InvalidInput("HarmonicWarp: 1 point is outside the cage");
     return Warp::jacobian(x);

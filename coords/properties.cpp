@@ -44,7 +44,7 @@ void forEachWeightRow(const Coordinates& c, std::span<const Vec3> points, Visit&
   });
 }
 
-// The sample-based checks, shared by both overloads. `centre` is the fixed point of the
+// The sample-based checks, shared by both overloads. `center` is the fixed point of the
 // similarity; `controls` the rest control points.
 PropertyReport measureSamples(const Coordinates& coordinates, std::span<const Vec3> controls,
                               std::span<const Vec3> samples, double diagonal,
@@ -58,19 +58,19 @@ PropertyReport measureSamples(const Coordinates& coordinates, std::span<const Ve
   std::vector<Vec3> restColumns(m);
   coordinates.columnControls(controls, restColumns);
 
-  // Every sum below is taken relative to the centre of the controls: in absolute coordinates
+  // Every sum below is taken relative to the center of the controls: in absolute coordinates
   // far from the origin (a cage at 1e8) the measurement's own round-off would swamp the
   // coordinates' errors. The vertex columns are positions (shifted), any others (Green's face
   // normals) directions.
   const BoundingBox box = boundingBox(controls);
-  const Vec3 centre = 0.5 * (box.min + box.max);
+  const Vec3 center = 0.5 * (box.min + box.max);
   const Mat3 linear = Mat3(glm::rotate(Mat4(1.0), options.similarityAngle,
                                        glm::normalize(options.similarityAxis))) *
                       options.similarityScale;
   const Vec3 translation = options.similarityTranslation * diagonal;
-  // S(x) − x, the similarity's displacement (about the centre).
+  // S(x) − x, the similarity's displacement (about the center).
   auto similarityDisplacement = [&](const Vec3& x) {
-    const Vec3 d = x - centre;
+    const Vec3 d = x - center;
     return translation + linear * d - d;
   };
   std::vector<Vec3> posed(nv), displacement(m);
@@ -96,12 +96,12 @@ PropertyReport measureSamples(const Coordinates& coordinates, std::span<const Ve
     samplesNegative += anyNegative;
     Vec3 reproduced(0.0), moved(0.0);
     for (std::size_t c = 0; c < m; ++c) {
-      reproduced += w[c] * (c < nv ? restColumns[c] - centre : restColumns[c]);
+      reproduced += w[c] * (c < nv ? restColumns[c] - center : restColumns[c]);
       moved += w[c] * displacement[c];
     }
     report.partitionOfUnity = std::max(report.partitionOfUnity, std::abs(sum - 1.0));
     report.linearReproduction = std::max(
-        report.linearReproduction, glm::length(reproduced - (samples[s] - centre)) / diagonal);
+        report.linearReproduction, glm::length(reproduced - (samples[s] - center)) / diagonal);
     report.similarityReproduction =
         std::max(report.similarityReproduction,
                  glm::length(moved - similarityDisplacement(samples[s])) / diagonal);

@@ -32,7 +32,7 @@ struct PropertyOptions {
 struct PropertyReport {
   std::size_t sampleCount = 0;
   double partitionOfUnity = 0.0;  ///< max |Σ_i w_i(x) − 1|
-  /// max |Σ_c w_c(x) (C_c(rest) − o) − (x − o)| / diagonal, o the centre of the controls'
+  /// max |Σ_c w_c(x) (C_c(rest) − o) − (x − o)| / diagonal, o the center of the controls'
   /// bounding box (vertex columns are shifted by o, Green's face columns are not): the same as
   /// |Σ_c w_c C_c − x| when the weights sum to 1, and independent of where the world origin is.
   double linearReproduction = 0.0;
@@ -62,7 +62,7 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
 /// The properties that do not need the controls to be cage vertices (partition of unity,
 /// linear and similarity reproduction, signs), for coordinates with any controls (a lattice,
 /// RBF handles): lengths relative to `diagonal` (world units, > 0), the similarity about the
-/// centre of the controls' bounding box. lagrange and faceInterpolation are NaN. Throws
+/// center of the controls' bounding box. lagrange and faceInterpolation are NaN. Throws
 /// InvalidInput if `samples` is empty or `diagonal` is not positive.
 PropertyReport measureProperties(const Coordinates& coordinates, std::span<const Vec3> samples,
                                  double diagonal, const PropertyOptions& options = {});

@@ -73,7 +73,7 @@ Vec3 orthogonalDirection(const Vec3& direction, const Vec3& axis) {
 
 }  // namespace
 
-BendWarp::BendWarp(const BendParams& params)
+BendWarp::BendWarp(const BendOptions& params)
     : params_(params),
       frame_("BendWarp", params.origin, params.axis, params.lo, params.hi),
       direction_(orthogonalDirection(params.direction, frame_.axis)) {
@@ -93,7 +93,7 @@ std::optional<Vec3> BendWarp::exactInverse(const Vec3& target) const {
   const double Y = glm::dot(rel, a);
   const double Z = glm::dot(rel, d);
   // Candidates: the rigid parts beyond each limit, and the bent region (angle and distance
-  // from the centre of curvature, scaled by k). Beyond the bent region the parts can overlap
+  // from the center of curvature, scaled by k). Beyond the bent region the parts can overlap
   // (the bend folds far from the spine): the candidate that moves least is taken.
   std::optional<Vec3> best;
   double bestMove = std::numeric_limits<double>::infinity();

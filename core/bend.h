@@ -14,18 +14,18 @@ namespace spacewarp {
 ///
 /// Local frame: y = s = dot(x - origin, a) along the unit spine a = normalize(axis), z along the
 /// unit direction d (`direction` with its component along a removed), x along b = a × d. With
-/// ŷ = clamp(y, lo, hi), θ = k ŷ, S = sin θ, C = cos θ (Barr's bend, centre of the bend at y = 0):
+/// ŷ = clamp(y, lo, hi), θ = k ŷ, S = sin θ, C = cos θ (Barr's bend, center of the bend at y = 0):
 ///   X = x,   Y = -S z + S / k + C (y - ŷ),   Z = C z + (1 - C) / k + S (y - ŷ).
-/// The spine (z = 0) between the limits is wrapped onto the circle of radius 1/k whose centre is
+/// The spine (z = 0) between the limits is wrapped onto the circle of radius 1/k whose center is
 /// at origin + d / k; beyond the limits the space moves rigidly with the end of the bent region.
-/// The map is locally invertible where 1 - k z > 0 (between the spine's centre of curvature and
-/// the far side); at 1 - k z = 0 (the centre of curvature) it is singular, beyond that it folds.
-struct BendParams {
+/// The map is locally invertible where 1 - k z > 0 (between the spine's center of curvature and
+/// the far side); at 1 - k z = 0 (the center of curvature) it is singular, beyond that it folds.
+struct BendOptions {
   Vec3 origin{0.0};  ///< A point on the spine where the bend starts (y = 0), world units.
   /// The spine: the direction along which the object extends and bends. Any finite non-zero
   /// length. Default +z.
   Vec3 axis{0.0, 0.0, 1.0};
-  /// Towards the centre of curvature for a positive rate. Orthogonalised against `axis`; must not
+  /// Towards the center of curvature for a positive rate. Orthogonalised against `axis`; must not
   /// be parallel to it. Any finite non-zero length. Default +x.
   Vec3 direction{1.0, 0.0, 0.0};
   /// Curvature k: bend angle per unit length along the spine, radians per world unit.
@@ -35,7 +35,10 @@ struct BendParams {
   double hi = std::numeric_limits<double>::infinity();   ///< Upper limit on y, world units.
 };
 
-/// Barr's bend (see BendParams). Analytic Jacobian: in the local frame, dX/dx = 1,
+/// The struct's former name, kept for code written against it.
+using BendParams [[deprecated("renamed BendOptions")]] = BendOptions;
+
+/// Barr's bend (see BendOptions). Analytic Jacobian: in the local frame, dX/dx = 1,
 /// dY/dy = C (1 - k' z), dY/dz = -S, dZ/dy = S (1 - k' z), dZ/dz = C with k' = k between the
 /// limits and 0 beyond them (a pure rotation there); det J = 1 - k' z.
 ///
@@ -47,7 +50,7 @@ class BendWarp final : public Warp {
  public:
   /// Throws InvalidInput for a zero or non-finite axis or direction, a direction parallel to the
   /// axis, a non-finite origin or rate, a NaN limit or lo > hi (or lo = +inf, hi = -inf).
-  explicit BendWarp(const BendParams& params);
+  explicit BendWarp(const BendOptions& params);
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
@@ -59,10 +62,10 @@ class BendWarp final : public Warp {
   std::optional<Vec3> exactInverse(const Vec3& y) const override;
 
   /// The parameters as given (axis and direction not normalised or orthogonalised).
-  const BendParams& params() const { return params_; }
+  const BendOptions& params() const { return params_; }
   /// The unit spine a.
   const Vec3& axis() const { return frame_.axis; }
-  /// The unit direction d towards the centre of curvature, perpendicular to the axis.
+  /// The unit direction d towards the center of curvature, perpendicular to the axis.
   const Vec3& direction() const { return direction_; }
 
  protected:
@@ -70,7 +73,7 @@ class BendWarp final : public Warp {
                             std::size_t end) const override;
 
  private:
-  BendParams params_;
+  BendOptions params_;
   detail::AxisFrame frame_;
   Vec3 direction_;
 };

@@ -29,7 +29,7 @@ inline Vec3 taperPoint(const TaperKernel& k, const Vec3& x) {
 
 }  // namespace
 
-TaperWarp::TaperWarp(const TaperParams& params)
+TaperWarp::TaperWarp(const TaperOptions& params)
     : params_(params), frame_("TaperWarp", params.origin, params.axis, params.lo, params.hi) {
   detail::requireFinite("TaperWarp", "rate", params.rate);
 }

@@ -20,7 +20,7 @@ namespace spacewarp {
 /// mirrored through the axis, so the tapered object passes through itself across the plane
 /// r = 0 (det J = r² stays positive: within the plane of the cross-section the mirror is a half
 /// turn). Such parameters are not rejected, but inverse() is only supported where r > 0.
-struct TaperParams {
+struct TaperOptions {
   Vec3 origin{0.0};  ///< A point on the taper axis where r = 1, world units. Default origin.
   Vec3 axis{0.0, 0.0, 1.0};  ///< Direction of the axis; any finite non-zero length. Default +z.
   double rate = 0.0;  ///< dr/ds: change of the scale per unit length, 1 / world units. 0: identity.
@@ -28,13 +28,16 @@ struct TaperParams {
   double hi = std::numeric_limits<double>::infinity();   ///< Upper limit on s, world units.
 };
 
-/// Barr's taper (see TaperParams). Analytic Jacobian:
+/// The struct's former name, kept for code written against it.
+using TaperParams [[deprecated("renamed TaperOptions")]] = TaperOptions;
+
+/// Barr's taper (see TaperOptions). Analytic Jacobian:
 /// J = a aᵀ + r (I - a aᵀ) + r'(s) p aᵀ with r' = rate between the limits, 0 beyond; det J = r².
 class TaperWarp final : public Warp {
  public:
   /// Throws InvalidInput for a zero or non-finite axis, a non-finite origin or rate, a NaN limit
   /// or lo > hi (or lo = +inf, hi = -inf).
-  explicit TaperWarp(const TaperParams& params);
+  explicit TaperWarp(const TaperOptions& params);
 
   Vec3 apply(const Vec3& x) const override;
   Mat3 jacobian(const Vec3& x) const override;
@@ -43,7 +46,7 @@ class TaperWarp final : public Warp {
   std::optional<Vec3> exactInverse(const Vec3& y) const override;
 
   /// The parameters as given (the axis not normalised).
-  const TaperParams& params() const { return params_; }
+  const TaperOptions& params() const { return params_; }
   /// The unit axis.
   const Vec3& axis() const { return frame_.axis; }
   /// The scale r(ŝ) = 1 + rate clamp(s, lo, hi) of the cross-section at axial coordinate s.
@@ -54,7 +57,7 @@ class TaperWarp final : public Warp {
                             std::size_t end) const override;
 
  private:
-  TaperParams params_;
+  TaperOptions params_;
   detail::AxisFrame frame_;
 };
 

@@ -37,7 +37,7 @@ TwistKernel kernelOf(const detail::AxisFrame& f, double rate) {
 
 }  // namespace
 
-TwistWarp::TwistWarp(const TwistParams& params)
+TwistWarp::TwistWarp(const TwistOptions& params)
     : params_(params), frame_("TwistWarp", params.origin, params.axis, params.lo, params.hi) {
   detail::requireFinite("TwistWarp", "rate", params.rate);
 }

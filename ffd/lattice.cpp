@@ -13,7 +13,7 @@ namespace {
 
 const char* const kAxisNames[3] = {"axes[0]", "axes[1]", "axes[2]"};
 
-void validate(const LatticeParams& p) {
+void validate(const LatticeOptions& p) {
   const std::string who = "Lattice: ";
   if (!isFinite(p.origin)) throw InvalidInput(who + "the origin is not finite");
   if (!isFinite(p.extents)) throw InvalidInput(who + "the extents are not finite");
@@ -61,7 +61,7 @@ void validate(const LatticeParams& p) {
 
 }  // namespace
 
-Lattice::Lattice(const LatticeParams& params) : params_(params) {
+Lattice::Lattice(const LatticeOptions& params) : params_(params) {
   validate(params_);
   const auto [l, m, n] = params_.resolution;
   detail::checkMemory(double(l) * m * n * sizeof(Vec3),

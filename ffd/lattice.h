@@ -42,14 +42,14 @@ enum class LatticeOutside {
   /// regions, along the rays from the nearest corner or edge).
   Clamp,
   /// VTK's "Zero" border: x' = x + s(r / R) d(p) with r = |x − p| the distance to the box, R the
-  /// falloff distance (LatticeParams::falloff × box diagonal) and s(t) = 1 − t²(3 − 2t) for
+  /// falloff distance (LatticeOptions::falloff × box diagonal) and s(t) = 1 − t²(3 − 2t) for
   /// t < 1, 0 beyond. Continuous (C⁰) across the box surface, C¹ at r = R, and exactly the
   /// identity farther than R from the box.
   Falloff,
 };
 
 /// Parameters of a Lattice. Validated by Lattice's constructor.
-struct LatticeParams {
+struct LatticeOptions {
   /// The corner of the box at (u, v, w) = (0, 0, 0), world units. Default: the origin.
   Vec3 origin{0.0};
   /// The box's edge directions: orthonormal (within 1e-9), any handedness. Default: x, y, z.
@@ -68,6 +68,9 @@ struct LatticeParams {
   double falloff = 0.1;
 };
 
+/// The struct's former name, kept for code written against it.
+using LatticeParams [[deprecated("renamed LatticeOptions")]] = LatticeOptions;
+
 /// An oriented box with a regular grid of control points. Control point (i, j, k) is number
 /// index(i, j, k) = i + l (j + m k): i fastest, then j, then k. Immutable; every method is const
 /// and thread-safe.
@@ -76,9 +79,9 @@ class Lattice {
   /// Throws InvalidInput naming the parameter at fault: a resolution below 2 (below 4 for
   /// BSpline, above 32 for Bernstein), axes that are not finite, not unit or not orthogonal,
   /// extents that are not finite and positive, a non-finite origin or falloff.
-  explicit Lattice(const LatticeParams& params);
+  explicit Lattice(const LatticeOptions& params);
 
-  const LatticeParams& params() const { return params_; }
+  const LatticeOptions& params() const { return params_; }
   LatticeBasis basis() const { return params_.basis; }
   const std::array<int, 3>& resolution() const { return params_.resolution; }
 
@@ -111,7 +114,7 @@ class Lattice {
                             std::span<Vec3> gradients = {}) const;
 
  private:
-  LatticeParams params_;
+  LatticeOptions params_;
   std::vector<Vec3> rest_;
 };
 

@@ -201,7 +201,7 @@ Lattice fitLattice(std::span<const Vec3> points, double padding, std::array<int,
     throw InvalidInput(who + "the padding must be finite and non-negative");
   const BoundingBox box = boundingBox(points);
   const double grow = padding * box.diagonal();
-  LatticeParams p;
+  LatticeOptions p;
   p.origin = box.min - Vec3(grow);
   p.extents = box.extent() + Vec3(2.0 * grow);
   for (int a = 0; a < 3; ++a) {

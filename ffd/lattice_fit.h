@@ -42,7 +42,7 @@ ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> f
 
 /// An axis-aligned lattice around the bounding box of `points`, grown on every side by
 /// `padding` × the box diagonal (padding ≥ 0), with the given resolution and basis (and the
-/// other LatticeParams at their defaults). Throws InvalidInput if `points` is empty or not
+/// other LatticeOptions at their defaults). Throws InvalidInput if `points` is empty or not
 /// finite, padding is negative or not finite, or the padded box is flat (e.g. zero padding
 /// around planar points), and as Lattice's constructor does.
 Lattice fitLattice(std::span<const Vec3> points, double padding, std::array<int, 3> resolution,

@@ -141,7 +141,7 @@ class DeformationGraphWarp final : public Warp {
 class DeformationGraph {
  public:
   /// Samples nodes from `positions` (n points, world units: a PointSet's or PolygonSoup's
-  /// positions, or the centres of a volume's active voxels) at options.spacing with
+  /// positions, or the centers of a volume's active voxels) at options.spacing with
   /// options.sampling; edges as edges() says. Throws InvalidInput for empty or non-finite
   /// positions, spacing <= 0 or not finite, k < 1, or k >= the number of nodes.
   DeformationGraph(std::span<const Vec3> positions, const DeformationGraphOptions& options);

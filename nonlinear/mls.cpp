@@ -346,7 +346,7 @@ inline Vec3 mlsPoint(const Model& m, const Vec3& x, double* w) {
   return fit.transform * (x - fit.handleCentroid) + fit.targetCentroid;
 }
 
-// The singular values of the centred points (their spread along the principal directions),
+// The singular values of the centered points (their spread along the principal directions),
 // largest first.
 std::array<double, 3> singularSpread(const std::vector<Vec3>& pts) {
   Vec3 c(0.0);

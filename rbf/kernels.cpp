@@ -136,43 +136,43 @@ void validateRbfOptions(const std::string& who, const RbfOptions& o) {
 
 namespace spacewarp {
 
-std::string rbfScaleProblem(const RbfOptions& o, std::span<const Vec3> centres) {
+std::string rbfScaleProblem(const RbfOptions& o, std::span<const Vec3> centers) {
   if (o.kernel != RbfKernel::Gaussian && o.kernel != RbfKernel::InverseMultiquadric) return {};
   if (!(std::isfinite(o.scale) && o.scale > 0.0)) return "must be finite and > 0";
   if (!(o.scale >= kMinRbfScale && o.scale <= kMaxRbfScale)) return kOutOfRange;
-  if (centres.size() < 2) return {};
-  Vec3 lo = centres[0], hi = centres[0];
-  for (const Vec3& p : centres) lo = glm::min(lo, p), hi = glm::max(hi, p);
+  if (centers.size() < 2) return {};
+  Vec3 lo = centers[0], hi = centers[0];
+  for (const Vec3& p : centers) lo = glm::min(lo, p), hi = glm::max(hi, p);
   const double extent = glm::length(hi - lo);
   if (!(extent > 0.0) || !std::isfinite(extent)) return {};
   // Too large: r²/ε² below half an ulp of 1 for every r up to the extent.
   const double spread = extent / o.scale;
   if (spread * spread < std::numeric_limits<double>::epsilon())
-    return "is too large for centres spanning " + shortNumber(extent) +
+    return "is too large for centers spanning " + shortNumber(extent) +
            ": the kernel has the same value between any two of them in double precision, so "
-           "the fit is singular; give about the centres' spacing";
+           "the fit is singular; give about the centers' spacing";
   if (o.kernel != RbfKernel::Gaussian) return {};
-  // Too small: the closest two distinct centres (a sweep along x) are beyond the underflow of
+  // Too small: the closest two distinct centers (a sweep along x) are beyond the underflow of
   // exp(-(r/ε)²), at (r/ε)² > 708.
-  std::vector<std::size_t> order(centres.size());
+  std::vector<std::size_t> order(centers.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::sort(order.begin(), order.end(),
-            [&](std::size_t a, std::size_t b) { return centres[a].x < centres[b].x; });
+            [&](std::size_t a, std::size_t b) { return centers[a].x < centers[b].x; });
   const double same = o.duplicateTolerance * extent;
   double closest = std::numeric_limits<double>::infinity();
   for (std::size_t s = 0; s < order.size(); ++s) {
-    const Vec3& a = centres[order[s]];
-    for (std::size_t t = s + 1; t < order.size() && centres[order[t]].x - a.x < closest; ++t) {
-      const double d = glm::length(centres[order[t]] - a);
+    const Vec3& a = centers[order[s]];
+    for (std::size_t t = s + 1; t < order.size() && centers[order[t]].x - a.x < closest; ++t) {
+      const double d = glm::length(centers[order[t]] - a);
       if (d > same) closest = std::min(closest, d);
     }
   }
   if (!std::isfinite(closest)) return {};
   const double ratio = closest / o.scale;
   if (!(ratio * ratio <= 708.0))
-    return "is too small for centres " + shortNumber(closest) +
+    return "is too small for centers " + shortNumber(closest) +
            " apart (the closest two): exp(-(r/scale)^2) underflows to 0 between any two "
-           "centres, so each moves alone; give about the centres' spacing";
+           "centers, so each moves alone; give about the centers' spacing";
   return {};
 }
 

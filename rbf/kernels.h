@@ -13,7 +13,7 @@ namespace spacewarp {
 /// The radial kernel φ(r), r = |c − x| in world units.
 enum class RbfKernel {
   Triharmonic,  ///< φ = r³ (Botsch & Kobbelt 2005): C², minimises the triharmonic energy.
-  Biharmonic,   ///< φ = r: C⁰ at the centres (a cone), minimises the biharmonic energy.
+  Biharmonic,   ///< φ = r: C⁰ at the centers (a cone), minimises the biharmonic energy.
   ThinPlate,    ///< φ = r² log r (0 at r = 0).
   Gaussian,     ///< φ = exp(−(r/ε)²), ε = RbfOptions::scale.
   InverseMultiquadric,  ///< φ = 1 / sqrt(r² + ε²), ε = RbfOptions::scale.
@@ -26,10 +26,10 @@ struct RbfOptions {
   /// which needs no scale parameter.
   RbfKernel kernel = RbfKernel::Triharmonic;
   /// ε of the Gaussian and inverse multiquadric kernels, world units, > 0. Default 1: set it to
-  /// about the spacing of the centres.
+  /// about the spacing of the centers.
   double scale = 1.0;
   /// ρ, the support radius of the Wendland C2 kernel, world units, > 0. Default 1: it should
-  /// cover several neighbouring centres.
+  /// cover several neighbouring centers.
   double radius = 1.0;
   /// λ ≥ 0: smoothing (approximation instead of interpolation). The system solved is
   /// [[Φ + σλI, P], [Pᵀ, 0]] with σ = −1 for the biharmonic kernel r (conditionally negative
@@ -37,7 +37,7 @@ struct RbfOptions {
   /// polynomial-free subspace and larger λ always means a smoother, less interpolating fit.
   /// Default 0: the warp interpolates the targets exactly.
   double smoothing = 0.0;
-  /// Two centres closer than this, relative to the bounding-box diagonal of all centres, are
+  /// Two centers closer than this, relative to the bounding-box diagonal of all centers, are
   /// duplicates (merged when their targets agree within the same tolerance, an error
   /// otherwise). Default 1e-10.
   double duplicateTolerance = 1e-10;
@@ -72,14 +72,14 @@ inline constexpr double kMaxRbfScale = 1e150;
 /// duplicateTolerance finite and ≥ 0.
 void validateRbfOptions(const std::string& who, const RbfOptions& options);
 
-/// Why the Gaussian or inverse multiquadric scale ε does not suit `centres` (world units;
-/// centres closer than duplicateTolerance × their bounding-box diagonal count as one), as a
+/// Why the Gaussian or inverse multiquadric scale ε does not suit `centers` (world units;
+/// centers closer than duplicateTolerance × their bounding-box diagonal count as one), as a
 /// phrase to put after the scale's value ("is too small for ..."); empty when it suits them,
 /// or the kernel has no scale. Refused: an ε outside [kMinRbfScale, kMaxRbfScale]; for the
-/// Gaussian an ε so small that exp(−(r/ε)²) underflows to 0 between every two centres (the
-/// closest two included: each centre is alone, and the warp a set of spikes), and for both an
-/// ε so large that the kernel's values across the centres' whole extent are equal in double
+/// Gaussian an ε so small that exp(−(r/ε)²) underflows to 0 between every two centers (the
+/// closest two included: each center is alone, and the warp a set of spikes), and for both an
+/// ε so large that the kernel's values across the centers' whole extent are equal in double
 /// precision (the fit is singular).
-std::string rbfScaleProblem(const RbfOptions& options, std::span<const Vec3> centres);
+std::string rbfScaleProblem(const RbfOptions& options, std::span<const Vec3> centers);
 
 }  // namespace spacewarp

@@ -9,31 +9,31 @@
 
 namespace spacewarp {
 
-double RbfCoordinates::memoryEstimate(std::size_t centres, std::size_t fixed) {
-  const double n = static_cast<double>(centres) + static_cast<double>(fixed);
-  const double handles = static_cast<double>(centres);
+double RbfCoordinates::memoryEstimate(std::size_t centers, std::size_t fixed) {
+  const double n = static_cast<double>(centers) + static_cast<double>(fixed);
+  const double handles = static_cast<double>(centers);
   return sizeof(double) * (n * n + 4.0 * n * handles) + 4e6;
 }
 
-RbfCoordinates::RbfCoordinates(std::span<const Vec3> centres, const RbfOptions& options)
-    : RbfCoordinates(centres, {}, options) {}
+RbfCoordinates::RbfCoordinates(std::span<const Vec3> centers, const RbfOptions& options)
+    : RbfCoordinates(centers, {}, options) {}
 
-RbfCoordinates::RbfCoordinates(std::span<const Vec3> centres, std::span<const Vec3> fixed,
+RbfCoordinates::RbfCoordinates(std::span<const Vec3> centers, std::span<const Vec3> fixed,
                                const RbfOptions& options)
     : options_(options),
-      handles_(centres.begin(), centres.end()),
+      handles_(centers.begin(), centers.end()),
       fixed_(fixed.begin(), fixed.end()) {
   const std::string who = "RbfCoordinates";
   detail::checkMemory(
-      memoryEstimate(centres.size(), fixed.size()),
-      who + ": the solve for " + std::to_string(centres.size()) + " handles" +
-          (fixed.empty() ? "" : " and " + std::to_string(fixed.size()) + " fixed centres"));
-  const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, nullptr, fixed, options);
+      memoryEstimate(centers.size(), fixed.size()),
+      who + ": the solve for " + std::to_string(centers.size()) + " handles" +
+          (fixed.empty() ? "" : " and " + std::to_string(fixed.size()) + " fixed centers"));
+  const detail::RbfCenters c = detail::prepareRbfCenters(who, centers, nullptr, fixed, options);
   const detail::RbfSystem system(who, c.unique, options);
-  centres_ = c.unique;
+  centers_ = c.unique;
   const Eigen::Index n = static_cast<Eigen::Index>(c.unique.size());
-  const Eigen::Index u = static_cast<Eigen::Index>(c.handleCentres);
-  // One right-hand side per distinct handle centre: its unit displacement.
+  const Eigen::Index u = static_cast<Eigen::Index>(c.handleCenters);
+  // One right-hand side per distinct handle center: its unit displacement.
   Eigen::MatrixXd d = Eigen::MatrixXd::Zero(n, u);
   for (Eigen::Index i = 0; i < u; ++i) d(i, i) = 1.0;
   Eigen::MatrixXd w, a;
@@ -65,8 +65,8 @@ void RbfCoordinates::weights(const Vec3& x, std::span<double> row) const {
   const double* h = h_.data();
   for (std::size_t c = 0; c < m; ++c)
     row[c] = h[c] + x.x * h[m + c] + x.y * h[2 * m + c] + x.z * h[3 * m + c];
-  for (std::size_t j = 0; j < centres_.size(); ++j) {
-    const double phi = rbfKernelValue(options_, glm::length(x - centres_[j]));
+  for (std::size_t j = 0; j < centers_.size(); ++j) {
+    const double phi = rbfKernelValue(options_, glm::length(x - centers_[j]));
     const double* g = g_.data() + j * m;
     for (std::size_t c = 0; c < m; ++c) row[c] += phi * g[c];
   }
@@ -80,8 +80,8 @@ bool RbfCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
   }
   const double* h = h_.data();
   for (std::size_t c = 0; c < m; ++c) out[c] = Vec3(h[m + c], h[2 * m + c], h[3 * m + c]);
-  for (std::size_t j = 0; j < centres_.size(); ++j) {
-    const Vec3 v = x - centres_[j];
+  for (std::size_t j = 0; j < centers_.size(); ++j) {
+    const Vec3 v = x - centers_[j];
     const Vec3 grad = rbfKernelSlopeOverR(options_, glm::length(v)) * v;
     const double* g = g_.data() + j * m;
     for (std::size_t c = 0; c < m; ++c) out[c] += g[c] * grad;

@@ -12,39 +12,39 @@
 namespace spacewarp {
 
 /// The weights β_h(x) of the handles such that, for any targets t_h,
-///     x' = x + Σ_h β_h(x) (t_h − c_h)  =  RbfWarp(centres, targets, fixed, options).apply(x)
+///     x' = x + Σ_h β_h(x) (t_h − c_h)  =  RbfWarp(centers, targets, fixed, options).apply(x)
 /// (up to rounding). β(x) = Gᵀ φ(x) + Hᵀ q(x), where [G; H] are the handle columns of the
 /// inverse of the RBF saddle-point system (computed once, at construction, by applying its one
 /// factorisation to the handles' identity right-hand sides), φ(x) the kernel values at the
-/// centres and q(x) = [1, x, y, z].
+/// centers and q(x) = [1, x, y, z].
 ///
-/// Fixed centres are part of the fit but are not controls: their displacement is always zero,
-/// so their columns would multiply zero and are left out. Without fixed centres the weights
+/// Fixed centers are part of the fit but are not controls: their displacement is always zero,
+/// so their columns would multiply zero and are left out. Without fixed centers the weights
 /// have linear precision, Σ_h β_h(x) = 1 and Σ_h β_h(x) c_h = x (thanks to the linear
-/// polynomial, for any smoothing), so x' = Σ_h β_h(x) t_h; with fixed centres f_k the missing
+/// polynomial, for any smoothing), so x' = Σ_h β_h(x) t_h; with fixed centers f_k the missing
 /// weights β_k(x) satisfy Σ_h β_h + Σ_k β_k = 1 and Σ_h β_h c_h + Σ_k β_k f_k = x.
 ///
 /// Coinciding handles (within options.duplicateTolerance of the bounding-box diagonal) share
-/// their centre's weight equally, so posing them apart moves points by their average; a fixed
-/// centre that coincides with a handle is dropped (the handle controls that spot).
+/// their center's weight equally, so posing them apart moves points by their average; a fixed
+/// center that coincides with a handle is dropped (the handle controls that spot).
 ///
-/// Cost: construction O(n³) for n centres (one Cholesky factorisation, n right-hand sides) and
+/// Cost: construction O(n³) for n centers (one Cholesky factorisation, n right-hand sides) and
 /// n × handles doubles of storage; weights() O(n × handles) per point, with no allocation.
 class RbfCoordinates final : public Coordinates {
  public:
-  /// `centres`: the handles (world units); `fixed`: centres with zero displacement. Throws as
+  /// `centers`: the handles (world units); `fixed`: centers with zero displacement. Throws as
   /// RbfWarp does (InvalidInput, SolverError), except that no targets are checked; also
   /// InvalidInput when memoryEstimate() exceeds the memory available (detail::checkMemory).
-  explicit RbfCoordinates(std::span<const Vec3> centres, const RbfOptions& options = {});
-  RbfCoordinates(std::span<const Vec3> centres, std::span<const Vec3> fixed,
+  explicit RbfCoordinates(std::span<const Vec3> centers, const RbfOptions& options = {});
+  RbfCoordinates(std::span<const Vec3> centers, std::span<const Vec3> fixed,
                  const RbfOptions& options = {});
 
-  /// The peak memory (bytes) of the constructor for `centres` handles and `fixed` centres:
-  /// the system's factor and five dense (centres × handles) arrays during the solve, measured
+  /// The peak memory (bytes) of the constructor for `centers` handles and `fixed` centers:
+  /// the system's factor and five dense (centers × handles) arrays during the solve, measured
   /// at 34 to 40 (handles + fixed)² bytes for 1,000 to 4,000 handles. An upper bound.
-  static double memoryEstimate(std::size_t centres, std::size_t fixed = 0);
+  static double memoryEstimate(std::size_t centers, std::size_t fixed = 0);
 
-  /// The number of handles (not counting fixed centres).
+  /// The number of handles (not counting fixed centers).
   std::size_t controlPointCount() const override { return handles_.size(); }
   /// The handles as given.
   std::span<const Vec3> restControlPoints() const override { return handles_; }
@@ -53,8 +53,8 @@ class RbfCoordinates final : public Coordinates {
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
 
   const RbfOptions& options() const { return options_; }
-  /// The fixed centres as given.
-  std::span<const Vec3> fixedCentres() const { return fixed_; }
+  /// The fixed centers as given.
+  std::span<const Vec3> fixedCenters() const { return fixed_; }
 
  protected:
   /// An RbfWarp with the posed handles as targets (its own fit: O(n³) once, then the
@@ -66,8 +66,8 @@ class RbfCoordinates final : public Coordinates {
   RbfOptions options_;
   std::vector<Vec3> handles_;
   std::vector<Vec3> fixed_;
-  std::vector<Vec3> centres_;  // distinct centres of the fit
-  std::vector<double> g_;      // centres_.size() × handles, row-major
+  std::vector<Vec3> centers_;  // distinct centers of the fit
+  std::vector<double> g_;      // centers_.size() × handles, row-major
   std::vector<double> h_;      // 4 × handles, row-major: the coefficients of 1, x, y, z
 };
 

@@ -17,7 +17,7 @@ using namespace detail::simd;
 
 constexpr std::size_t kPointsPerTask = 256;  // a multiple of kLanes
 
-// What the batch kernel reads: the centres and weights in structure-of-arrays form, the kernel
+// What the batch kernel reads: the centers and weights in structure-of-arrays form, the kernel
 // and its parameter, and the polynomial.
 struct EvalData {
   const double* cx;
@@ -87,7 +87,7 @@ struct EvalData {
   y = x < 2.2250738585072014e-308 ? zero : (0.5 * x) * logX;
 }
 
-// Σ_j w_j φ(|c_j − x|) for the kLanes points (X, Y, Z), added to (ax, ay, az) in centre order.
+// Σ_j w_j φ(|c_j − x|) for the kLanes points (X, Y, Z), added to (ax, ay, az) in center order.
 template <RbfKernel K>
 [[gnu::always_inline]] inline void sumKernel(const EvalData& d, const VD& X, const VD& Y,
                                              const VD& Z, VD& ax, VD& ay, VD& az) {
@@ -178,22 +178,22 @@ double kernelParam(const RbfOptions& o) {
 
 }  // namespace
 
-RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
+RbfWarp::RbfWarp(std::span<const Vec3> centers, std::span<const Vec3> targets,
                  const RbfOptions& options)
-    : RbfWarp(centres, targets, {}, options) {}
+    : RbfWarp(centers, targets, {}, options) {}
 
-void RbfWarp::check(std::span<const Vec3> centres, std::span<const Vec3> targets,
+void RbfWarp::check(std::span<const Vec3> centers, std::span<const Vec3> targets,
                     std::span<const Vec3> fixed, const RbfOptions& options) {
   const std::string who = "RbfWarp";
-  const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, &targets, fixed, options);
+  const detail::RbfCenters c = detail::prepareRbfCenters(who, centers, &targets, fixed, options);
   detail::checkRbfPolynomial(who, c.unique);
 }
 
-RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
+RbfWarp::RbfWarp(std::span<const Vec3> centers, std::span<const Vec3> targets,
                  std::span<const Vec3> fixed, const RbfOptions& options)
     : options_(options) {
   const std::string who = "RbfWarp";
-  const detail::RbfCentres c = detail::prepareRbfCentres(who, centres, &targets, fixed, options);
+  const detail::RbfCenters c = detail::prepareRbfCenters(who, centers, &targets, fixed, options);
   const detail::RbfSystem system(who, c.unique, options);
   const Eigen::Index n = static_cast<Eigen::Index>(c.unique.size());
   Eigen::MatrixXd d(n, 3);
@@ -203,7 +203,7 @@ RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
   }
   Eigen::MatrixXd w, a;
   system.solve(d, w, a);
-  centres_ = c.unique;
+  centers_ = c.unique;
   weights_.resize(c.unique.size());
   for (Eigen::Index i = 0; i < n; ++i)
     weights_[static_cast<std::size_t>(i)] = Vec3(w(i, 0), w(i, 1), w(i, 2));
@@ -216,11 +216,11 @@ RbfWarp::RbfWarp(std::span<const Vec3> centres, std::span<const Vec3> targets,
     }
     translation_[i] = b;
   }
-  const std::size_t count = centres_.size();
+  const std::size_t count = centers_.size();
   soa_.resize(6 * count);
   for (std::size_t j = 0; j < count; ++j) {
     for (int k = 0; k < 3; ++k) {
-      soa_[k * count + j] = centres_[j][k];
+      soa_[k * count + j] = centers_[j][k];
       soa_[(3 + k) * count + j] = weights_[j][k];
     }
   }
@@ -240,7 +240,7 @@ EvalData evalDataOf(const std::vector<double>& soa, std::size_t n, const RbfOpti
 }  // namespace
 
 Vec3 RbfWarp::apply(const Vec3& x) const {
-  const EvalData d = evalDataOf(soa_, centres_.size(), options_, linear_, translation_);
+  const EvalData d = evalDataOf(soa_, centers_.size(), options_, linear_, translation_);
   double in[3 * kLanes], out[3 * kLanes];
   for (int l = 0; l < kLanes; ++l) {
     in[l] = x.x;
@@ -253,8 +253,8 @@ Vec3 RbfWarp::apply(const Vec3& x) const {
 
 Mat3 RbfWarp::jacobian(const Vec3& x) const {
   Mat3 j = Mat3(1.0) + linear_;
-  for (std::size_t i = 0; i < centres_.size(); ++i) {
-    const Vec3 v = x - centres_[i];
+  for (std::size_t i = 0; i < centers_.size(); ++i) {
+    const Vec3 v = x - centers_[i];
     const double s = rbfKernelSlopeOverR(options_, glm::length(v));
     j += glm::outerProduct(weights_[i], s * v);
   }
@@ -265,7 +265,7 @@ std::size_t RbfWarp::batchGrain() const { return kPointsPerTask; }
 
 UnmappedPoints RbfWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
                                    std::size_t end) const {
-  const EvalData d = evalDataOf(soa_, centres_.size(), options_, linear_, translation_);
+  const EvalData d = evalDataOf(soa_, centers_.size(), options_, linear_, translation_);
   double lanesIn[3 * kLanes], lanesOut[3 * kLanes];
   for (std::size_t i = begin; i < end; i += kLanes) {
     const std::size_t count = std::min<std::size_t>(kLanes, end - i);

@@ -45,7 +45,7 @@ std::array<int, 3> resolutionOf(RigReader& r) {
 }  // namespace
 
 Rig ffdRig(RigReader& r) {
-  LatticeParams p;
+  LatticeOptions p;
   p.basis = basisOf(r);
   p.origin = r.vec3("origin");
   p.extents = r.vec3("size");

@@ -22,15 +22,15 @@ namespace {
 // paid by `spacewarp weights`, not by every `deform` with an RBF rig.
 class LazyRbfCoordinates final : public Coordinates {
  public:
-  LazyRbfCoordinates(std::vector<Vec3> centres, std::vector<Vec3> fixed, const RbfOptions& options,
+  LazyRbfCoordinates(std::vector<Vec3> centers, std::vector<Vec3> fixed, const RbfOptions& options,
                      std::string where)
-      : centres_(std::move(centres)),
+      : centers_(std::move(centers)),
         fixed_(std::move(fixed)),
         options_(options),
         where_(std::move(where)) {}
 
-  std::size_t controlPointCount() const override { return centres_.size(); }
-  std::span<const Vec3> restControlPoints() const override { return centres_; }
+  std::size_t controlPointCount() const override { return centers_.size(); }
+  std::span<const Vec3> restControlPoints() const override { return centers_; }
   void weights(const Vec3& x, std::span<double> row) const override { get().weights(x, row); }
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override {
     return get().weightGradients(x, out);
@@ -50,13 +50,13 @@ class LazyRbfCoordinates final : public Coordinates {
     // Built after the rig was read: its errors still name the rig.
     std::call_once(once_, [this] {
       coordinates_ = namingFile(where_, [this] {
-        return std::make_unique<const RbfCoordinates>(centres_, fixed_, options_);
+        return std::make_unique<const RbfCoordinates>(centers_, fixed_, options_);
       });
     });
     return *coordinates_;
   }
 
-  std::vector<Vec3> centres_, fixed_;
+  std::vector<Vec3> centers_, fixed_;
   RbfOptions options_;
   std::string where_;
   mutable std::once_flag once_;
@@ -74,10 +74,10 @@ Rig rbfRig(RigReader& r) {
       r.fail("kernel", e.what());
     }
   }
-  const std::vector<Vec3> centres = r.points("centers");
+  const std::vector<Vec3> centers = r.points("centers");
   const std::vector<Vec3> targets = r.points("targets");
-  if (targets.size() != centres.size()) {
-    r.fail("targets", "must have as many points as 'centers' (" + std::to_string(centres.size()) +
+  if (targets.size() != centers.size()) {
+    r.fail("targets", "must have as many points as 'centers' (" + std::to_string(centers.size()) +
                           "), not " + std::to_string(targets.size()));
   }
   std::vector<Vec3> fixed;
@@ -99,9 +99,9 @@ Rig rbfRig(RigReader& r) {
   if (!(options.radius > 0.0)) r.fail("radius", "must be > 0");
   if (!(options.radius >= kMinRbfScale && options.radius <= kMaxRbfScale))
     r.fail("radius", "must be within [1e-150, 1e150]");
-  // A scale that does not suit the centres gives NaN or a singular fit: say so here, naming
+  // A scale that does not suit the centers gives NaN or a singular fit: say so here, naming
   // the key, rather than blame the input for the non-finite points it makes.
-  std::vector<Vec3> all = centres;
+  std::vector<Vec3> all = centers;
   all.insert(all.end(), fixed.begin(), fixed.end());
   if (const std::string problem = rbfScaleProblem(options, all); !problem.empty()) {
     char value[32];
@@ -110,16 +110,16 @@ Rig rbfRig(RigReader& r) {
   }
   // The warp's dense system (RbfWarp checks it too, without the key's name); in `info` too,
   // which refuses what deform would.
-  checkMemory(RbfSystem::memoryEstimate(centres.size() + fixed.size()),
-              "'centers' (" + std::to_string(centres.size()) + " centres" +
+  checkMemory(RbfSystem::memoryEstimate(centers.size() + fixed.size()),
+              "'centers' (" + std::to_string(centers.size()) + " centers" +
                   (fixed.empty() ? "" : " and " + std::to_string(fixed.size()) + " fixed") + ")");
   if (r.checking()) {
-    RbfWarp::check(centres, targets, fixed, options);  // what the fit would refuse, without it
+    RbfWarp::check(centers, targets, fixed, options);  // what the fit would refuse, without it
     return {};
   }
   Rig rig;
-  rig.warp = std::make_shared<RbfWarp>(centres, targets, fixed, options);
-  rig.coordinates = std::make_shared<LazyRbfCoordinates>(centres, fixed, options, r.where());
+  rig.warp = std::make_shared<RbfWarp>(centers, targets, fixed, options);
+  rig.coordinates = std::make_shared<LazyRbfCoordinates>(centers, fixed, options, r.where());
   return rig;
 }
 

@@ -280,12 +280,12 @@ inline ::testing::AssertionResult movesRigidly(const Warp& warp, const std::vect
 // Axial warps (twist, bend, taper): parameters, limits, and the checks above run over a list of
 // test configurations.
 
-/// Builds the parameters of an axial warp (TwistParams, TaperParams, BendParams): the axis
+/// Builds the parameters of an axial warp (TwistOptions, TaperOptions, BendOptions): the axis
 /// through `origin` along `axis`, the rate and the limits [lo, hi] on the axial coordinate (world
 /// units); other fields keep their defaults. A function object, so that a test file can name it
-/// and keep the default limits: `constexpr test::AxialParams<TwistParams> twistParams{};`.
+/// and keep the default limits: `constexpr test::AxialOptions<TwistOptions> twistParams{};`.
 template <typename Params>
-struct AxialParams {
+struct AxialOptions {
   Params operator()(const Vec3& origin, const Vec3& axis, double rate,
                     double lo = -std::numeric_limits<double>::infinity(),
                     double hi = std::numeric_limits<double>::infinity()) const {

@@ -110,12 +110,12 @@ bool nearActive(AccessorT& acc, const Vec3& x, double radius) {
 
 // A cell of the input's index space: input voxels lo .. lo + size - 1 per axis, the cube
 // [lo - 1/2, lo + size - 1/2]. Its image is approximated by the affine map
-// F(centre) + J (i - centre) (index space to index space).
+// F(center) + J (i - center) (index space to index space).
 struct Cell {
   Coord lo;
   int size = 1;
-  Vec3 centre{0.0};  // input index space
-  Vec3 image{0.0};   // F(centre), output index space
+  Vec3 center{0.0};  // input index space
+  Vec3 image{0.0};   // F(center), output index space
   Mat3 jacobianInverse{1.0};
   Mat3 worldJacobianInverse{1.0};  // the same in world units
   double slack = 0.0;              // accepted distance outside the cell, input voxels
@@ -142,14 +142,14 @@ Coord cornerKey(const Cell& cell, int d) {
          Coord((d & 1) * cell.size, ((d >> 1) & 1) * cell.size, ((d >> 2) & 1) * cell.size);
 }
 
-// Fills in a cell from the warp at its centre and the images of its corners; returns whether
-// the warp is rigid (Jᵀ J = I within 1e-9) at the centre.
+// Fills in a cell from the warp at its center and the images of its corners; returns whether
+// the warp is rigid (Jᵀ J = I within 1e-9) at the center.
 bool evaluateCell(const Warp& warp, const IndexFrame& frame,
                   const std::unordered_map<Coord, Vec3, CoordHash>& cornerImages, Cell& cell) {
-  cell.centre = Vec3(cell.lo.x(), cell.lo.y(), cell.lo.z()) + Vec3(0.5 * (cell.size - 1));
-  const Vec3 centreWorld = frame.toWorld(cell.centre);
-  const Vec3 imageWorld = warp.apply(centreWorld);
-  const Mat3 jWorld = warp.jacobian(centreWorld);
+  cell.center = Vec3(cell.lo.x(), cell.lo.y(), cell.lo.z()) + Vec3(0.5 * (cell.size - 1));
+  const Vec3 centerWorld = frame.toWorld(cell.center);
+  const Vec3 imageWorld = warp.apply(centerWorld);
+  const Mat3 jWorld = warp.jacobian(centerWorld);
   const Mat3 g = glm::transpose(jWorld) * jWorld;
   double dev = 0.0;
   for (int a = 0; a < 3; ++a)
@@ -169,7 +169,7 @@ bool evaluateCell(const Warp& warp, const IndexFrame& frame,
     const Vec3& p = cornerImages.at(key);
     if (!isFinite(p)) return rigid;
     const Vec3 corner = Vec3(key.x(), key.y(), key.z()) - Vec3(0.5);
-    const Vec3 err = p - (cell.image + j * (corner - cell.centre));
+    const Vec3 err = p - (cell.image + j * (corner - cell.center));
     devOut = std::max(devOut, maxAbs(err));
     devIn = std::max(devIn, maxAbs(cell.jacobianInverse * err));
     lo = glm::min(lo, p);
@@ -234,17 +234,17 @@ class CachedWarp final : public Warp {
       const Vec3 d = images[i] - world[i];
       acc.setValueOn(keys[i], openvdb::Vec3d(d.x, d.y, d.z));
     }
-    // The deviation from the exact warp at the centre of every complete lattice cell.
-    std::vector<Vec3> centres;
-    centres.reserve(keys.size());
+    // The deviation from the exact warp at the center of every complete lattice cell.
+    std::vector<Vec3> centers;
+    centers.reserve(keys.size());
     for (const Coord& k : keys) {
-      const Vec3 centre = nodeWorld(k) + frame_.a * Vec3(0.5 * h_);
-      if (sampled(centre)) centres.push_back(centre);
+      const Vec3 center = nodeWorld(k) + frame_.a * Vec3(0.5 * h_);
+      if (sampled(center)) centers.push_back(center);
     }
-    std::vector<Vec3> exactImages(centres.size());
-    exact_.applyBatch(centres, exactImages);
-    for (std::size_t i = 0; i < centres.size(); ++i)
-      error_ = std::max(error_, glm::length(apply(centres[i]) - exactImages[i]));
+    std::vector<Vec3> exactImages(centers.size());
+    exact_.applyBatch(centers, exactImages);
+    for (std::size_t i = 0; i < centers.size(); ++i)
+      error_ = std::max(error_, glm::length(apply(centers[i]) - exactImages[i]));
   }
 
   Vec3 apply(const Vec3& x) const override {
@@ -266,7 +266,7 @@ class CachedWarp final : public Warp {
     return Mat3(1.0) + Mat3(dx, dy, dz) * (frame_.aInverse / h_);
   }
 
-  /// Largest deviation from the exact warp at the lattice cell centres, world units.
+  /// Largest deviation from the exact warp at the lattice cell centers, world units.
   double error() const { return error_; }
 
  private:
@@ -426,7 +426,7 @@ struct GridPlan {
   std::unique_ptr<CachedWarp> cached;  // set with options.cacheSpacing
   const Warp* warp = nullptr;          // *cached, or the caller's warp
   std::vector<Cell> cells;
-  bool rigid = true;                    // Jᵀ J = I at every cell centre
+  bool rigid = true;                    // Jᵀ J = I at every cell center
   std::vector<LeafCellPair> pairs;      // sorted by leaf, then cell
   std::vector<std::size_t> groupStart;  // pairs[groupStart[g] .. groupStart[g+1]): leaf g
 
@@ -514,7 +514,7 @@ void splitCell(const Cell& cell, AccessorT& acc, std::vector<Cell>& next) {
       }
 }
 
-// Stage 2. Forward images: the warp at every cell corner and centre, the Jacobian at centres.
+// Stage 2. Forward images: the warp at every cell corner and center, the Jacobian at centers.
 // Cells whose affine model is poor (the corners deviate from it by more than half a voxel) are
 // split until it is good or they are single voxels.
 template <typename GridT>
@@ -557,7 +557,7 @@ void checkCells(const GridPlan<GridT>& plan, WarpVolumeReport& report) {
   for (const Cell& cell : plan.cells) {
     if (cell.beyondRange) {
       // Not a failure of the warp: the result cannot be stored at this voxel size.
-      const Vec3 at = plan.frame.toWorld(cell.centre);
+      const Vec3 at = plan.frame.toWorld(cell.center);
       std::ostringstream m;
       m << std::setprecision(6) << "warpVolume: grid '" << plan.in.getName()
         << "': the warp sends the voxels near world (" << at.x << ", " << at.y << ", " << at.z
@@ -591,7 +591,7 @@ void checkCandidateBound(const GridPlan<GridT>& plan, const WarpVolumeReport& re
     }
   }
   if (candidates > plan.options.maxCandidateVoxels && worstCell) {
-    const Vec3 at = plan.frame.toWorld(worstCell->centre);
+    const Vec3 at = plan.frame.toWorld(worstCell->center);
     std::ostringstream m;
     m << std::setprecision(3) << "warpVolume: grid '" << plan.in.getName()
       << "': the warp is not smooth at the scale of its voxels: it spreads the "
@@ -815,7 +815,7 @@ void seedLeaf(const GridPlan<GridT>& plan, std::size_t g, std::vector<double>& b
           const int n = static_cast<int>(LeafT::coordToOffset(Coord(x, y, z)));
           if (outside < best[n]) {
             best[n] = outside;
-            seeds[n] = cell.centre + offset;
+            seeds[n] = cell.center + offset;
             seedCellOf[n] = plan.pairs[p].second;
           }
         }
@@ -870,7 +870,7 @@ void solveLeaves(const GridPlan<GridT>& plan, const VoxelSampler<GridT>& sampler
 }
 
 // Stage 5. Second chance for the voxels where the first solve failed (few, and only where the
-// warp is not smooth or not invertible): continuation from the centre of the seeding cell, whose
+// warp is not smooth or not invertible): continuation from the center of the seeding cell, whose
 // image is known. Each depends only on its own voxel, so the result is thread-independent.
 template <typename GridT>
 void retryFailures(const GridPlan<GridT>& plan, const VoxelSampler<GridT>& sampler,
@@ -901,7 +901,7 @@ void retryFailures(const GridPlan<GridT>& plan, const VoxelSampler<GridT>& sampl
             const double orientation =
                 glm::determinant(cell.worldJacobianInverse) > 0.0 ? 1.0 : -1.0;
             const InverseResult s = continueInverse(
-                *plan.warp, y, {frame.toWorld(cell.centre), frame.toWorld(cell.image), orientation},
+                *plan.warp, y, {frame.toWorld(cell.center), frame.toWorld(cell.image), orientation},
                 inverseOptions);
             out.iterations += static_cast<std::size_t>(s.iterations);
             out.maxIterations = std::max(out.maxIterations, s.iterations);

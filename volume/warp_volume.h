@@ -1,12 +1,12 @@
 #pragma once
 // Warping OpenVDB voxel grids (level sets, fog volumes, vector fields) with any Warp, by
-// backward mapping: every output voxel centre y takes the input's value at its preimage
+// backward mapping: every output voxel center y takes the input's value at its preimage
 // x = warp⁻¹(y). The preimage is solved for from a seed given by the warp's affine model on
-// coarse cells of the input (the warp and its Jacobian at each cell centre, the warp at its
+// coarse cells of the input (the warp and its Jacobian at each cell center, the warp at its
 // corners; cells where that model is off by more than half a voxel are split): chord steps
 // with the cell's Jacobian while they converge fast, then damped Newton. Voxels where that
 // fails (a warp that is only C⁰ — piecewise linear, or with kinks — can stall Newton at a kink)
-// get a second chance afterwards: continuation from the seeding cell's centre along the segment
+// get a second chance afterwards: continuation from the seeding cell's center along the segment
 // to the voxel in steps of at most a voxel, each solved by Newton with the warp's and with
 // secant Jacobians (backtracking, then golden-section line search), never stepping more than a
 // voxel and keeping the sign of det J, so it follows the cell's sheet of the warp and does not
@@ -14,7 +14,7 @@
 //
 // The output has the input's transform, background, name and metadata. Its active region is
 // the forward image of the input's active voxels and tiles: an output voxel is active when
-// the preimage of its centre lies in an active input voxel (or tile). Candidates come from
+// the preimage of its center lies in an active input voxel (or tile). Candidates come from
 // the images of the cells, each widened by twice the measured deviation of the warp from its
 // affine model over the cell, so the region is complete for warps that are smooth at the
 // scale of a cell. Voxels where the inverse fails are counted, never filled silently.
@@ -26,7 +26,7 @@
 // Level sets are re-distanced after resampling with OpenVDB's own tools (LevelSetTracker by
 // default, levelSetRebuild as an option), so the output has a proper narrow band of the
 // input's half-width (in voxels); a warp that is rigid over the band (an isometry: Jᵀ J = I
-// within 1e-9 at every cell centre) keeps the resampled distances, which are then already
+// within 1e-9 at every cell center) keeps the resampled distances, which are then already
 // exact, and skips that step. Fog volumes may conserve mass.
 //
 // Results are bit-identical for any number of threads.
@@ -130,7 +130,7 @@ struct WarpVolumeOptions {
   /// h the spacing in world units and M_a the largest |∂²w/∂a²| along the lattice axes over
   /// the region (the standard bound for trilinear interpolation; e.g. a twist of rate θ about
   /// z: h² θ² r / 8 at distance r from the axis). The field is also compared with the warp at
-  /// every lattice-cell centre and the largest deviation is reported as
+  /// every lattice-cell center and the largest deviation is reported as
   /// WarpVolumeReport::cacheError (world units). Sampled values then move by at most about
   /// cacheError × |∇value| × |J⁻¹|. Default 0: the exact warp.
   double cacheSpacing = 0.0;
@@ -163,7 +163,7 @@ struct WarpVolumeReport {
   /// missing from the output.
   std::size_t inverseFailures = 0;
   /// Active input voxels whose image could not be located: the warp (or, with `cacheSpacing`,
-  /// its cache) is not finite there or its Jacobian is singular at the centre of every
+  /// its cache) is not finite there or its Jacobian is singular at the center of every
   /// seeding cell that holds them. Their image is missing from the output.
   std::size_t unmappedVoxels = 0;
   /// The most chord or Newton steps any voxel needed, and the total over all voxels (both
@@ -191,7 +191,7 @@ struct WarpVolumeReport {
   /// Layers grown before re-distancing (LevelSetRedistance::Normalize, compressive warps).
   int bandLayersAdded = 0;
   /// Largest deviation of the cached displacement field from the warp at the cache-cell
-  /// centres (world units); 0 without cacheSpacing.
+  /// centers (world units); 0 without cacheSpacing.
   double cacheError = 0.0;
   /// Vector grids: what was done to the vectors ("J v", "J^-T v", "J^-T v normalised",
   /// "J^-T v, length kept", "warp(v)" or "unchanged"); empty for other grids.

@@ -25,7 +25,7 @@ struct BoxFrame {
   LatticeOutside outside = LatticeOutside::Identity;
   double falloffDistance = 1.0;  // world units
 
-  explicit BoxFrame(const LatticeParams& p) : origin(p.origin), outside(p.outside) {
+  explicit BoxFrame(const LatticeOptions& p) : origin(p.origin), outside(p.outside) {
     for (int a = 0; a < 3; ++a) {
       row[a] = p.axes[a] / p.extents[a];
       extent[a] = p.extents[a];

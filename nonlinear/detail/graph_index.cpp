@@ -121,10 +121,10 @@ void listCandidates(GraphIndex& g, double h) {
           for (std::size_t cIndex = chunk * kChunk; cIndex < std::min(cells, (chunk + 1) * kChunk);
                ++cIndex) {
             const std::int64_t ci = std::int64_t(cIndex);
-            const Vec3 centre = g.gridOrigin + h * Vec3(double(ci % dims[0]) + 0.5,
+            const Vec3 center = g.gridOrigin + h * Vec3(double(ci % dims[0]) + 0.5,
                                                         double((ci / dims[0]) % dims[1]) + 0.5,
                                                         double(ci / (dims[0] * dims[1])) + 0.5);
-            const double q[3] = {centre.x, centre.y, centre.z};
+            const double q[3] = {center.x, center.y, center.z};
             g.tree->knnSearch(q, n, ki.data(), kd.data());
             const double radius = std::sqrt(*std::max_element(kd.begin(), kd.end())) + 2.0 * r;
             // Squared radius, widened by a relative margin against rounding.
@@ -153,7 +153,7 @@ void listCandidates(GraphIndex& g, double h) {
 
 // Cells of edge h (a quarter of the typical distance to the (k+1)-th nearest node) over the
 // nodes' bounding box padded by that distance; each cell lists every node within D + 2r of its
-// centre, D = the centre's (k+1)-th nearest distance, r = the cell's half-diagonal. For any x
+// center, D = the center's (k+1)-th nearest distance, r = the cell's half-diagonal. For any x
 // in the cell, its k + 1 nearest nodes lie within d_(k+1)(x) <= |x − c| + D <= r + D of x, so
 // within D + 2r of c: the list is complete.
 void GraphIndex::buildLookupGrid() {

@@ -84,10 +84,10 @@ double roundingLevel(const Problem& p, const DeformationGraphSolveOptions& optio
     const Vec3 d = p.nodes[kk] - p.nodes[j];
     scale += options.regularizationWeight * glm::dot(d, d);
   }
-  Vec3 centre(0.0);
-  for (const Vec3& h : p.handles) centre += h / double(handleCount);
+  Vec3 center(0.0);
+  for (const Vec3& h : p.handles) center += h / double(handleCount);
   for (const Vec3& h : p.handles)
-    scale += options.constraintWeight * glm::dot(h - centre, h - centre);
+    scale += options.constraintWeight * glm::dot(h - center, h - center);
   double reach = 0.0;
   for (const auto* points : {&p.handles, &p.targets})
     for (const Vec3& x : *points)

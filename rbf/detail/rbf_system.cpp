@@ -20,10 +20,10 @@ namespace spacewarp::detail {
 
 namespace {
 
-// A centre of the combined index space: handles 0..h−1, then fixed centres h..h+f−1.
-std::string centreName(std::size_t index, std::size_t handles) {
-  return index < handles ? "centre " + std::to_string(index)
-                         : "fixed centre " + std::to_string(index - handles);
+// A center of the combined index space: handles 0..h−1, then fixed centers h..h+f−1.
+std::string centerName(std::size_t index, std::size_t handles) {
+  return index < handles ? "center " + std::to_string(index)
+                         : "fixed center " + std::to_string(index - handles);
 }
 
 std::size_t findRoot(std::vector<std::size_t>& parent, std::size_t i) {
@@ -33,13 +33,13 @@ std::size_t findRoot(std::vector<std::size_t>& parent, std::size_t i) {
 
 }  // namespace
 
-RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handles,
+RbfCenters prepareRbfCenters(const std::string& who, std::span<const Vec3> handles,
                              const std::span<const Vec3>* targets, std::span<const Vec3> fixed,
                              const RbfOptions& options) {
   validateRbfOptions(who, options);
-  if (handles.empty()) throw InvalidInput(who + ": no centres given (at least one is needed)");
+  if (handles.empty()) throw InvalidInput(who + ": no centers given (at least one is needed)");
   if (targets && targets->size() != handles.size()) {
-    throw InvalidInput(who + ": " + std::to_string(handles.size()) + " centres but " +
+    throw InvalidInput(who + ": " + std::to_string(handles.size()) + " centers but " +
                        std::to_string(targets->size()) + " targets");
   }
   const std::size_t h = handles.size();
@@ -47,7 +47,7 @@ RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handl
   std::vector<Vec3> all(handles.begin(), handles.end());
   all.insert(all.end(), fixed.begin(), fixed.end());
   for (std::size_t i = 0; i < total; ++i) {
-    if (!isFinite(all[i])) throw InvalidInput(who + ": " + centreName(i, h) + " is not finite");
+    if (!isFinite(all[i])) throw InvalidInput(who + ": " + centerName(i, h) + " is not finite");
     if (targets && i < h && !isFinite((*targets)[i]))
       throw InvalidInput(who + ": target " + std::to_string(i) + " is not finite");
   }
@@ -80,12 +80,12 @@ RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handl
   auto displacementOf = [&](std::size_t i) {
     return i < h && targets ? (*targets)[i] - handles[i] : Vec3(0.0);
   };
-  RbfCentres result;
+  RbfCenters result;
   std::vector<std::size_t> uniqueOf(total, SIZE_MAX);
   for (std::size_t i = 0; i < total; ++i) {
     const std::size_t root = findRoot(parent, i);
     if (targets && root != i && glm::length(displacementOf(i) - displacementOf(root)) > tol) {
-      throw InvalidInput(who + ": " + centreName(root, h) + " and " + centreName(i, h) +
+      throw InvalidInput(who + ": " + centerName(root, h) + " and " + centerName(i, h) +
                          " coincide but their targets differ");
     }
     if (uniqueOf[root] == SIZE_MAX) {
@@ -100,7 +100,7 @@ RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handl
     }
   }
   // Handle groups come first: every handle root precedes every fixed root in index order.
-  result.handleCentres = result.multiplicity.size();
+  result.handleCenters = result.multiplicity.size();
   if (const std::string problem = rbfScaleProblem(options, result.unique); !problem.empty()) {
     char scale[32];
     std::snprintf(scale, sizeof scale, "%.3g", options.scale);
@@ -111,23 +111,23 @@ RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handl
 
 namespace {
 
-// The centres' mean and bounding-box diagonal: the origin and length of the polynomial basis.
-std::pair<Vec3, double> polynomialFrame(std::span<const Vec3> centres) {
-  Vec3 lo = centres[0], hi = centres[0], sum(0.0);
-  for (const Vec3& c : centres) {
+// The centers' mean and bounding-box diagonal: the origin and length of the polynomial basis.
+std::pair<Vec3, double> polynomialFrame(std::span<const Vec3> centers) {
+  Vec3 lo = centers[0], hi = centers[0], sum(0.0);
+  for (const Vec3& c : centers) {
     lo = glm::min(lo, c);
     hi = glm::max(hi, c);
     sum += c;
   }
-  return {sum / static_cast<double>(centres.size()), glm::length(hi - lo)};
+  return {sum / static_cast<double>(centers.size()), glm::length(hi - lo)};
 }
 
 // The polynomial block P: rows [1, (c - origin) / length].
-Eigen::MatrixXd polynomialBlock(std::span<const Vec3> centres, const Vec3& origin, double length) {
-  const Eigen::Index n = static_cast<Eigen::Index>(centres.size());
+Eigen::MatrixXd polynomialBlock(std::span<const Vec3> centers, const Vec3& origin, double length) {
+  const Eigen::Index n = static_cast<Eigen::Index>(centers.size());
   Eigen::MatrixXd p(n, 4);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Vec3 q = (centres[static_cast<std::size_t>(i)] - origin) / length;
+    const Vec3 q = (centers[static_cast<std::size_t>(i)] - origin) / length;
     p.row(i) << 1.0, q.x, q.y, q.z;
   }
   return p;
@@ -140,33 +140,33 @@ double RbfSystem::memoryEstimate(std::size_t n) {
   return 2.25 * sizeof(double) * entries + 4e6;
 }
 
-void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centres) {
-  const std::size_t n = centres.size();
+void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centers) {
+  const std::size_t n = centers.size();
   const std::string needs =
       who +
-      ": the linear polynomial needs at least 4 affinely independent centres (not all "
+      ": the linear polynomial needs at least 4 affinely independent centers (not all "
       "coplanar), but ";
   if (n < 4)
-    throw InvalidInput(needs + "only " + std::to_string(n) + " distinct centres are given");
-  const auto [origin, length] = polynomialFrame(centres);
-  const Eigen::MatrixXd p = polynomialBlock(centres, origin, length);
-  // Affine independence: the spread of the centred, scaled centres in their thinnest direction.
+    throw InvalidInput(needs + "only " + std::to_string(n) + " distinct centers are given");
+  const auto [origin, length] = polynomialFrame(centers);
+  const Eigen::MatrixXd p = polynomialBlock(centers, origin, length);
+  // Affine independence: the spread of the centered, scaled centers in their thinnest direction.
   const Eigen::Matrix3d cov = p.rightCols<3>().transpose() * p.rightCols<3>();
   const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues();
   if (!(ev(0) > 1e-20 * ev(2)))
-    throw InvalidInput(needs + "the " + std::to_string(n) + " distinct centres are all coplanar");
+    throw InvalidInput(needs + "the " + std::to_string(n) + " distinct centers are all coplanar");
 }
 
-RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centres,
+RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
                      const RbfOptions& options)
-    : n_(centres.size()) {
+    : n_(centers.size()) {
   checkMemory(memoryEstimate(n_),
-              who + ": the RBF system of " + std::to_string(n_) + " distinct centres");
+              who + ": the RBF system of " + std::to_string(n_) + " distinct centers");
   sigma_ = options.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
-  checkRbfPolynomial(who, centres);
-  std::tie(origin_, length_) = polynomialFrame(centres);
+  checkRbfPolynomial(who, centers);
+  std::tie(origin_, length_) = polynomialFrame(centers);
   const Eigen::Index n = static_cast<Eigen::Index>(n_);
-  const Eigen::MatrixXd p = polynomialBlock(centres, origin_, length_);
+  const Eigen::MatrixXd p = polynomialBlock(centers, origin_, length_);
   qr_.compute(p);
 
   // Φ, then QᵀΦQ (four Householder reflections on each side).
@@ -174,10 +174,10 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centres,
   tbb::parallel_for(
       tbb::blocked_range<Eigen::Index>(0, n, 16), [&](const tbb::blocked_range<Eigen::Index>& r) {
         for (Eigen::Index j = r.begin(); j != r.end(); ++j) {
-          const Vec3& cj = centres[static_cast<std::size_t>(j)];
+          const Vec3& cj = centers[static_cast<std::size_t>(j)];
           for (Eigen::Index i = 0; i < n; ++i) {
             phi(i, j) =
-                rbfKernelValue(options, glm::length(centres[static_cast<std::size_t>(i)] - cj));
+                rbfKernelValue(options, glm::length(centers[static_cast<std::size_t>(i)] - cj));
           }
         }
       });
@@ -197,7 +197,7 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centres,
         !(llt_.matrixLLT().diagonal().array().square().minCoeff() > pivotFloor) ||
         !(llt_.rcond() > std::numeric_limits<double>::epsilon())) {
       throw SolverError(who + ": the RBF system of " + std::to_string(n_) +
-                        " centres is numerically singular (kernel " +
+                        " centers is numerically singular (kernel " +
                         rbfKernelName(options.kernel) +
                         "; try another kernel scale or radius, or smoothing > 0)");
     }

@@ -1,5 +1,5 @@
 #pragma once
-// Internals shared by RbfWarp and RbfCoordinates: validation and merging of the centres, and
+// Internals shared by RbfWarp and RbfCoordinates: validation and merging of the centers, and
 // the one factorisation of the RBF saddle-point system. Not a user-facing API (namespace detail).
 
 #include <span>
@@ -16,51 +16,51 @@
 
 namespace spacewarp::detail {
 
-/// The centres of an RBF fit after validation and merging of duplicates.
-struct RbfCentres {
-  /// Distinct centres: one per group of coinciding handles (in the order of each group's first
-  /// handle), then the fixed centres that coincide with no handle.
+/// The centers of an RBF fit after validation and merging of duplicates.
+struct RbfCenters {
+  /// Distinct centers: one per group of coinciding handles (in the order of each group's first
+  /// handle), then the fixed centers that coincide with no handle.
   std::vector<Vec3> unique;
   /// How many of `unique` come from handles (the first ones).
-  std::size_t handleCentres = 0;
+  std::size_t handleCenters = 0;
   /// Per input handle: its index in `unique`.
   std::vector<std::size_t> handleColumn;
-  /// Per unique handle centre: how many input handles it merges.
+  /// Per unique handle center: how many input handles it merges.
   std::vector<std::size_t> multiplicity;
-  /// Per unique centre: target − centre (zero for fixed centres); empty without targets.
+  /// Per unique center: target − center (zero for fixed centers); empty without targets.
   std::vector<Vec3> displacement;
 };
 
-/// Validates and merges the centres (n handles, their targets if `targets` is not null, and
-/// the fixed centres; world units). Throws InvalidInput, prefixed with `who`, for an empty
-/// handle list, mismatched sizes, non-finite points (naming the index) and coinciding centres
+/// Validates and merges the centers (n handles, their targets if `targets` is not null, and
+/// the fixed centers; world units). Throws InvalidInput, prefixed with `who`, for an empty
+/// handle list, mismatched sizes, non-finite points (naming the index) and coinciding centers
 /// whose targets differ (naming both). Without targets (coordinates), coinciding handles are
-/// merged and a fixed centre that coincides with a handle is dropped.
-RbfCentres prepareRbfCentres(const std::string& who, std::span<const Vec3> handles,
+/// merged and a fixed center that coincides with a handle is dropped.
+RbfCenters prepareRbfCenters(const std::string& who, std::span<const Vec3> handles,
                              const std::span<const Vec3>* targets, std::span<const Vec3> fixed,
                              const RbfOptions& options);
 
-/// Throws InvalidInput (prefixed with `who`) unless the distinct `centres` hold at least 4
+/// Throws InvalidInput (prefixed with `who`) unless the distinct `centers` hold at least 4
 /// affinely independent points, as the linear polynomial of the fit needs.
-void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centres);
+void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centers);
 
 /// The factorisation of [[Φ + σλI, P], [Pᵀ, 0]] (see RbfOptions::smoothing) by null-space
 /// reduction: with P = Q [R; 0] (Householder QR of the n × 4 polynomial block), the kernel
 /// weights are w = Q [0; u] with (σ Q₂ᵀ Φ Q₂ + λ I) u = σ Q₂ᵀ D, an SPD system (the kernels are
 /// conditionally definite of order ≤ 2 with sign σ) factorised once by Cholesky (LLT), and the
 /// polynomial coefficients follow from R a = Q₁ᵀ (D − Φ w). The polynomial basis is
-/// q(x) = [1, (x − origin) / length], centred and scaled for conditioning.
+/// q(x) = [1, (x − origin) / length], centered and scaled for conditioning.
 class RbfSystem {
  public:
-  /// The peak memory (bytes) of building the system for n centres: two dense n × n matrices at
+  /// The peak memory (bytes) of building the system for n centers: two dense n × n matrices at
   /// once (the kernel matrix, then the reduced matrix and its Cholesky factor), measured at
-  /// 16.6 to 18.8 n² bytes for 1,000 to 4,000 centres.
+  /// 16.6 to 18.8 n² bytes for 1,000 to 4,000 centers.
   static double memoryEstimate(std::size_t n);
 
-  /// Throws InvalidInput (fewer than 4 affinely independent centres, or a system larger than
+  /// Throws InvalidInput (fewer than 4 affinely independent centers, or a system larger than
   /// the memory available: memoryEstimate(), detail::checkMemory) or SolverError (a system that
   /// is numerically singular after all).
-  RbfSystem(const std::string& who, std::span<const Vec3> centres, const RbfOptions& options);
+  RbfSystem(const std::string& who, std::span<const Vec3> centers, const RbfOptions& options);
 
   std::size_t size() const { return n_; }
   const Vec3& origin() const { return origin_; }

@@ -1,5 +1,5 @@
 #pragma once
-// The "rbf" rig method: an RBF warp fitted to handle centres and targets (rbf/rbf_warp.h),
+// The "rbf" rig method: an RBF warp fitted to handle centers and targets (rbf/rbf_warp.h),
 // with its RbfCoordinates for `spacewarp weights`. Keys are documented in README.md.
 
 #include <spacewarp/rig/detail/rig_reader.h>
@@ -8,9 +8,9 @@
 namespace spacewarp::detail {
 
 /// Reads "kernel" (optional, default "triharmonic"), "centers" and "targets" (arrays of
-/// [x, y, z], the same length), optional "fixed" (centres that stay put), "smoothing" (λ ≥ 0,
+/// [x, y, z], the same length), optional "fixed" (centers that stay put), "smoothing" (λ ≥ 0,
 /// default 0), "scale" (gaussian, inverse-multiquadric; default 1) and "radius" (wendland;
-/// default 1). Returns the RbfWarp and the RbfCoordinates of the centres (built on first use).
+/// default 1). Returns the RbfWarp and the RbfCoordinates of the centers (built on first use).
 Rig rbfRig(RigReader& reader);
 
 }  // namespace spacewarp::detail

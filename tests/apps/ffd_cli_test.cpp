@@ -44,8 +44,8 @@ nlohmann::json toJson(std::span<const Vec3> points) {
   return a;
 }
 
-LatticeParams rotatedBox(LatticeBasis basis) {
-  LatticeParams p;
+LatticeOptions rotatedBox(LatticeBasis basis) {
+  LatticeOptions p;
   p.origin = Vec3(-1.0, -1.5, -1.0);
   const double c = std::cos(0.3), s = std::sin(0.3);
   p.axes = {Vec3(c, s, 0.0), Vec3(-s, c, 0.0), Vec3(0.0, 0.0, 1.0)};
@@ -55,7 +55,7 @@ LatticeParams rotatedBox(LatticeBasis basis) {
   return p;
 }
 
-nlohmann::json rigOf(const LatticeParams& p, const char* basis, std::span<const Vec3> posed) {
+nlohmann::json rigOf(const LatticeOptions& p, const char* basis, std::span<const Vec3> posed) {
   return {{"method", "ffd"},
           {"basis", basis},
           {"origin", {p.origin.x, p.origin.y, p.origin.z}},
@@ -72,7 +72,7 @@ TEST_F(FfdCliTest, PosedLatticeRigsMatchTheLibrary) {
   for (auto [basis, name] : {std::pair{LatticeBasis::Trilinear, "trilinear"},
                              std::pair{LatticeBasis::Bernstein, "bernstein"},
                              std::pair{LatticeBasis::BSpline, "bspline"}}) {
-    const LatticeParams params = rotatedBox(basis);
+    const LatticeOptions params = rotatedBox(basis);
     const Lattice lattice(params);
     std::vector<Vec3> posed(lattice.restControlPoints().begin(), lattice.restControlPoints().end());
     for (Vec3& c : posed) {
@@ -93,7 +93,7 @@ TEST_F(FfdCliTest, PosedLatticeRigsMatchTheLibrary) {
 
 TEST_F(FfdCliTest, AffinePoseMovesPointsAffinely) {
   const PolygonSoup cloud = writeCloud(-0.5, 0.5, 200);
-  const LatticeParams params = rotatedBox(LatticeBasis::BSpline);
+  const LatticeOptions params = rotatedBox(LatticeBasis::BSpline);
   const Lattice lattice(params);
   std::vector<Vec3> posed;
   for (const Vec3& p : lattice.restControlPoints())
@@ -137,7 +137,7 @@ TEST_F(FfdCliTest, ConstraintsRigMovesTheConstrainedPoints) {
 
 TEST_F(FfdCliTest, WeightsThroughTheRigAreTheLatticeCoordinates) {
   const PolygonSoup cloud = writeCloud(-0.5, 0.5, 40);
-  const LatticeParams params = rotatedBox(LatticeBasis::BSpline);
+  const LatticeOptions params = rotatedBox(LatticeBasis::BSpline);
   const Lattice lattice(params);
   write("ffd.json", rigOf(params, "bspline", lattice.restControlPoints()).dump());
   const CliResult r = run("weights --rig " + (dir_ / "ffd.json").string() + " " +

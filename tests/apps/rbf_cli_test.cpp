@@ -35,14 +35,14 @@ class RbfCliTest : public test::CliFixture {
 using test::jsonPoints;
 
 struct RbfSetup {
-  std::vector<Vec3> centres, targets, fixed;
+  std::vector<Vec3> centers, targets, fixed;
 };
 
 RbfSetup setup() {
   RbfSetup s;
-  s.centres = makeRandomPoints(Vec3(-1.0), Vec3(1.0), 20, 5).positions;
+  s.centers = makeRandomPoints(Vec3(-1.0), Vec3(1.0), 20, 5).positions;
   const std::vector<Vec3> offsets = makeRandomPoints(Vec3(-0.2), Vec3(0.2), 20, 6).positions;
-  for (std::size_t i = 0; i < s.centres.size(); ++i) s.targets.push_back(s.centres[i] + offsets[i]);
+  for (std::size_t i = 0; i < s.centers.size(); ++i) s.targets.push_back(s.centers[i] + offsets[i]);
   s.fixed = {Vec3(2.0, 2.0, 2.0), Vec3(-2.0, -2.0, 2.0)};
   return s;
 }
@@ -52,18 +52,18 @@ TEST_F(RbfCliTest, DeformMatchesTheLibraryWarp) {
   PolygonSoup cloud;
   static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1.5), Vec3(1.5), 300, 9);
   writeSoup(cloud, dir_ / "cloud.ply");
-  write("rbf.json", R"({"method": "rbf", "centers": )" + jsonPoints(s.centres) +
+  write("rbf.json", R"({"method": "rbf", "centers": )" + jsonPoints(s.centers) +
                         R"(, "targets": )" + jsonPoints(s.targets) + "}");
   write("smooth.json", R"({"method": "rbf", "kernel": "gaussian", "scale": 0.8, "smoothing": 0.01,
                            "centers": )" +
-                           jsonPoints(s.centres) + R"(, "targets": )" + jsonPoints(s.targets) +
+                           jsonPoints(s.centers) + R"(, "targets": )" + jsonPoints(s.targets) +
                            R"(, "fixed": )" + jsonPoints(s.fixed) + "}");
   RbfOptions smooth;
   smooth.kernel = RbfKernel::Gaussian;
   smooth.scale = 0.8;
   smooth.smoothing = 0.01;
-  const RbfWarp plain(s.centres, s.targets);
-  const RbfWarp smoothed(s.centres, s.targets, s.fixed, smooth);
+  const RbfWarp plain(s.centers, s.targets);
+  const RbfWarp smoothed(s.centers, s.targets, s.fixed, smooth);
   for (const auto& [rig, warp] :
        {std::pair<std::string, const RbfWarp*>{"rbf.json", &plain}, {"smooth.json", &smoothed}}) {
     const test::CliResult r =
@@ -84,12 +84,12 @@ TEST_F(RbfCliTest, WeightsWriteTheRbfCoordinates) {
   static_cast<PointSet&>(cloud) = makeRandomPoints(Vec3(-1.5), Vec3(1.5), 40, 10);
   writeSoup(cloud, dir_ / "cloud.ply");
   write("rbf.json", R"({"method": "rbf", "kernel": "triharmonic", "centers": )" +
-                        jsonPoints(s.centres) + R"(, "targets": )" + jsonPoints(s.targets) + "}");
+                        jsonPoints(s.centers) + R"(, "targets": )" + jsonPoints(s.targets) + "}");
   const fs::path csv = dir_ / "w.csv";
   const test::CliResult r = run("weights --rig " + (dir_ / "rbf.json").string() + " " +
                                 (dir_ / "cloud.ply").string() + " -o " + csv.string());
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  const RbfCoordinates coords(s.centres);
+  const RbfCoordinates coords(s.centers);
   std::vector<double> expected(coords.columnCount());
   std::ifstream in(csv);
   std::string line;
@@ -139,11 +139,11 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{
             "Coplanar",
             R"({"method": "rbf", "centers": )" + kPlane + R"(, "targets": )" + kPlane + "}", 3,
-            "4 affinely independent centres"},
+            "4 affinely independent centers"},
         test::BadRig{"Conflict",
                      R"({"method": "rbf", "centers": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[0,0,0]],
                       "targets": [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,0,0]]})",
-                     3, "centre 0 and centre 4 coincide"},
+                     3, "center 0 and center 4 coincide"},
         test::BadRig{"Singular",
                      R"({"method": "rbf", "kernel": "gaussian", "scale": 1e6, "centers": )" + kTet +
                          R"(, "targets": )" + kTet + "}",
@@ -155,15 +155,15 @@ INSTANTIATE_TEST_SUITE_P(
                      R"({"method": "rbf", "kernel": "gaussian", "scale": 1e-200, "centers": )" +
                          kTet + R"(, "targets": )" + kTet + "}",
                      3, "'scale' 1e-200 is outside [1e-150, 1e150]"},
-        test::BadRig{"GaussianScaleTooSmallForTheCentres",
+        test::BadRig{"GaussianScaleTooSmallForTheCenters",
                      R"({"method": "rbf", "kernel": "gaussian", "scale": 1e-50, "centers": )" +
                          kTet + R"(, "targets": )" + kTet + "}",
-                     3, "'scale' 1e-50 is too small for centres 1 apart (the closest two)"},
-        test::BadRig{"ScaleTooLargeForTheCentres",
+                     3, "'scale' 1e-50 is too small for centers 1 apart (the closest two)"},
+        test::BadRig{"ScaleTooLargeForTheCenters",
                      R"({"method": "rbf", "kernel": "inverse-multiquadric", "scale": 1e12,
                         "centers": )" +
                          kTet + R"(, "targets": )" + kTet + "}",
-                     3, "'scale' 1e+12 is too large for centres spanning 1.73"},
+                     3, "'scale' 1e+12 is too large for centers spanning 1.73"},
         test::BadRig{"WendlandRadiusBeyondDouble",
                      R"({"method": "rbf", "kernel": "wendland", "radius": 1e-300, "centers": )" +
                          kTet + R"(, "targets": )" + kTet + "}",

@@ -122,7 +122,7 @@ TEST_F(VolumeCliTest, TwistRigWarpsEveryGridKeepingNamesAndMetadata) {
       particles = openvdb::gridPtrCast<openvdb::points::PointDataGrid>(g);
   ASSERT_TRUE(particles);
   EXPECT_EQ(openvdb::points::pointCount(particles->tree()), positions.size());
-  TwistParams tp;
+  TwistOptions tp;
   tp.axis = Vec3(0, 1, 0);
   tp.rate = 0.8;
   for (auto leaf = particles->tree().cbeginLeaf(); leaf; ++leaf) {
@@ -147,7 +147,7 @@ TEST_F(VolumeCliTest, TwistRigWarpsEveryGridKeepingNamesAndMetadata) {
   EXPECT_EQ(density->getGridClass(), openvdb::GRID_FOG_VOLUME);
 
   // The same as the library's result.
-  TwistParams p;
+  TwistOptions p;
   p.axis = Vec3(0, 1, 0);
   p.rate = 0.8;
   const TwistWarp twist(p);
@@ -178,11 +178,11 @@ TEST_F(VolumeCliTest, CageRigWarpsTheLevelSetToTheSimilarSphere) {
   ASSERT_TRUE(surface);
   EXPECT_EQ(surface->getName(), "surface");
   EXPECT_EQ(surface->metaValue<std::string>("author"), "spacewarp tests");
-  const Vec3 centre = similarity(Vec3(0.1, 0.0, 0.05));
+  const Vec3 center = similarity(Vec3(0.1, 0.0, 0.05));
   std::size_t near = 0;
   for (auto it = surface->cbeginValueOn(); it; ++it) {
     const openvdb::Vec3d w = surface->indexToWorld(it.getCoord());
-    const double exact = glm::length(Vec3(w[0], w[1], w[2]) - centre) - 0.9;
+    const double exact = glm::length(Vec3(w[0], w[1], w[2]) - center) - 0.9;
     if (std::abs(exact) > 1.5 * kVoxel) continue;
     EXPECT_NEAR(*it, exact, 0.5 * kVoxel) << it.getCoord();
     ++near;
@@ -386,7 +386,7 @@ TEST_F(VolumeCliTest, VectorGridsAreRotatedUnlessKept) {
     const auto out = openvdb::gridPtrCast<openvdb::Vec3SGrid>(file.readGrid("velocity"));
     file.close();
     ASSERT_TRUE(out);
-    // The centre voxel's preimage is the centre: its stencil is inside the field.
+    // The center voxel's preimage is the center: its stencil is inside the field.
     const openvdb::Vec3s v = out->tree().getValue(openvdb::Coord(0, 0, 0));
     const openvdb::Vec3s expected =
         mode.empty() ? openvdb::Vec3s(0, 1, 0) : openvdb::Vec3s(1, 0, 0);

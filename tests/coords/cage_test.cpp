@@ -33,7 +33,7 @@ TEST(Cage, QuadBoxIsTriangulatedAndOutward) {
   EXPECT_EQ(cage.reorientedCount(), 0u);
   EXPECT_NEAR(cage.volume(), 6.0, 1e-12);
   for (std::size_t t = 0; t < cage.triangleCount(); ++t) {
-    // Outward: the normal points away from the centre.
+    // Outward: the normal points away from the center.
     const Triangle& tri = cage.triangles()[t];
     const Vec3 centroid =
         (cage.vertices()[tri.x] + cage.vertices()[tri.y] + cage.vertices()[tri.z]) / 3.0;

@@ -39,7 +39,7 @@ inline PolygonSoup lPrism() {
   return s;
 }
 
-/// A star-shaped (concave) polyhedron: an octahedron whose 8 face centres are pushed out into
+/// A star-shaped (concave) polyhedron: an octahedron whose 8 face centers are pushed out into
 /// spikes, 14 vertices and 24 triangles.
 inline PolygonSoup star() {
   PolygonSoup s;

@@ -263,7 +263,7 @@ TEST(GreenCoordinates, DegenerateConfigurationsAreAccurate) {
     ASSERT_TRUE(reproducesPoint(g, Vec3(3.0, 0.0, 0.0)));
     ASSERT_TRUE(reproducesPoint(g, Vec3(1.0, 1.0, 4.0)));
   }
-  // Box: the centre projects onto vertices of every face; the grid of points projects onto
+  // Box: the center projects onto vertices of every face; the grid of points projects onto
   // vertices and edges of the faces.
   {
     const GreenCoordinates g(makeCage(makeBoxSurface(Vec3(0), Vec3(1), {2, 2, 2}), "box"));

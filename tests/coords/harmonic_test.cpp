@@ -84,7 +84,7 @@ std::vector<Vec3> insidePoints(const HarmonicCoordinates& h, std::size_t n, std:
   std::vector<Vec3> points;
   while (points.size() < n) {
     const Vec3 x = box.min + box.extent() * Vec3(unit(rng), unit(rng), unit(rng));
-    if (h.locate(x).inside) points.push_back(x);
+    if (h.locate(x).found) points.push_back(x);
   }
   return points;
 }
@@ -234,9 +234,9 @@ TEST(HarmonicCoordinates, RejectsANullCageAndBadOptions) {
               HasSubstr("null"));
   const CagePtr cage = makeCage(test::tetrahedron(), "tet");
   HarmonicOptions options;
-  options.maxTetVolume = 2.0;
+  options.maxTetVolumeFraction = 2.0;
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { HarmonicCoordinates h(cage, options); }),
-              HasSubstr("maxTetVolume"));
+              HasSubstr("maxTetVolumeFraction"));
   options = {};
   options.targetTetCount = 0;
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { HarmonicCoordinates h(cage, options); }),
@@ -275,10 +275,10 @@ TEST(HarmonicCoordinates, RefusesAMeshTooLargeForTheMemoryBeforeMeshing) {
   detail::setMemoryCap(std::numeric_limits<std::size_t>::max());
 }
 
-TEST(HarmonicCoordinates, MaxTetVolumeControlsTheResolution) {
+TEST(HarmonicCoordinates, MaxTetVolumeFractionControlsTheResolution) {
   const CagePtr cage = makeCage(test::icosphere(1), "icosphere");
   HarmonicOptions options;
-  options.maxTetVolume = 1e-3;
+  options.maxTetVolumeFraction = 1e-3;
   const HarmonicCoordinates h(cage, options);
   EXPECT_DOUBLE_EQ(h.meshVolumeBound(), 1e-3 * cage->volume());
   for (const auto& tet : h.mesh().tets) {

@@ -33,7 +33,7 @@ std::vector<Vec3> insidePoints(const HarmonicCoordinates& h, std::size_t n) {
   std::vector<Vec3> points;
   while (points.size() < n) {
     const Vec3 x(unit(rng), unit(rng), unit(rng));
-    if (h.locate(x).inside) points.push_back(x);
+    if (h.locate(x).found) points.push_back(x);
   }
   return points;
 }

@@ -145,17 +145,17 @@ TEST(MeanValueCoordinates, RejectsInvalidQueries) {
 TEST_P(MeanValueShapes, PartitionOfUnityAndLinearPrecisionEverywhere) {
   const Cage& cage = *cage_;
   const BoundingBox box = boundingBox(cage.vertices());
-  const Vec3 centre = 0.5 * (box.min + box.max), half = 0.5 * box.extent();
+  const Vec3 center = 0.5 * (box.min + box.max), half = 0.5 * box.extent();
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   for (int i = 0; i < 400; ++i) {
     // Inside and around the cage (up to three times its box), and 10 diagonals away.
     const double scale = i < 200 ? 1.0 : 3.0;
-    const Vec3 x = centre + scale * half * Vec3(unit(rng), unit(rng), unit(rng));
+    const Vec3 x = center + scale * half * Vec3(unit(rng), unit(rng), unit(rng));
     expectLinearPrecision(*mvc_, x, "near point " + std::to_string(i));
   }
   for (int i = 0; i < 50; ++i) {
-    const Vec3 x = centre + 10.0 * cage.diagonal() * randomDirection(rng);
+    const Vec3 x = center + 10.0 * cage.diagonal() * randomDirection(rng);
     expectLinearPrecision(*mvc_, x, "far point " + std::to_string(i));
   }
 }
@@ -350,15 +350,15 @@ TEST_P(MeanValueShapes, BatchRowsAreBitIdenticalToSingleRows) {
   std::mt19937_64 rng(23);
   std::uniform_real_distribution<double> unit(-1.5, 1.5);
   const BoundingBox box = boundingBox(cage.vertices());
-  const Vec3 centre = 0.5 * (box.min + box.max);
+  const Vec3 center = 0.5 * (box.min + box.max);
   for (int i = 0; i < 37; ++i)
-    points.push_back(centre + 0.5 * box.extent() * Vec3(unit(rng), unit(rng), unit(rng)));
+    points.push_back(center + 0.5 * box.extent() * Vec3(unit(rng), unit(rng), unit(rng)));
   for (std::size_t v = 0; v < cage.vertexCount(); v += 3) points.push_back(cage.vertices()[v]);
   points.push_back(0.5 * (corner(cage, 0, 0) + corner(cage, 0, 1)));
   points.push_back((corner(cage, 1, 0) + corner(cage, 1, 1) + corner(cage, 1, 2)) / 3.0);
   points.push_back(corner(cage, 2, 0) + 2.0 * (corner(cage, 2, 1) - corner(cage, 2, 0)) +
                    1e-13 * cage.normal(2));
-  points.push_back(centre + 20.0 * cage.diagonal() * Vec3(0.3, -0.5, 0.8));
+  points.push_back(center + 20.0 * cage.diagonal() * Vec3(0.3, -0.5, 0.8));
   const std::size_t m = mvc_->columnCount();
   std::vector<double> batch(points.size() * m);
   mvc_->weightsBatch(points, batch);
@@ -381,10 +381,10 @@ TEST_P(MeanValueShapes, BindingReproducesRestAndAffinePoses) {
   std::mt19937_64 rng(29);
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   const BoundingBox box = boundingBox(cage.vertices());
-  const Vec3 centre = 0.5 * (box.min + box.max);
+  const Vec3 center = 0.5 * (box.min + box.max);
   std::vector<Vec3> points;
   for (int i = 0; i < 500; ++i)
-    points.push_back(centre + box.extent() * Vec3(unit(rng), unit(rng), unit(rng)));
+    points.push_back(center + box.extent() * Vec3(unit(rng), unit(rng), unit(rng)));
   for (const Vec3& p : cage.vertices()) points.push_back(p);
   const Binding binding(mvc_, points);
   ASSERT_FALSE(binding.isSparse());

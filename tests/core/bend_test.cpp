@@ -22,14 +22,14 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kPi = std::numbers::pi;
 
-BendParams bendParams(Vec3 origin, Vec3 axis, Vec3 direction, double rate, double lo = -kInf,
-                      double hi = kInf) {
-  BendParams p = test::AxialParams<BendParams>{}(origin, axis, rate, lo, hi);
+BendOptions bendParams(Vec3 origin, Vec3 axis, Vec3 direction, double rate, double lo = -kInf,
+                       double hi = kInf) {
+  BendOptions p = test::AxialOptions<BendOptions>{}(origin, axis, rate, lo, hi);
   p.direction = direction;
   return p;
 }
 
-std::vector<BendParams> configurations() {
+std::vector<BendOptions> configurations() {
   return {
       bendParams(Vec3(0.0), Vec3(0, 0, 1), Vec3(1, 0, 0), 0.5),
       bendParams(Vec3(0.5, -1.0, 2.0), Vec3(1, 2, 3), Vec3(0, 1, 0), -0.4),
@@ -56,7 +56,7 @@ double directionCoordinate(const BendWarp& warp, const Vec3& x) {
 // sheet of the (periodic, folded) unlimited bend.
 test::PointSampler<BendWarp> pointsIn(double lo, double hi, bool invertible = false) {
   return [=](const BendWarp& warp, std::mt19937& rng, std::size_t n) {
-    const BendParams& p = warp.params();
+    const BendOptions& p = warp.params();
     return test::randomPointsWhere(rng, n, lo, hi, [&](const Vec3& x) {
       const double y = spineCoordinate(warp, x);
       const double z = directionCoordinate(warp, x);
@@ -115,16 +115,16 @@ TEST(BendWarp, SpineLandsOnTheCircleOfRadiusOneOverK) {
             1e-15);
   // Arc length 2 pi is half the circle: the point diametrically opposite the origin.
   EXPECT_LT(relativeError(warp.apply(origin + 2.0 * kPi * axis), origin + 4.0 * direction), 1e-15);
-  const Vec3 centre = origin + direction / k;
+  const Vec3 center = origin + direction / k;
   for (double y = -6.0; y <= 6.0; y += 0.25) {
     const Vec3 bent = warp.apply(origin + y * axis);
-    EXPECT_NEAR(glm::length(bent - centre), 1.0 / k, 1e-14);
-    // At angle k y from the origin, seen from the centre.
-    const Vec3 expected = centre + std::sin(k * y) / k * axis - std::cos(k * y) / k * direction;
+    EXPECT_NEAR(glm::length(bent - center), 1.0 / k, 1e-14);
+    // At angle k y from the origin, seen from the center.
+    const Vec3 expected = center + std::sin(k * y) / k * axis - std::cos(k * y) / k * direction;
     EXPECT_LT(relativeError(bent, expected), 1e-14);
     // Fibres along the direction stay straight and radial: z lands on radius 1/k - z.
     const Vec3 off = warp.apply(origin + y * axis + 0.7 * direction);
-    EXPECT_NEAR(glm::length(off - centre), 1.0 / k - 0.7, 1e-14);
+    EXPECT_NEAR(glm::length(off - center), 1.0 / k - 0.7, 1e-14);
     // The third axis b = a × d is kept.
     const Vec3 b = glm::cross(axis, direction);
     const Vec3 side = warp.apply(origin + y * axis + 0.4 * b);
@@ -144,7 +144,7 @@ TEST(BendWarp, TinyRatesAreAccurate) {
       const long double half = std::sin(0.5L * kl * yl);
       const double expectedZ = static_cast<double>(2.0L * half * half / kl);
       const double expectedY = static_cast<double>(std::sin(kl * yl) / kl);
-      // The displacement towards the centre, (1 - C) / k ~ k y^2 / 2, is resolved to full
+      // The displacement towards the center, (1 - C) / k ~ k y^2 / 2, is resolved to full
       // relative precision even where it is far below the point's own magnitude.
       EXPECT_NEAR(bent.x, expectedZ, 1e-14 * std::abs(expectedZ)) << "k " << k << " y " << y;
       EXPECT_NEAR(bent.z, expectedY, 1e-15 * std::max(1.0, std::abs(y))) << "k " << k << " y " << y;
@@ -165,7 +165,7 @@ TEST(BendWarp, RateZeroIsExactlyTheIdentity) {
 }
 
 TEST(BendWarp, LimitsAreContinuousAndRigidBeyond) {
-  const BendParams params = configurations()[4];
+  const BendOptions params = configurations()[4];
   const BendWarp warp(params);
   const BendWarp unlimited(bendParams(params.origin, params.axis, params.direction, params.rate));
   const Vec3 a = warp.axis();

@@ -31,7 +31,7 @@ Mat4 generalAffine() {
 }
 
 std::shared_ptr<const Warp> twist() {
-  TwistParams p;
+  TwistOptions p;
   p.origin = Vec3(0.2, -0.1, 0.0);
   p.axis = Vec3(0.3, 0.1, 1.0);
   p.rate = 0.9;
@@ -39,7 +39,7 @@ std::shared_ptr<const Warp> twist() {
 }
 
 std::shared_ptr<const Warp> bend() {
-  BendParams p;
+  BendOptions p;
   p.axis = Vec3(1, 0, 0);
   p.direction = Vec3(0, 1, 0.2);
   p.rate = 0.2;
@@ -47,7 +47,7 @@ std::shared_ptr<const Warp> bend() {
 }
 
 std::shared_ptr<const Warp> taper() {
-  TaperParams p;
+  TaperOptions p;
   p.origin = Vec3(0.0, 0.0, -0.5);
   p.axis = Vec3(0, 1, 0);
   p.rate = 0.1;

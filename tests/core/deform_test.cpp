@@ -21,7 +21,7 @@ using test::randomPoints;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 TwistWarp sampleTwist() {
-  TwistParams p;
+  TwistOptions p;
   p.origin = Vec3(0.1, 0.0, -0.2);
   p.axis = Vec3(0.2, 0.1, 1.0);
   p.rate = 1.1;
@@ -31,7 +31,7 @@ TwistWarp sampleTwist() {
 }
 
 BendWarp sampleBend() {
-  BendParams p;
+  BendOptions p;
   p.axis = Vec3(0, 1, 0);
   p.direction = Vec3(1, 0, 0);
   p.rate = 0.4;

@@ -54,7 +54,7 @@ class KinkWarp final : public Warp {
 };
 
 std::shared_ptr<const Warp> twist() {
-  TwistParams p;
+  TwistOptions p;
   p.origin = Vec3(0.3, -0.2, 0.1);
   p.axis = Vec3(0.2, 0.1, 1.0);
   p.rate = 1.3;
@@ -64,7 +64,7 @@ std::shared_ptr<const Warp> twist() {
 }
 
 std::shared_ptr<const Warp> taper() {
-  TaperParams p;
+  TaperOptions p;
   p.axis = Vec3(1.0, 0.2, 0.0);
   p.rate = 0.4;
   p.lo = -1.0;
@@ -72,8 +72,8 @@ std::shared_ptr<const Warp> taper() {
   return std::make_shared<TaperWarp>(p);
 }
 
-BendParams bendParams() {
-  BendParams p;
+BendOptions bendParams() {
+  BendOptions p;
   p.origin = Vec3(0.1, 0.0, -0.5);
   p.rate = 1.2;
   p.lo = -0.5;
@@ -220,14 +220,14 @@ TEST(ExactInverse, TaperRoundTrips) {
   std::mt19937 rng(4);
   EXPECT_TRUE(roundTrips(*taper(), randomPoints(rng, 300, -3.0, 3.0)));
   // Where the cross-section collapses (r = 0) there is no closed form.
-  TaperParams p;
+  TaperOptions p;
   p.rate = -1.0;
   const TaperWarp collapsing(p);
   EXPECT_FALSE(collapsing.exactInverse(Vec3(0.0, 0.0, 1.0)).has_value());
 }
 
 TEST(ExactInverse, BendRoundTripsIncludingNearTheEndsOfItsRange) {
-  const BendParams p = bendParams();
+  const BendOptions p = bendParams();
   const BendWarp warp(p);
   std::mt19937 rng(5);
   // Inside the bent region with 1 - k z > 0 (z < 1/k), near both limits, and a little beyond
@@ -243,8 +243,8 @@ TEST(ExactInverse, BendRoundTripsIncludingNearTheEndsOfItsRange) {
 
 TEST(ExactInverse, BendFindsTheRightPreimageAtLargeAngles) {
   // Bend angles up to nearly π: the closed form returns the preimage on the near side of the
-  // centre of curvature.
-  BendParams p;
+  // center of curvature.
+  BendOptions p;
   p.rate = 1.0;
   p.lo = 0.0;
   p.hi = 3.0;

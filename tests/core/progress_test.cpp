@@ -56,7 +56,7 @@ TEST(ProgressTracker, CancelThrowsAtTheNextStep) {
 TEST(Deform, ReportsProgressAndLeavesTheSetUnchangedWhenCancelled) {
   PointSet points = makeRandomPoints(Vec3(-1), Vec3(1), 300'000, 5);
   const PointSet before = points;
-  TwistParams p;
+  TwistOptions p;
   p.rate = 1.0;
   const TwistWarp twist(p);
 

@@ -20,10 +20,10 @@ using test::relativeError;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-constexpr test::AxialParams<TaperParams> taperParams{};
+constexpr test::AxialOptions<TaperOptions> taperParams{};
 
 // In [-2, 2]^3 these keep r > 0 (|rate| * |s| < 1 for |s| <= 2 sqrt(3) + |origin|, or limits).
-std::vector<TaperParams> configurations() {
+std::vector<TaperOptions> configurations() {
   return {
       taperParams(Vec3(0.0), Vec3(0, 0, 1), 0.2),
       taperParams(Vec3(0.5, -1.0, 2.0), Vec3(1, 2, 3), -0.12),
@@ -42,7 +42,7 @@ double axialCoordinate(const TaperWarp& warp, const Vec3& x) {
 // Samples random points in [lo, hi)^3 away from the limits and, if `invertible`, with r >= 0.2.
 test::PointSampler<TaperWarp> pointsIn(double lo, double hi, bool invertible = false) {
   return [=](const TaperWarp& warp, std::mt19937& rng, std::size_t n) {
-    const TaperParams& p = warp.params();
+    const TaperOptions& p = warp.params();
     return test::randomPointsWhere(rng, n, lo, hi, [&](const Vec3& x) {
       const double s = axialCoordinate(warp, x);
       return std::abs(s - p.lo) > 0.02 && std::abs(s - p.hi) > 0.02 &&
@@ -115,7 +115,7 @@ TEST(TaperWarp, RateZeroIsExactlyTheIdentity) {
 }
 
 TEST(TaperWarp, LimitsAreContinuousAndKeepTheEndScaleBeyond) {
-  const TaperParams params = configurations()[4];
+  const TaperOptions params = configurations()[4];
   const TaperWarp warp(params);
   const TaperWarp unlimited(taperParams(params.origin, params.axis, params.rate));
   const Vec3 a = warp.axis();

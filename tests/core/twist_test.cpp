@@ -22,11 +22,11 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kPi = std::numbers::pi;
 
-constexpr test::AxialParams<TwistParams> twistParams{};
+constexpr test::AxialOptions<TwistOptions> twistParams{};
 
 // A spread of configurations: axis-aligned and oblique axes, offset origins, both signs of the
 // rate, with and without limits (one-sided and two-sided).
-std::vector<TwistParams> configurations() {
+std::vector<TwistOptions> configurations() {
   return {
       twistParams(Vec3(0.0), Vec3(0, 0, 1), 1.0),
       twistParams(Vec3(0.5, -1.0, 2.0), Vec3(1, 2, 3), -0.7),
@@ -41,7 +41,7 @@ std::vector<TwistParams> configurations() {
 // n random points in [-2, 2]^3 more than 0.02 away (along the axis) from the limits, where the
 // warp is not differentiable.
 std::vector<Vec3> pointsAwayFromLimits(const TwistWarp& warp, std::mt19937& rng, std::size_t n) {
-  const TwistParams& p = warp.params();
+  const TwistOptions& p = warp.params();
   return test::randomPointsWhere(rng, n, -2.0, 2.0, [&](const Vec3& x) {
     const double s = glm::dot(x - p.origin, warp.axis());
     return std::abs(s - p.lo) > 0.02 && std::abs(s - p.hi) > 0.02;

@@ -14,8 +14,8 @@
 
 #include <spacewarp/core/bend.h>
 #include <spacewarp/core/combinators.h>
-#include <spacewarp/core/inverse.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/inverse.h>
 #include <spacewarp/core/taper.h>
 #include <spacewarp/core/twist.h>
 #include "test_util.h"
@@ -212,7 +212,7 @@ TEST(Warp, InverseRejectsNonFiniteTarget) {
 
 TEST(Warp, InverseHonoursMaxIterations) {
   const TwistWarp warp([] {
-    TwistParams p;
+    TwistOptions p;
     p.rate = 2.0;
     return p;
   }());
@@ -317,14 +317,14 @@ TEST(Warp, TheDefaultExplanationCountsThePoints) {
 TEST(Warp, AnalyticWarpsThroughTheInterface) {
   std::vector<std::unique_ptr<Warp>> warps;
   {
-    TwistParams p;
+    TwistOptions p;
     p.origin = Vec3(0.1, 0.2, 0.3);
     p.axis = Vec3(1, 1, 1);
     p.rate = 0.8;
     warps.push_back(std::make_unique<TwistWarp>(p));
   }
   {
-    BendParams p;
+    BendOptions p;
     p.axis = Vec3(0, 1, 0);
     p.direction = Vec3(0, 0, 1);
     p.rate = 0.3;
@@ -333,7 +333,7 @@ TEST(Warp, AnalyticWarpsThroughTheInterface) {
     warps.push_back(std::make_unique<BendWarp>(p));
   }
   {
-    TaperParams p;
+    TaperOptions p;
     p.axis = Vec3(1, 0, 0);
     p.rate = 0.1;
     warps.push_back(std::make_unique<TaperWarp>(p));

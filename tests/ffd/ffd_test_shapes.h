@@ -27,9 +27,9 @@ inline const std::vector<LatticeBasis> kAllBases = {LatticeBasis::Trilinear,
                                                     LatticeBasis::Bernstein, LatticeBasis::BSpline};
 
 /// A rotated box at (1, −2, 0.5) with extents 2 × 1 × 3 and resolution 5 × 4 × 6.
-inline LatticeParams orientedParams(LatticeBasis basis,
-                                    LatticeOutside outside = LatticeOutside::Identity) {
-  LatticeParams p;
+inline LatticeOptions orientedParams(LatticeBasis basis,
+                                     LatticeOutside outside = LatticeOutside::Identity) {
+  LatticeOptions p;
   p.origin = Vec3(1.0, -2.0, 0.5);
   const Vec3 a = glm::normalize(Vec3(1.0, 2.0, 2.0));
   const Vec3 b = glm::normalize(glm::cross(a, Vec3(0.0, 0.0, 1.0)));

@@ -122,7 +122,7 @@ TEST(LatticeCoordinates, BindingDeformEqualsTheWarp) {
 
 TEST(LatticeCoordinates, LargeBSplineLatticesBindSparsely) {
   std::mt19937 rng(23);
-  LatticeParams p;
+  LatticeOptions p;
   p.basis = LatticeBasis::BSpline;
   p.resolution = {8, 8, 9};
   const Lattice lattice(p);
@@ -138,7 +138,7 @@ TEST(LatticeCoordinates, LargeBSplineLatticesBindSparsely) {
 }
 
 TEST(LatticeCoordinates, RejectsBadArguments) {
-  const LatticeCoordinates coords{Lattice(LatticeParams{})};
+  const LatticeCoordinates coords{Lattice(LatticeOptions{})};
   std::vector<double> row(7);
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { coords.weights(Vec3(0.5), row); }),
               HasSubstr("7 entries but there are 8 columns"));
@@ -155,8 +155,8 @@ class LatticePlaced : public ::testing::TestWithParam<test::Placement> {};
 TEST_P(LatticePlaced, WeightsAndPropertiesDoNotDependOnOffsetOrScale) {
   const test::Placement at = GetParam();
   for (const LatticeBasis basis : {LatticeBasis::Trilinear, LatticeBasis::Bernstein}) {
-    const LatticeParams params = test::orientedParams(basis);
-    LatticeParams placedParams = params;
+    const LatticeOptions params = test::orientedParams(basis);
+    LatticeOptions placedParams = params;
     placedParams.origin = test::place(params.origin, at);
     placedParams.extents = params.extents * at.scale;
     const LatticeCoordinates base{Lattice(params)}, placed{Lattice(placedParams)};

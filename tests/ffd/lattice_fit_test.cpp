@@ -69,7 +69,7 @@ TEST(FitControlPoints, ResidualsDecreaseAsTheResolutionGrows) {
   for (LatticeBasis basis : {LatticeBasis::Trilinear, LatticeBasis::BSpline}) {
     double previous = std::numeric_limits<double>::infinity();
     for (int n : {4, 6, 10}) {
-      LatticeParams p;
+      LatticeOptions p;
       p.resolution = {n, n, n};
       p.basis = basis;
       const ControlPointFit fit = fitControlPoints(Lattice(p), from, to);
@@ -81,7 +81,7 @@ TEST(FitControlPoints, ResidualsDecreaseAsTheResolutionGrows) {
   // Trilinear from the coarsest lattice, as the issue names it: 3 → 5 → 9.
   double previous = std::numeric_limits<double>::infinity();
   for (int n : {3, 5, 9}) {
-    LatticeParams p;
+    LatticeOptions p;
     p.resolution = {n, n, n};
     const ControlPointFit fit = fitControlPoints(Lattice(p), from, to);
     EXPECT_LT(fit.rmsResidual, 0.6 * previous) << "trilinear n " << n;
@@ -90,7 +90,7 @@ TEST(FitControlPoints, ResidualsDecreaseAsTheResolutionGrows) {
 }
 
 TEST(FitControlPoints, RejectsBadInput) {
-  const Lattice lattice(LatticeParams{});
+  const Lattice lattice(LatticeOptions{});
   const std::vector<Vec3> a = {Vec3(0.5)}, b = {Vec3(0.6), Vec3(0.7)};
   const std::vector<Vec3> nan = {Vec3(std::numeric_limits<double>::quiet_NaN())};
   const std::vector<Vec3> outside = {Vec3(5.0)};

@@ -72,7 +72,7 @@ TEST(Lattice, WeightsArePartitionOfUnityAndReproduceXInsideAndOnTheFaces) {
 TEST(Lattice, TheUpperFaceUsesTheLastCell) {
   // PyGeM issue #272: u = 1 must not fall outside the last cell.
   for (LatticeBasis basis : test::kAllBases) {
-    LatticeParams p;
+    LatticeOptions p;
     p.resolution = {4, 4, 4};
     p.basis = basis;
     const Lattice lattice(p);
@@ -124,11 +124,11 @@ TEST(Lattice, OutsideWeightsFollowThePolicy) {
 }
 
 TEST(Lattice, RejectsDegenerateInput) {
-  auto message = [](const LatticeParams& p) {
+  auto message = [](const LatticeOptions& p) {
     return test::messageOf<InvalidInput>([&] { Lattice lattice(p); });
   };
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  LatticeParams p;
+  LatticeOptions p;
   p.resolution = {1, 2, 2};
   EXPECT_THAT(message(p), HasSubstr("resolution[0] is 1"));
   p.resolution = {4, 3, 4};
@@ -166,7 +166,7 @@ TEST(Lattice, RejectsDegenerateInput) {
   p.falloff = 0.0;
   EXPECT_THAT(message(p), HasSubstr("falloff"));
 
-  const Lattice lattice(LatticeParams{});
+  const Lattice lattice(LatticeOptions{});
   std::vector<SparseWeight> row(8), shortRow(7);
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { lattice.sparseWeights(Vec3(nan), row); }),
               HasSubstr("not finite"));

@@ -278,7 +278,7 @@ TEST(LatticeWarp, NonFinitePointsGiveNonFiniteResultsWithoutCrashing) {
 }
 
 TEST(LatticeWarp, RejectsBadInput) {
-  const Lattice lattice(LatticeParams{});
+  const Lattice lattice(LatticeOptions{});
   std::vector<Vec3> posed(lattice.restControlPoints().begin(), lattice.restControlPoints().end());
   EXPECT_THAT(test::messageOf<InvalidInput>(
                   [&] { LatticeWarp(lattice, std::span<const Vec3>(posed).first(7)); }),

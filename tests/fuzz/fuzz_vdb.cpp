@@ -82,7 +82,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     finding("readVdbFile threw something other than IoError", e.what());
   }
   static const TwistWarp twist(
-      TwistParams{.origin = Vec3(0.0), .axis = Vec3(0, 0, 1), .rate = 0.3});
+      TwistOptions{.origin = Vec3(0.0), .axis = Vec3(0, 0, 1), .rate = 0.3});
   WarpVolumeOptions options;
   options.inverse.maxIterations = 8;
   for (const openvdb::GridBase::Ptr& grid : file.grids) {

@@ -663,9 +663,9 @@ TEST(DeformationGraph, AnyRigidMotionOfTheHandlesIsReproducedEverywhere) {
       const std::vector<Vec3> handles(points.begin(), points.begin() + std::ptrdiff_t(handleCount));
       const Mat3 r = rotation(Vec3(0.3, -1.0, 0.6), angle);
       const Vec3 shift = scene.size * Vec3(0.4, -0.7, 0.2);
-      const Vec3 centre = scene.lo + Vec3(0.5 * scene.size);
+      const Vec3 center = scene.lo + Vec3(0.5 * scene.size);
       std::vector<Vec3> targets;
-      for (const Vec3& x : handles) targets.push_back(r * (x - centre) + centre + shift);
+      for (const Vec3& x : handles) targets.push_back(r * (x - center) + center + shift);
       const BoundingBox box = boundingBox(handles);
       DeformationGraph graph =
           grid ? DeformationGraph(gridNodes(box.min, box.max, h), {}, spacingOf(0.0, k))
@@ -680,7 +680,7 @@ TEST(DeformationGraph, AnyRigidMotionOfTheHandlesIsReproducedEverywhere) {
       const DeformationGraphWarp warp = graph.warp();
       double worst = 0.0;
       for (const Vec3& x : points) {
-        const Vec3 expected = r * (x - centre) + centre + shift;
+        const Vec3 expected = r * (x - center) + center + shift;
         worst = std::max(worst, glm::length(warp.apply(x) - expected) / scene.size);
       }
       EXPECT_LE(worst, 1e-9) << where;

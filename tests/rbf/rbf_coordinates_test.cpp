@@ -1,5 +1,5 @@
 // Tests of rbf/rbf_coordinates.h: partition of unity and linear precision, bindings that equal
-// the RBF warp, weight gradients, duplicates and fixed centres.
+// the RBF warp, weight gradients, duplicates and fixed centers.
 
 #include <spacewarp/rbf/rbf_coordinates.h>
 
@@ -34,12 +34,12 @@ using ::testing::HasSubstr;
 
 TEST(RbfCoordinates, PartitionOfUnityAndLinearPrecision) {
   std::mt19937 rng(21);
-  const std::vector<Vec3> centres = test::randomPoints(rng, 45, -1.0, 1.0);
+  const std::vector<Vec3> centers = test::randomPoints(rng, 45, -1.0, 1.0);
   const std::vector<Vec3> points = test::randomPoints(rng, 100, -2.0, 2.0);
   for (const double smoothing : {0.0, 0.1}) {
     for (const RbfOptions& o : everyKernel(smoothing)) {
-      const RbfCoordinates coords(centres, o);
-      ASSERT_EQ(coords.controlPointCount(), centres.size());
+      const RbfCoordinates coords(centers, o);
+      ASSERT_EQ(coords.controlPointCount(), centers.size());
       std::vector<double> row(coords.columnCount());
       for (const Vec3& x : points) {
         coords.weights(x, row);
@@ -47,7 +47,7 @@ TEST(RbfCoordinates, PartitionOfUnityAndLinearPrecision) {
         Vec3 combination(0.0);
         for (std::size_t c = 0; c < row.size(); ++c) {
           sum += row[c];
-          combination += row[c] * centres[c];
+          combination += row[c] * centers[c];
         }
         ASSERT_NEAR(sum, 1.0, 1e-10) << rbfKernelName(o.kernel) << " at " << test::toString(x);
         ASSERT_LE(relativeError(combination, x), 1e-10) << rbfKernelName(o.kernel);
@@ -56,13 +56,13 @@ TEST(RbfCoordinates, PartitionOfUnityAndLinearPrecision) {
   }
 }
 
-TEST(RbfCoordinates, WeightsAreLagrangeAtTheCentres) {
+TEST(RbfCoordinates, WeightsAreLagrangeAtTheCenters) {
   std::mt19937 rng(22);
-  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
-  const RbfCoordinates coords(centres);
+  const std::vector<Vec3> centers = test::randomPoints(rng, 30, -1.0, 1.0);
+  const RbfCoordinates coords(centers);
   std::vector<double> row(coords.columnCount());
-  for (std::size_t i = 0; i < centres.size(); ++i) {
-    coords.weights(centres[i], row);
+  for (std::size_t i = 0; i < centers.size(); ++i) {
+    coords.weights(centers[i], row);
     for (std::size_t c = 0; c < row.size(); ++c)
       ASSERT_NEAR(row[c], c == i ? 1.0 : 0.0, 1e-10) << i << ", " << c;
   }
@@ -77,18 +77,18 @@ TEST(RbfCoordinates, BindingDeformEqualsTheWarp) {
     for (const RbfOptions& o : everyKernel(smoothing)) {
       for (const bool withFixed : {false, true}) {
         const std::vector<Vec3> f = withFixed ? fixed : std::vector<Vec3>{};
-        auto coords = std::make_shared<const RbfCoordinates>(h.centres, f, o);
-        EXPECT_EQ(coords->controlPointCount(), h.centres.size());
+        auto coords = std::make_shared<const RbfCoordinates>(h.centers, f, o);
+        EXPECT_EQ(coords->controlPointCount(), h.centers.size());
         const Binding binding(coords, points);
         const std::vector<Vec3> deformed = binding.deform(h.targets);
-        const RbfWarp warp(h.centres, h.targets, f, o);
+        const RbfWarp warp(h.centers, h.targets, f, o);
         std::vector<Vec3> expected(points.size());
         warp.applyBatch(points, expected);
         double worst = 0.0;
         for (std::size_t i = 0; i < points.size(); ++i)
           worst = std::max(worst, relativeError(deformed[i], expected[i]));
         EXPECT_LE(worst, 1e-10) << rbfKernelName(o.kernel) << " λ = " << smoothing
-                                << (withFixed ? " with fixed centres" : "");
+                                << (withFixed ? " with fixed centers" : "");
       }
     }
   }
@@ -100,9 +100,9 @@ TEST(RbfCoordinates, GradientsMatchTheWarpJacobian) {
   const std::vector<Vec3> fixed = {Vec3(1.5, 1.5, 1.5), Vec3(-1.5, 0.0, 1.5)};
   const std::vector<Vec3> points = test::randomPoints(rng, 30, -1.2, 1.2);
   for (const RbfOptions& o : everyKernel()) {
-    auto coords = std::make_shared<const RbfCoordinates>(h.centres, fixed, o);
+    auto coords = std::make_shared<const RbfCoordinates>(h.centers, fixed, o);
     const CoordinateWarp view(coords, h.targets);
-    const RbfWarp warp(h.centres, h.targets, fixed, o);
+    const RbfWarp warp(h.centers, h.targets, fixed, o);
     for (const Vec3& x : points) {
       EXPECT_LE(relativeError(view.jacobian(x), warp.jacobian(x)), 1e-9) << rbfKernelName(o.kernel);
     }
@@ -112,31 +112,31 @@ TEST(RbfCoordinates, GradientsMatchTheWarpJacobian) {
 
 TEST(RbfCoordinates, CoincidingHandlesShareTheirWeight) {
   std::mt19937 rng(25);
-  std::vector<Vec3> centres = test::randomPoints(rng, 10, -1.0, 1.0);
-  centres.push_back(centres[3]);
-  const std::vector<Vec3> fixed = {centres[5]};  // dropped: handle 5 controls that spot
-  const RbfCoordinates coords(centres, fixed);
+  std::vector<Vec3> centers = test::randomPoints(rng, 10, -1.0, 1.0);
+  centers.push_back(centers[3]);
+  const std::vector<Vec3> fixed = {centers[5]};  // dropped: handle 5 controls that spot
+  const RbfCoordinates coords(centers, fixed);
   EXPECT_EQ(coords.controlPointCount(), 11u);
   std::vector<double> row(coords.columnCount());
-  coords.weights(centres[3], row);
+  coords.weights(centers[3], row);
   EXPECT_NEAR(row[3], 0.5, 1e-10);
   EXPECT_NEAR(row[10], 0.5, 1e-10);
   coords.weights(Vec3(0.1, 0.2, 0.3), row);
   EXPECT_EQ(row[3], row[10]);
-  coords.weights(centres[5], row);
+  coords.weights(centers[5], row);
   EXPECT_NEAR(row[5], 1.0, 1e-10);
 }
 
 TEST(RbfCoordinates, RejectsDegenerateInput) {
   const std::vector<Vec3> none;
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(none); }),
-              HasSubstr("RbfCoordinates: no centres"));
-  std::vector<Vec3> centres = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0)};
-  EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(centres); }),
+              HasSubstr("RbfCoordinates: no centers"));
+  std::vector<Vec3> centers = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0)};
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(centers); }),
               HasSubstr("coplanar"));
-  centres.push_back(Vec3(0, 0, std::nan("")));
-  EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(centres); }),
-              HasSubstr("centre 4 is not finite"));
+  centers.push_back(Vec3(0, 0, std::nan("")));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { RbfCoordinates c(centers); }),
+              HasSubstr("center 4 is not finite"));
   const std::vector<Vec3> tet = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)};
   const RbfCoordinates ok(tet);
   std::vector<double> shortRow(3);
@@ -150,17 +150,17 @@ TEST(RbfCoordinates, RefusesHandlesTooManyForTheMemory) {
   EXPECT_GE(RbfCoordinates::memoryEstimate(4000), 40.0 * 4000 * 4000);
   EXPECT_LE(RbfCoordinates::memoryEstimate(4000), 50.0 * 4000 * 4000);
   EXPECT_GT(RbfCoordinates::memoryEstimate(1000, 1000), RbfCoordinates::memoryEstimate(1000));
-  const std::vector<Vec3> centres = makeRandomPoints(Vec3(0.0), Vec3(1.0), 2000, 3).positions;
+  const std::vector<Vec3> centers = makeRandomPoints(Vec3(0.0), Vec3(1.0), 2000, 3).positions;
   detail::setMemoryCap(std::size_t{100} << 20);
-  const std::string coordinates = test::messageOf<InvalidInput>([&] { RbfCoordinates c(centres); });
+  const std::string coordinates = test::messageOf<InvalidInput>([&] { RbfCoordinates c(centers); });
   const std::vector<Vec3> more = makeRandomPoints(Vec3(0.0), Vec3(1.0), 3000, 4).positions;
   const std::string warp = test::messageOf<InvalidInput>([&] { RbfWarp w(more, more); });
-  const std::vector<Vec3> few(centres.begin(), centres.begin() + 500);
+  const std::vector<Vec3> few(centers.begin(), centers.begin() + 500);
   EXPECT_NO_THROW(RbfCoordinates c(few));
   detail::setMemoryCap(std::numeric_limits<std::size_t>::max());
   EXPECT_THAT(coordinates,
               HasSubstr("RbfCoordinates: the solve for 2000 handles needs about 164 MB of memory"));
-  EXPECT_THAT(warp, HasSubstr("RbfWarp: the RBF system of 3000 distinct centres needs about"));
+  EXPECT_THAT(warp, HasSubstr("RbfWarp: the RBF system of 3000 distinct centers needs about"));
 }
 
 // Issue 12: handles far from the origin and of any size (the fit's conditioning at offset 1e6
@@ -173,17 +173,17 @@ class RbfPlaced : public ::testing::TestWithParam<test::Placement> {};
 TEST_P(RbfPlaced, WeightsAndPropertiesDoNotDependOnOffsetOrScale) {
   const test::Placement at = GetParam();
   std::mt19937 rng(33);
-  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
+  const std::vector<Vec3> centers = test::randomPoints(rng, 30, -1.0, 1.0);
   const std::vector<Vec3> samples = test::randomPoints(rng, 50, -1.0, 1.0);
-  std::vector<Vec3> placedCentres, placedSamples;
-  for (const Vec3& c : centres) placedCentres.push_back(test::place(c, at));
+  std::vector<Vec3> placedCenters, placedSamples;
+  for (const Vec3& c : centers) placedCenters.push_back(test::place(c, at));
   for (const Vec3& x : samples) placedSamples.push_back(test::place(x, at));
-  const double diagonal = boundingBox(placedCentres).diagonal();
+  const double diagonal = boundingBox(placedCenters).diagonal();
   const double tolerance = 1e-11 + 1e3 * test::placementResolution(at, diagonal);
   for (const RbfKernel kernel : {RbfKernel::Triharmonic, RbfKernel::Biharmonic}) {
     RbfOptions o;
     o.kernel = kernel;
-    const RbfCoordinates base(centres, o), placed(placedCentres, o);
+    const RbfCoordinates base(centers, o), placed(placedCenters, o);
     EXPECT_LE(test::placedWeightError(base, placed, samples, at), tolerance)
         << rbfKernelName(kernel);
     const PropertyReport report = measureProperties(placed, placedSamples, diagonal);
@@ -206,16 +206,16 @@ INSTANTIATE_TEST_SUITE_P(Placements, RbfPlaced, ::testing::ValuesIn(rbfPlacement
 // makeWarp of RBF coordinates is the RbfWarp with the posed handles as targets.
 TEST(RbfCoordinates, MakeWarpGivesTheRbfWarpOfThePose) {
   std::mt19937 rng(31);
-  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
+  const std::vector<Vec3> centers = test::randomPoints(rng, 30, -1.0, 1.0);
   const std::vector<Vec3> fixed = test::randomPoints(rng, 5, 1.5, 2.0);
-  std::vector<Vec3> targets = centres;
+  std::vector<Vec3> targets = centers;
   for (Vec3& t : targets) t += 0.1 * Vec3(std::sin(3.0 * t.y), std::cos(2.0 * t.z), t.x);
   const std::vector<Vec3> points = test::randomPoints(rng, 300, -1.5, 1.5);
   for (const RbfOptions& o : everyKernel(0.0)) {
-    auto coords = std::make_shared<const RbfCoordinates>(centres, fixed, o);
+    auto coords = std::make_shared<const RbfCoordinates>(centers, fixed, o);
     const std::shared_ptr<const Warp> made = makeWarp(coords, targets);
     ASSERT_NE(dynamic_cast<const RbfWarp*>(made.get()), nullptr);
-    const RbfWarp direct(centres, targets, fixed, o);
+    const RbfWarp direct(centers, targets, fixed, o);
     const CoordinateWarp generic(coords, targets);
     for (const Vec3& x : points) {
       EXPECT_EQ(made->apply(x), direct.apply(x)) << rbfKernelName(o.kernel);

@@ -11,7 +11,7 @@
 
 namespace spacewarp::test {
 
-/// One set of options per kernel, with scales that suit centres in [-1, 1]^3.
+/// One set of options per kernel, with scales that suit centers in [-1, 1]^3.
 inline std::vector<RbfOptions> everyKernel(double smoothing = 0.0) {
   std::vector<RbfOptions> all;
   for (const std::string& name : rbfKernelNames()) {
@@ -27,13 +27,13 @@ inline std::vector<RbfOptions> everyKernel(double smoothing = 0.0) {
 
 /// Handles in [-1, 1]^3 and targets displaced by up to `amplitude` per axis.
 struct Handles {
-  std::vector<Vec3> centres, targets;
+  std::vector<Vec3> centers, targets;
 };
 
 inline Handles randomHandles(std::mt19937& rng, std::size_t n, double amplitude = 0.2) {
   Handles h;
-  h.centres = randomPoints(rng, n, -1.0, 1.0);
-  for (const Vec3& c : h.centres) h.targets.push_back(c + randomPoint(rng, -amplitude, amplitude));
+  h.centers = randomPoints(rng, n, -1.0, 1.0);
+  for (const Vec3& c : h.centers) h.targets.push_back(c + randomPoint(rng, -amplitude, amplitude));
   return h;
 }
 

@@ -29,8 +29,8 @@ using ::testing::HasSubstr;
 // max_i |warp(c_i) − t_i| / max(1, |t_i|).
 double interpolationError(const RbfWarp& warp, const Handles& h) {
   double worst = 0.0;
-  for (std::size_t i = 0; i < h.centres.size(); ++i)
-    worst = std::max(worst, relativeError(warp.apply(h.centres[i]), h.targets[i]));
+  for (std::size_t i = 0; i < h.centers.size(); ++i)
+    worst = std::max(worst, relativeError(warp.apply(h.centers[i]), h.targets[i]));
   return worst;
 }
 
@@ -39,9 +39,9 @@ TEST(RbfWarp, InterpolatesTheTargetsForEveryKernel) {
   const Handles h = randomHandles(rng, 60);
   const std::vector<Vec3> fixed = test::randomPoints(rng, 10, -1.5, 1.5);
   for (const RbfOptions& o : everyKernel()) {
-    const RbfWarp warp(h.centres, h.targets, o);
+    const RbfWarp warp(h.centers, h.targets, o);
     EXPECT_LE(interpolationError(warp, h), 1e-10) << rbfKernelName(o.kernel);
-    const RbfWarp pinned(h.centres, h.targets, fixed, o);
+    const RbfWarp pinned(h.centers, h.targets, fixed, o);
     EXPECT_LE(interpolationError(pinned, h), 1e-10) << rbfKernelName(o.kernel);
     for (std::size_t k = 0; k < fixed.size(); ++k)
       EXPECT_LE(relativeError(pinned.apply(fixed[k]), fixed[k]), 1e-10)
@@ -51,18 +51,18 @@ TEST(RbfWarp, InterpolatesTheTargetsForEveryKernel) {
 
 TEST(RbfWarp, ReproducesAffineMotionsEverywhere) {
   std::mt19937 rng(2);
-  const std::vector<Vec3> centres = test::randomPoints(rng, 30, -1.0, 1.0);
+  const std::vector<Vec3> centers = test::randomPoints(rng, 30, -1.0, 1.0);
   Mat3 a;
   a[0] = Vec3(1.2, 0.1, -0.3);
   a[1] = Vec3(-0.2, 0.9, 0.4);
   a[2] = Vec3(0.3, 0.05, 1.1);
   const Vec3 b(0.5, -2.0, 3.0);
   std::vector<Vec3> targets;
-  for (const Vec3& c : centres) targets.push_back(a * c + b);
+  for (const Vec3& c : centers) targets.push_back(a * c + b);
   const std::vector<Vec3> points = test::randomPoints(rng, 200, -3.0, 3.0);
   for (const double smoothing : {0.0, 0.1}) {
     for (const RbfOptions& o : everyKernel(smoothing)) {
-      const RbfWarp warp(centres, targets, o);
+      const RbfWarp warp(centers, targets, o);
       for (const Vec3& x : points)
         ASSERT_LE(relativeError(warp.apply(x), a * x + b), 1e-10)
             << rbfKernelName(o.kernel) << " λ = " << smoothing << " at " << test::toString(x);
@@ -76,35 +76,35 @@ TEST(RbfWarp, JacobianMatchesFiniteDifferencesForEveryKernel) {
   const Handles h = randomHandles(rng, 40, 0.3);
   const std::vector<Vec3> points = test::randomPoints(rng, 100, -1.5, 1.5);
   for (const RbfOptions& o : everyKernel()) {
-    const RbfWarp warp(h.centres, h.targets, o);
+    const RbfWarp warp(h.centers, h.targets, o);
     EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points)) << rbfKernelName(o.kernel);
   }
 }
 
-TEST(RbfWarp, JacobianAtACentreIsFinite) {
+TEST(RbfWarp, JacobianAtACenterIsFinite) {
   std::mt19937 rng(4);
   const Handles h = randomHandles(rng, 20);
   for (const RbfOptions& o : everyKernel()) {
-    const RbfWarp warp(h.centres, h.targets, o);
-    const Mat3 j = warp.jacobian(h.centres[3]);
+    const RbfWarp warp(h.centers, h.targets, o);
+    const Mat3 j = warp.jacobian(h.centers[3]);
     for (int c = 0; c < 3; ++c) EXPECT_TRUE(isFinite(j[c])) << rbfKernelName(o.kernel);
   }
-  // The triharmonic kernel is C²: the Jacobian at a centre is the limit of its neighbours'.
-  const RbfWarp warp(h.centres, h.targets);
-  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, {h.centres[3]}));
+  // The triharmonic kernel is C²: the Jacobian at a center is the limit of its neighbours'.
+  const RbfWarp warp(h.centers, h.targets);
+  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, {h.centers[3]}));
 }
 
 // The full (n + 4) system in world coordinates, solved by FullPivLU.
-void referenceFit(const std::vector<Vec3>& centres, const std::vector<Vec3>& displacement,
+void referenceFit(const std::vector<Vec3>& centers, const std::vector<Vec3>& displacement,
                   const RbfOptions& o, Eigen::MatrixXd& w, Eigen::MatrixXd& a) {
-  const Eigen::Index n = static_cast<Eigen::Index>(centres.size());
+  const Eigen::Index n = static_cast<Eigen::Index>(centers.size());
   const double sigma = o.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
   Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n + 4, n + 4);
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(n + 4, 3);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Vec3& ci = centres[static_cast<std::size_t>(i)];
+    const Vec3& ci = centers[static_cast<std::size_t>(i)];
     for (Eigen::Index j = 0; j < n; ++j)
-      m(i, j) = rbfKernelValue(o, glm::length(ci - centres[static_cast<std::size_t>(j)]));
+      m(i, j) = rbfKernelValue(o, glm::length(ci - centers[static_cast<std::size_t>(j)]));
     m(i, i) += sigma * o.smoothing;
     const double p[4] = {1.0, ci.x, ci.y, ci.z};
     for (int k = 0; k < 4; ++k) m(i, n + k) = m(n + k, i) = p[k];
@@ -119,22 +119,22 @@ TEST(RbfWarp, FitAgreesWithADenseReferenceSolve) {
   std::mt19937 rng(5);
   const Handles h = randomHandles(rng, 50);
   const std::vector<Vec3> fixed = test::randomPoints(rng, 8, -1.2, 1.2);
-  std::vector<Vec3> all = h.centres;
+  std::vector<Vec3> all = h.centers;
   all.insert(all.end(), fixed.begin(), fixed.end());
   std::vector<Vec3> displacement;
-  for (std::size_t i = 0; i < h.centres.size(); ++i)
-    displacement.push_back(h.targets[i] - h.centres[i]);
+  for (std::size_t i = 0; i < h.centers.size(); ++i)
+    displacement.push_back(h.targets[i] - h.centers[i]);
   displacement.resize(all.size(), Vec3(0.0));
   for (const double smoothing : {0.0, 0.05}) {
     for (const RbfOptions& o : everyKernel(smoothing)) {
-      const RbfWarp warp(h.centres, h.targets, fixed, o);
-      ASSERT_EQ(warp.centres().size(), all.size());
+      const RbfWarp warp(h.centers, h.targets, fixed, o);
+      ASSERT_EQ(warp.centers().size(), all.size());
       Eigen::MatrixXd w, a;
       referenceFit(all, displacement, o, w, a);
       const double scale = w.cwiseAbs().maxCoeff();
       double err = 0.0;
       for (std::size_t j = 0; j < all.size(); ++j) {
-        EXPECT_EQ(warp.centres()[j], all[j]);
+        EXPECT_EQ(warp.centers()[j], all[j]);
         for (int k = 0; k < 3; ++k)
           err = std::max(err, std::abs(warp.weights()[j][k] - w(static_cast<Eigen::Index>(j), k)));
       }
@@ -154,11 +154,11 @@ TEST(RbfWarp, SmoothingApproximatesMoreAsItGrows) {
   std::mt19937 rng(6);
   const Handles h = randomHandles(rng, 40, 0.3);
   for (RbfOptions o : everyKernel()) {
-    double previous = interpolationError(RbfWarp(h.centres, h.targets, o), h);
+    double previous = interpolationError(RbfWarp(h.centers, h.targets, o), h);
     EXPECT_LE(previous, 1e-10);
     for (const double lambda : {1e-4, 1e-3, 1e-2, 1e-1, 1.0}) {
       o.smoothing = lambda;
-      const double residual = interpolationError(RbfWarp(h.centres, h.targets, o), h);
+      const double residual = interpolationError(RbfWarp(h.centers, h.targets, o), h);
       EXPECT_GT(residual, previous) << rbfKernelName(o.kernel) << " λ = " << lambda;
       EXPECT_GT(residual, 1e-8) << rbfKernelName(o.kernel) << " λ = " << lambda;
       previous = residual;
@@ -171,10 +171,10 @@ TEST(RbfWarp, BatchIsDeterministicAndEqualsApply) {
   const Handles h = randomHandles(rng, 37);
   const std::vector<Vec3> points = test::randomPoints(rng, 1003, -2.0, 2.0);
   for (const RbfOptions& o : everyKernel()) {
-    const RbfWarp warp(h.centres, h.targets, o);
+    const RbfWarp warp(h.centers, h.targets, o);
     EXPECT_TRUE(test::batchIsDeterministic(warp, points)) << rbfKernelName(o.kernel);
   }
-  const RbfWarp warp(h.centres, h.targets);
+  const RbfWarp warp(h.centers, h.targets);
   test::expectBatchRejectsMismatchedSizes(warp, 3, 4);
   // In place.
   std::vector<Vec3> inPlace = points;
@@ -184,21 +184,21 @@ TEST(RbfWarp, BatchIsDeterministicAndEqualsApply) {
 }
 
 // The SIMD kernel (no libm: Newton square roots, polynomial exp and log) against the formula
-// evaluated with std::sqrt, std::exp and std::log, near and far from the centres.
+// evaluated with std::sqrt, std::exp and std::log, near and far from the centers.
 TEST(RbfWarp, ApplyMatchesTheScalarFormula) {
   std::mt19937 rng(16);
   const Handles h = randomHandles(rng, 30);
   std::vector<Vec3> points = test::randomPoints(rng, 300, -1.5, 1.5);
   for (const Vec3& p : test::randomPoints(rng, 50, -40.0, 40.0)) points.push_back(p);
-  points.push_back(h.centres[0]);
-  points.push_back(h.centres[1] + Vec3(1e-9, 0.0, 0.0));
+  points.push_back(h.centers[0]);
+  points.push_back(h.centers[1] + Vec3(1e-9, 0.0, 0.0));
   for (const RbfOptions& o : everyKernel()) {
-    const RbfWarp warp(h.centres, h.targets, o);
+    const RbfWarp warp(h.centers, h.targets, o);
     for (const Vec3& x : points) {
       Vec3 sum = warp.linearPart() * x + warp.translation();
       double magnitude = glm::length(sum) + glm::length(x);
-      for (std::size_t j = 0; j < warp.centres().size(); ++j) {
-        const Vec3 term = rbfKernelValue(o, glm::length(warp.centres()[j] - x)) * warp.weights()[j];
+      for (std::size_t j = 0; j < warp.centers().size(); ++j) {
+        const Vec3 term = rbfKernelValue(o, glm::length(warp.centers()[j] - x)) * warp.weights()[j];
         sum += term;
         magnitude += glm::length(term);
       }
@@ -211,7 +211,7 @@ TEST(RbfWarp, ApplyMatchesTheScalarFormula) {
 TEST(RbfWarp, PassesTheWarpChecks) {
   std::mt19937 rng(8);
   const Handles h = randomHandles(rng, 30, 0.1);
-  const RbfWarp warp(h.centres, h.targets);
+  const RbfWarp warp(h.centers, h.targets);
   test::expectWarpProperties(warp, test::randomPoints(rng, 50, -1.0, 1.0), rng);
 }
 
@@ -219,37 +219,37 @@ TEST(RbfWarp, PassesTheWarpChecks) {
 
 TEST(RbfWarp, RejectsEmptyInputAndMismatchedSizes) {
   const std::vector<Vec3> none;
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(none, none); }), HasSubstr("no centres"));
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(none, none); }), HasSubstr("no centers"));
   std::mt19937 rng(9);
   Handles h = randomHandles(rng, 10);
   h.targets.pop_back();
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
-              HasSubstr("10 centres but 9 targets"));
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centers, h.targets); }),
+              HasSubstr("10 centers but 9 targets"));
 }
 
 TEST(RbfWarp, RejectsNonFiniteInputNamingTheIndex) {
   std::mt19937 rng(10);
   const Handles good = randomHandles(rng, 10);
   Handles h = good;
-  h.centres[3].y = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
-              HasSubstr("centre 3 is not finite"));
+  h.centers[3].y = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centers, h.targets); }),
+              HasSubstr("center 3 is not finite"));
   h = good;
   h.targets[7].z = std::numeric_limits<double>::infinity();
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centers, h.targets); }),
               HasSubstr("target 7 is not finite"));
   std::vector<Vec3> fixed = {Vec3(2.0), Vec3(-std::numeric_limits<double>::infinity())};
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(good.centres, good.targets, fixed); }),
-              HasSubstr("fixed centre 1 is not finite"));
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(good.centers, good.targets, fixed); }),
+              HasSubstr("fixed center 1 is not finite"));
 }
 
-// A Gaussian scale of 1e-200 made 1/ε² infinite: NaN at the centres themselves. Scales whose
-// kernel values under- or overflow for these centres are refused, by the constructor and by
+// A Gaussian scale of 1e-200 made 1/ε² infinite: NaN at the centers themselves. Scales whose
+// kernel values under- or overflow for these centers are refused, by the constructor and by
 // check() alike, and the scales that suit them give finite points.
-TEST(RbfWarp, RejectsKernelScalesThatDoNotSuitTheCentres) {
-  const std::vector<Vec3> centres = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1),
+TEST(RbfWarp, RejectsKernelScalesThatDoNotSuitTheCenters) {
+  const std::vector<Vec3> centers = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1),
                                      Vec3(1, 1, 1)};
-  std::vector<Vec3> targets = centres;
+  std::vector<Vec3> targets = centers;
   targets[4] += Vec3(0.2, 0.0, 0.0);
   struct Case {
     RbfKernel kernel;
@@ -257,11 +257,11 @@ TEST(RbfWarp, RejectsKernelScalesThatDoNotSuitTheCentres) {
     const char* message;  // nullptr: accepted
   };
   for (const Case& c : {Case{RbfKernel::Gaussian, 1e-200, "is outside [1e-150, 1e150]"},
-                        Case{RbfKernel::Gaussian, 1e-50, "is too small for centres 1 apart"},
-                        Case{RbfKernel::Gaussian, 0.03, "is too small for centres 1 apart"},
+                        Case{RbfKernel::Gaussian, 1e-50, "is too small for centers 1 apart"},
+                        Case{RbfKernel::Gaussian, 0.03, "is too small for centers 1 apart"},
                         Case{RbfKernel::Gaussian, 0.5, nullptr},
                         Case{RbfKernel::Gaussian, 1e200, "is outside [1e-150, 1e150]"},
-                        Case{RbfKernel::InverseMultiquadric, 1e12, "is too large for centres"},
+                        Case{RbfKernel::InverseMultiquadric, 1e12, "is too large for centers"},
                         Case{RbfKernel::InverseMultiquadric, 1e-100, nullptr},
                         Case{RbfKernel::InverseMultiquadric, 1e-160, "is outside"}}) {
     SCOPED_TRACE(c.scale);
@@ -269,16 +269,16 @@ TEST(RbfWarp, RejectsKernelScalesThatDoNotSuitTheCentres) {
     options.kernel = c.kernel;
     options.scale = c.scale;
     if (c.message) {
-      EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(centres, targets, options); }),
+      EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(centers, targets, options); }),
                   HasSubstr(c.message));
-      EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp::check(centres, targets, {}, options); }),
+      EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp::check(centers, targets, {}, options); }),
                   HasSubstr(c.message));
-      EXPECT_FALSE(rbfScaleProblem(options, centres).empty());
+      EXPECT_FALSE(rbfScaleProblem(options, centers).empty());
       continue;
     }
-    EXPECT_NO_THROW(RbfWarp::check(centres, targets, {}, options));
-    const RbfWarp warp(centres, targets, options);
-    for (const Vec3& x : centres) EXPECT_TRUE(isFinite(warp.apply(x))) << x.x;
+    EXPECT_NO_THROW(RbfWarp::check(centers, targets, {}, options));
+    const RbfWarp warp(centers, targets, options);
+    for (const Vec3& x : centers) EXPECT_TRUE(isFinite(warp.apply(x))) << x.x;
     EXPECT_TRUE(isFinite(warp.apply(Vec3(0.3, 0.2, 0.1))));
   }
 }
@@ -292,7 +292,7 @@ TEST(RbfWarp, CheckFindsWhatTheConstructorRefusesWithoutTheFit) {
   std::vector<Vec3> conflicting = twice;
   conflicting[4] = Vec3(1, 0, 0);
   EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp::check(twice, conflicting, {}); }),
-              HasSubstr("centre 0 and centre 4 coincide"));
+              HasSubstr("center 0 and center 4 coincide"));
   EXPECT_NO_THROW(RbfWarp::check(twice, twice, {}));
 }
 
@@ -300,35 +300,35 @@ TEST(RbfWarp, MergesDuplicatesWithAgreeingTargets) {
   std::mt19937 rng(11);
   Handles h = randomHandles(rng, 12);
   const double diagonal = 2.0 * std::sqrt(3.0);
-  h.centres.push_back(h.centres[4]);
+  h.centers.push_back(h.centers[4]);
   h.targets.push_back(h.targets[4]);
-  h.centres.push_back(h.centres[6] + Vec3(1e-12 * diagonal, 0.0, 0.0));  // within tolerance
+  h.centers.push_back(h.centers[6] + Vec3(1e-12 * diagonal, 0.0, 0.0));  // within tolerance
   h.targets.push_back(h.targets[6]);
-  const std::vector<Vec3> fixed = {h.centres[2], Vec3(3.0, 0.0, 0.0)};
-  h.targets[2] = h.centres[2];  // handle 2 stays put where a fixed centre is
-  const RbfWarp warp(h.centres, h.targets, fixed);
-  EXPECT_EQ(warp.centres().size(), 13u);  // 14 handles − 2 duplicates + 1 fixed kept
+  const std::vector<Vec3> fixed = {h.centers[2], Vec3(3.0, 0.0, 0.0)};
+  h.targets[2] = h.centers[2];  // handle 2 stays put where a fixed center is
+  const RbfWarp warp(h.centers, h.targets, fixed);
+  EXPECT_EQ(warp.centers().size(), 13u);  // 14 handles − 2 duplicates + 1 fixed kept
   EXPECT_LE(interpolationError(warp, h), 1e-10);
 }
 
 TEST(RbfWarp, RejectsDuplicatesWithConflictingTargetsNamingBoth) {
   std::mt19937 rng(12);
   Handles h = randomHandles(rng, 12);
-  h.centres.push_back(h.centres[5]);
+  h.centers.push_back(h.centers[5]);
   h.targets.push_back(h.targets[5] + Vec3(0.1, 0.0, 0.0));
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets); }),
-              HasSubstr("centre 5 and centre 12 coincide but their targets differ"));
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centers, h.targets); }),
+              HasSubstr("center 5 and center 12 coincide but their targets differ"));
   h = randomHandles(rng, 12);
-  const std::vector<Vec3> fixed = {Vec3(5.0), h.centres[8]};
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets, fixed); }),
-              HasSubstr("centre 8 and fixed centre 1 coincide but their targets differ"));
+  const std::vector<Vec3> fixed = {Vec3(5.0), h.centers[8]};
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centers, h.targets, fixed); }),
+              HasSubstr("center 8 and fixed center 1 coincide but their targets differ"));
 }
 
-TEST(RbfWarp, NeedsFourAffinelyIndependentCentres) {
+TEST(RbfWarp, NeedsFourAffinelyIndependentCenters) {
   const std::vector<Vec3> three = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
   const std::string message = messageOf<InvalidInput>([&] { RbfWarp(three, three); });
   EXPECT_THAT(message,
-              HasSubstr("linear polynomial needs at least 4 affinely independent centres"));
+              HasSubstr("linear polynomial needs at least 4 affinely independent centers"));
   EXPECT_THAT(message, HasSubstr("not all coplanar"));
   EXPECT_THAT(message, HasSubstr("only 3 distinct"));
   // Five handles, three distinct.
@@ -336,7 +336,7 @@ TEST(RbfWarp, NeedsFourAffinelyIndependentCentres) {
                                       Vec3(0, 0, 0)};
   EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(repeated, repeated); }),
               HasSubstr("only 3 distinct"));
-  // Many coplanar centres (the plane x + y + z = 1).
+  // Many coplanar centers (the plane x + y + z = 1).
   std::mt19937 rng(13);
   std::vector<Vec3> plane;
   for (int i = 0; i < 20; ++i) {
@@ -345,8 +345,8 @@ TEST(RbfWarp, NeedsFourAffinelyIndependentCentres) {
   }
   const std::string coplanar = messageOf<InvalidInput>([&] { RbfWarp(plane, plane); });
   EXPECT_THAT(coplanar, HasSubstr("4 affinely independent"));
-  EXPECT_THAT(coplanar, HasSubstr("20 distinct centres are all coplanar"));
-  // A fixed centre off the plane makes it well posed.
+  EXPECT_THAT(coplanar, HasSubstr("20 distinct centers are all coplanar"));
+  // A fixed center off the plane makes it well posed.
   const std::vector<Vec3> off = {Vec3(0.0, 0.0, 0.0)};
   EXPECT_NO_THROW(RbfWarp(plane, plane, off));
 }
@@ -357,7 +357,7 @@ TEST(RbfWarp, SingularSystemIsASolverError) {
   RbfOptions o;
   o.kernel = RbfKernel::Gaussian;
   o.scale = 1e6;  // Φ is all ones to machine precision
-  EXPECT_THAT(messageOf<SolverError>([&] { RbfWarp(h.centres, h.targets, o); }),
+  EXPECT_THAT(messageOf<SolverError>([&] { RbfWarp(h.centers, h.targets, o); }),
               HasSubstr("singular"));
 }
 
@@ -367,7 +367,7 @@ TEST(RbfWarp, RejectsInvalidOptions) {
   RbfOptions o;
   o.kernel = RbfKernel::WendlandC2;
   o.radius = 0.0;
-  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centres, h.targets, o); }),
+  EXPECT_THAT(messageOf<InvalidInput>([&] { RbfWarp(h.centers, h.targets, o); }),
               HasSubstr("RbfWarp: the support radius"));
 }
 

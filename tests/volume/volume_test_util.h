@@ -15,9 +15,9 @@
 
 namespace spacewarp::test {
 
-/// A Gaussian density exp(-|x - centre|² / sigma²) (world units) on voxels of `voxelSize`,
+/// A Gaussian density exp(-|x - center|² / sigma²) (world units) on voxels of `voxelSize`,
 /// active where it exceeds 1e-6.
-inline openvdb::FloatGrid::Ptr makeGaussianFog(const Vec3& centre, double sigma, double voxelSize) {
+inline openvdb::FloatGrid::Ptr makeGaussianFog(const Vec3& center, double sigma, double voxelSize) {
   openvdb::initialize();
   auto grid = openvdb::FloatGrid::create(0.0f);
   grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
@@ -25,16 +25,16 @@ inline openvdb::FloatGrid::Ptr makeGaussianFog(const Vec3& centre, double sigma,
   grid->setName("density");
   const double reach = sigma * std::sqrt(std::log(1e6));
   auto acc = grid->getAccessor();
-  const int lo[3] = {static_cast<int>(std::floor((centre.x - reach) / voxelSize)),
-                     static_cast<int>(std::floor((centre.y - reach) / voxelSize)),
-                     static_cast<int>(std::floor((centre.z - reach) / voxelSize))};
-  const int hi[3] = {static_cast<int>(std::ceil((centre.x + reach) / voxelSize)),
-                     static_cast<int>(std::ceil((centre.y + reach) / voxelSize)),
-                     static_cast<int>(std::ceil((centre.z + reach) / voxelSize))};
+  const int lo[3] = {static_cast<int>(std::floor((center.x - reach) / voxelSize)),
+                     static_cast<int>(std::floor((center.y - reach) / voxelSize)),
+                     static_cast<int>(std::floor((center.z - reach) / voxelSize))};
+  const int hi[3] = {static_cast<int>(std::ceil((center.x + reach) / voxelSize)),
+                     static_cast<int>(std::ceil((center.y + reach) / voxelSize)),
+                     static_cast<int>(std::ceil((center.z + reach) / voxelSize))};
   for (int i = lo[0]; i <= hi[0]; ++i)
     for (int j = lo[1]; j <= hi[1]; ++j)
       for (int k = lo[2]; k <= hi[2]; ++k) {
-        const Vec3 p = Vec3(i, j, k) * voxelSize - centre;
+        const Vec3 p = Vec3(i, j, k) * voxelSize - center;
         const double v = std::exp(-glm::dot(p, p) / (sigma * sigma));
         if (v > 1e-6) acc.setValue(openvdb::Coord(i, j, k), static_cast<float>(v));
       }
@@ -42,17 +42,17 @@ inline openvdb::FloatGrid::Ptr makeGaussianFog(const Vec3& centre, double sigma,
 }
 
 /// openvdb::tools::createLevelSetSphere with a name.
-inline openvdb::FloatGrid::Ptr makeSphere(double radius, const Vec3& centre, double voxelSize,
+inline openvdb::FloatGrid::Ptr makeSphere(double radius, const Vec3& center, double voxelSize,
                                           double halfWidth = 3.0) {
   openvdb::initialize();
   auto grid = openvdb::tools::createLevelSetSphere<openvdb::FloatGrid>(
-      static_cast<float>(radius), openvdb::Vec3f(float(centre.x), float(centre.y), float(centre.z)),
+      static_cast<float>(radius), openvdb::Vec3f(float(center.x), float(center.y), float(center.z)),
       static_cast<float>(voxelSize), static_cast<float>(halfWidth));
   grid->setName("sphere");
   return grid;
 }
 
-/// The world position of a voxel centre.
+/// The world position of a voxel center.
 inline Vec3 worldOf(const openvdb::GridBase& grid, const openvdb::Coord& ijk) {
   const openvdb::Vec3d w = grid.indexToWorld(ijk);
   return {w[0], w[1], w[2]};

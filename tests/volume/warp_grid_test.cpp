@@ -17,7 +17,7 @@ namespace {
 TEST(WarpGrid, DispatchesByTypeAndRejectsUnsupportedGridsByName) {
   openvdb::initialize();
   const auto fog = test::makeGaussianFog(Vec3(0.0), 0.5, 0.2);
-  const TwistWarp twist(TwistParams{});
+  const TwistWarp twist(TwistOptions{});
   const auto warped = warpGrid(twist, *fog);
   ASSERT_TRUE(warped.grid);
   EXPECT_TRUE(warped.grid->isType<openvdb::FloatGrid>());

@@ -63,7 +63,7 @@ TEST(WarpPoints, MovedPositionsAreTheWarpOfTheOldOnes) {
   std::vector<openvdb::Vec3R> positions(500);
   for (auto& p : positions) p = openvdb::Vec3R(u(rng), u(rng), u(rng));
   const PointDataGrid::Ptr grid = makePoints(positions, 0.25);
-  TwistParams params;
+  TwistOptions params;
   params.rate = 0.7;
   params.origin = Vec3(0.3, 0.0, 0.0);
   const TwistWarp twist(params);
@@ -95,7 +95,7 @@ TEST(WarpPoints, ALeafWithoutPositionsIsRefusedNamingTheGrid) {
   leaf->dropAttributes(position, descriptor, without);
   ASSERT_EQ(leaf->attributeSet().find("P"), openvdb::points::AttributeSet::INVALID_POS);
   try {
-    warpPoints(TwistWarp(TwistParams{}), *grid);
+    warpPoints(TwistWarp(TwistOptions{}), *grid);
     FAIL() << "no InvalidInput";
   } catch (const InvalidInput& e) {
     EXPECT_THAT(e.what(), ::testing::HasSubstr("grid 'points': the leaf at ("));

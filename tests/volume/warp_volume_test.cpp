@@ -128,8 +128,8 @@ class ScaledSphere : public ::testing::TestWithParam<ScaleCase> {};
 
 TEST_P(ScaledSphere, IsTheScaledSphereWithTheInputBand) {
   const double voxel = 0.1, radius = 1.2, scale = GetParam().scale;
-  const Vec3 centre(0.13, -0.07, 0.21);
-  const FloatGrid::Ptr sphere = makeSphere(radius, centre, voxel);
+  const Vec3 center(0.13, -0.07, 0.21);
+  const FloatGrid::Ptr sphere = makeSphere(radius, center, voxel);
   const AffineWarp scaling(glm::scale(Mat4(1.0), Vec3(scale)));
   WarpVolumeOptions options;
   options.redistance = GetParam().redistance;
@@ -139,7 +139,7 @@ TEST_P(ScaledSphere, IsTheScaledSphereWithTheInputBand) {
   EXPECT_EQ(out.getGridClass(), openvdb::GRID_LEVEL_SET);
   EXPECT_FLOAT_EQ(out.background(), sphere->background());
 
-  const Vec3 c2 = centre * scale;
+  const Vec3 c2 = center * scale;
   const double r2 = radius * scale;
   double worst = 0.0;
   for (auto it = out.cbeginValueOn(); it; ++it) {
@@ -178,7 +178,7 @@ class TwistedSphere : public ::testing::TestWithParam<LevelSetRedistance> {};
 TEST_P(TwistedSphere, MatchesTheMeshRouteWithinOneVoxel) {
   const double voxel = 0.1;
   const FloatGrid::Ptr sphere = makeSphere(1.0, Vec3(0.7, 0.0, 0.0), voxel);
-  TwistParams p;
+  TwistOptions p;
   p.rate = 0.6;
   const TwistWarp twist(p);
   WarpVolumeOptions options;
@@ -218,7 +218,7 @@ INSTANTIATE_TEST_SUITE_P(WarpVolume, TwistedSphere,
                          ::testing::Values(LevelSetRedistance::Normalize,
                                            LevelSetRedistance::Rebuild));
 
-// x' = c + (x - c) s(r): a smooth radial squash, s from 0.6 at the centre to 0.8 far away.
+// x' = c + (x - c) s(r): a smooth radial squash, s from 0.6 at the center to 0.8 far away.
 FunctionWarp radialSquash(const Vec3& c) {
   return FunctionWarp([c](const Vec3& x) {
     const Vec3 d = x - c;
@@ -341,7 +341,7 @@ TEST(WarpVolume, CountsVoxelsWhereTheWarpIsNotFinite) {
 TEST(WarpVolume, IsBitIdenticalForOneAndTwoThreads) {
   const FloatGrid::Ptr sphere = makeSphere(1.0, Vec3(0.6, 0.1, 0.0), 0.1);
   const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.1, 0.0, -0.1), 1.0, 0.2);
-  TwistParams p;
+  TwistOptions p;
   p.rate = 0.8;
   const TwistWarp twist(p);
   WarpVolumeOptions massOptions;
@@ -548,7 +548,7 @@ TEST(WarpVolume, SparseGridFarFromATwistAxisFailsFastNamingTheGrid) {
   // used to be allocated (std::bad_alloc after minutes); it must be a quick InvalidInput.
   auto grid = makeSphere(1.0, Vec3(0.0), 0.1);
   openvdb::tools::csgUnion(*grid, *makeSphere(1.0, Vec3(1e6, 0.0, 0.0), 0.1));
-  TwistParams p;
+  TwistOptions p;
   p.rate = 0.5;
   const TwistWarp twist(p);
   try {
@@ -560,7 +560,7 @@ TEST(WarpVolume, SparseGridFarFromATwistAxisFailsFastNamingTheGrid) {
   }
   // The same grid twisted about the x axis through both is rigid near each sphere: its cost
   // follows the active voxels, not the 1e7-voxel bounding box.
-  TwistParams alongX;
+  TwistOptions alongX;
   alongX.axis = Vec3(1.0, 0.0, 0.0);
   alongX.rate = 0.5;
   const auto w = warpVolume(TwistWarp(alongX), *grid);
@@ -588,7 +588,7 @@ TEST(WarpVolume, ProgressReportsAndCancels) {
 TEST(WarpVolume, CachedDisplacementFieldStaysWithinItsErrorBound) {
   const double voxel = 0.1, rate = 0.6;
   const FloatGrid::Ptr sphere = makeSphere(1.0, Vec3(0.7, 0.0, 0.0), voxel);
-  TwistParams p;
+  TwistOptions p;
   p.rate = rate;
   const TwistWarp twist(p);
   WarpVolumeOptions options;
