@@ -108,8 +108,9 @@ std::vector<Vec3> worldVertices(const Cage& cage, const CageFrame& frame,
   return world;
 }
 
-TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
-                           const ProgressCallback& progress) {
+namespace {
+
+void checkOptions(const TetMeshOptions& options) {
   if (!(std::isfinite(options.radiusEdgeRatio) && options.radiusEdgeRatio >= 1.0)) {
     throw InvalidInput("tetrahedralising the cage: radiusEdgeRatio must be finite and >= 1, got " +
                        number(options.radiusEdgeRatio));
@@ -118,64 +119,48 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
     throw InvalidInput("tetrahedralising the cage: maxTetVolume must be finite and >= 0, got " +
                        number(options.maxTetVolume));
   }
-  ProgressTracker tracker(progress, "tetrahedralise", 1);
-  tracker.check();
+}
 
-  // Self-intersection check first: TetGen's PLC mesher may crash on such input.
-  {
-    tetgenio in, out;
-    fillInput(cage, in);
-    run("pzQd", in, out);
-    if (out.numberoftrifaces > 0) {
-      std::string example;
-      if (out.trifacemarkerlist != nullptr) {
-        example = " (e.g. triangle " + std::to_string(out.trifacemarkerlist[0] - 1);
-        for (int f = 1; f < out.numberoftrifaces; ++f) {
-          if (out.trifacemarkerlist[f] != out.trifacemarkerlist[0]) {
-            example += " and triangle " + std::to_string(out.trifacemarkerlist[f] - 1);
-            break;
-          }
-        }
-        example += ")";
-      }
-      throw InvalidInput(
-          "tetrahedralising the cage: TetGen found that the cage intersects itself: " +
-          std::to_string(out.numberoftrifaces) + " triangles are involved" + example);
-    }
-  }
-
+// Self-intersection check first: TetGen's PLC mesher may crash on such input.
+void requireNoSelfIntersection(const Cage& cage) {
   tetgenio in, out;
   fillInput(cage, in);
-  std::string switches = "pzQq" + number(options.radiusEdgeRatio);
-  const CageFrame& frame = cage.frame();
-  if (options.maxTetVolume > 0.0)
-    switches += "a" + number(options.maxTetVolume / (frame.scale * frame.scale * frame.scale));
-  run(switches, in, out);
-  tracker.check();
-
-  const std::size_t nV = cage.vertexCount();
-  const auto nP = static_cast<std::size_t>(std::max(out.numberofpoints, 0));
-  const auto nTet = static_cast<std::size_t>(std::max(out.numberoftetrahedra, 0));
-  if (nTet == 0 || nP < nV || out.numberofcorners != 4) {
-    throw InvalidInput("tetrahedralising the cage: TetGen produced no tetrahedra (" +
-                       std::to_string(nTet) + " tets, " + std::to_string(nP) + " vertices)");
+  run("pzQd", in, out);
+  if (out.numberoftrifaces <= 0) return;
+  std::string example;
+  if (out.trifacemarkerlist != nullptr) {
+    example = " (e.g. triangle " + std::to_string(out.trifacemarkerlist[0] - 1);
+    for (int f = 1; f < out.numberoftrifaces; ++f) {
+      if (out.trifacemarkerlist[f] != out.trifacemarkerlist[0]) {
+        example += " and triangle " + std::to_string(out.trifacemarkerlist[f] - 1);
+        break;
+      }
+    }
+    example += ")";
   }
-  TetMesh mesh;
-  mesh.frame = frame;
-  mesh.localVertices.resize(nP);
+  throw InvalidInput("tetrahedralising the cage: TetGen found that the cage intersects itself: " +
+                     std::to_string(out.numberoftrifaces) + " triangles are involved" + example);
+}
+
+// TetGen's points in the cage's frame; the cage's own vertices must come first, unmoved.
+void takeVertices(const tetgenio& out, const Cage& cage, TetMesh& mesh) {
+  const std::size_t nP = mesh.localVertices.size();
   for (std::size_t i = 0; i < nP; ++i) {
     mesh.localVertices[i] =
         Vec3(out.pointlist[3 * i], out.pointlist[3 * i + 1], out.pointlist[3 * i + 2]);
   }
-  for (std::size_t i = 0; i < nV; ++i) {
-    if (mesh.localVertices[i] != frame.toLocal(cage.vertices()[i])) {
+  for (std::size_t i = 0; i < cage.vertexCount(); ++i) {
+    if (mesh.localVertices[i] != mesh.frame.toLocal(cage.vertices()[i])) {
       throw InvalidInput("tetrahedralising the cage: TetGen merged or moved cage vertex " +
                          std::to_string(i) + " (is it a duplicate of another vertex?)");
     }
   }
-  mesh.vertices = worldVertices(cage, frame, mesh.localVertices);
-  mesh.tets.resize(nTet);
-  for (std::size_t t = 0; t < nTet; ++t) {
+}
+
+// TetGen's tets, each positively oriented.
+void takeTets(const tetgenio& out, TetMesh& mesh) {
+  const std::size_t nP = mesh.localVertices.size();
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     std::array<std::uint32_t, 4> tet;
     for (int c = 0; c < 4; ++c) {
       const int v = out.tetrahedronlist[4 * t + static_cast<std::size_t>(c)];
@@ -189,8 +174,11 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
     if (det < 0.0) std::swap(tet[2], tet[3]);
     mesh.tets[t] = tet;
   }
-  // Boundary vertices: the corners of the boundary faces, marked with their cage triangle.
-  mesh.boundaryTriangle.assign(nP, -1);
+}
+
+// Boundary vertices: the corners of the boundary faces, marked with their cage triangle.
+void markBoundary(const tetgenio& out, const Cage& cage, TetMesh& mesh) {
+  mesh.boundaryTriangle.assign(mesh.localVertices.size(), -1);
   const auto nF = static_cast<std::size_t>(std::max(out.numberoftrifaces, 0));
   if (nF == 0 || out.trifacemarkerlist == nullptr)
     throw SolverError("tetrahedralising the cage: TetGen returned no boundary faces");
@@ -204,11 +192,50 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
       if (b < 0 || marker < b) b = marker;
     }
   }
-  for (std::size_t i = 0; i < nV; ++i) {
+  for (std::size_t i = 0; i < cage.vertexCount(); ++i) {
     if (mesh.boundaryTriangle[i] < 0)
       throw SolverError("tetrahedralising the cage: cage vertex " + std::to_string(i) +
                         " is not on the mesh boundary");
   }
+}
+
+}  // namespace
+
+TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
+                           const ProgressCallback& progress) {
+  checkOptions(options);
+  ProgressTracker tracker(progress, "tetrahedralise", 1);
+  tracker.check();
+  requireNoSelfIntersection(cage);
+
+  tetgenio in, out;
+  fillInput(cage, in);
+  // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) about "a" + number(...) here.
+  std::string switches = "pzQq";
+  switches += number(options.radiusEdgeRatio);
+  const CageFrame& frame = cage.frame();
+  if (options.maxTetVolume > 0.0) {
+    switches += 'a';
+    switches += number(options.maxTetVolume / (frame.scale * frame.scale * frame.scale));
+  }
+  run(switches, in, out);
+  tracker.check();
+
+  const std::size_t nV = cage.vertexCount();
+  const auto nP = static_cast<std::size_t>(std::max(out.numberofpoints, 0));
+  const auto nTet = static_cast<std::size_t>(std::max(out.numberoftetrahedra, 0));
+  if (nTet == 0 || nP < nV || out.numberofcorners != 4) {
+    throw InvalidInput("tetrahedralising the cage: TetGen produced no tetrahedra (" +
+                       std::to_string(nTet) + " tets, " + std::to_string(nP) + " vertices)");
+  }
+  TetMesh mesh;
+  mesh.frame = frame;
+  mesh.localVertices.resize(nP);
+  takeVertices(out, cage, mesh);
+  mesh.vertices = worldVertices(cage, frame, mesh.localVertices);
+  mesh.tets.resize(nTet);
+  takeTets(out, mesh);
+  markBoundary(out, cage, mesh);
   tracker.finish();
   return mesh;
 }
