@@ -5,6 +5,8 @@
 // BENCHMARK macro.
 
 #include <cstdint>
+#include <cstdlib>
+#include <filesystem>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -12,6 +14,14 @@
 #include <spacewarp/core/primitives.h>
 
 namespace spacewarp::bench {
+
+/// The real models and cages: $SPACEWARP_SHARED_DATA_DIR, or ../shared/data beside the source
+/// tree (its path comes from CMake: __FILE__ is relative under ccache's base_dir).
+inline std::filesystem::path sharedDataDir() {
+  if (const char* env = std::getenv("SPACEWARP_SHARED_DATA_DIR"); env != nullptr && *env != 0)
+    return env;
+  return std::filesystem::path(SPACEWARP_SOURCE_DIR).parent_path() / "shared" / "data";
+}
 
 /// 10M points uniform in [-1, 1]^3 (seed 42), made once: the input of the per-point warp
 /// benchmarks and of BM_CopyBaseline.

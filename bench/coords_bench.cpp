@@ -39,14 +39,7 @@ using namespace spacewarp;
 
 constexpr std::size_t kCloudPoints = 1'000'000;
 
-std::filesystem::path armadilloDir() {
-  const char* env = std::getenv("SPACEWARP_SHARED_DATA_DIR");
-  const std::filesystem::path data =
-      env != nullptr ? std::filesystem::path(env)
-                     : std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() /
-                           "shared" / "data";
-  return data / "ju2005-armadillo";
-}
+std::filesystem::path armadilloDir() { return bench::sharedDataDir() / "ju2005-armadillo"; }
 
 // Reports seconds per (point × triangle) pair as "pair_time" (shown with SI prefixes, e.g. 7n).
 void reportPairs(benchmark::State& state, std::size_t points, std::size_t triangles) {

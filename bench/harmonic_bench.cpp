@@ -39,12 +39,7 @@ constexpr std::size_t kPoints = 1'000'000;      // location and deform
 constexpr std::size_t kWeightPoints = 200'000;  // full rows: 110 doubles each
 
 std::filesystem::path cageFile() {
-  const char* env = std::getenv("SPACEWARP_SHARED_DATA_DIR");
-  const std::filesystem::path data =
-      env != nullptr ? std::filesystem::path(env)
-                     : std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() /
-                           "shared" / "data";
-  return data / "ju2005-armadillo" / "bounding_mesh.obj";
+  return bench::sharedDataDir() / "ju2005-armadillo" / "bounding_mesh.obj";
 }
 
 double peakMegabytes() {
@@ -73,7 +68,7 @@ Armadillo& armadillo() {
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     while (r.inside.size() < kPoints) {
       const Vec3 x = lo + (hi - lo) * Vec3(unit(rng), unit(rng), unit(rng));
-      if (r.harmonic->locate(x).inside) r.inside.push_back(x);
+      if (r.harmonic->locate(x).found) r.inside.push_back(x);
     }
     return r;
   }();
@@ -118,7 +113,7 @@ void BM_HarmonicTetGenArmadillo(benchmark::State& state) {
 
 void BM_HarmonicLocateArmadillo(benchmark::State& state) {
   const Armadillo& a = armadillo();
-  std::vector<HarmonicCoordinates::Location> out(a.inside.size());
+  std::vector<TetLocator::Hit> out(a.inside.size());
   for (auto _ : state) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, a.inside.size(), 4096),
                       [&](const tbb::blocked_range<std::size_t>& r) {
