@@ -25,11 +25,7 @@ namespace fs = std::filesystem;
 using test::CliResult;
 using ::testing::HasSubstr;
 
-#ifdef SPACEWARP_SANITIZED
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
+using ::spacewarp::test::kSanitized;
 
 // Moves every point by (5, 0, 0).
 constexpr const char* kShift =

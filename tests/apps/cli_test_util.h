@@ -22,6 +22,14 @@
 
 namespace spacewarp::test {
 
+/// Whether this is a sanitizer build: tests that run the CLI under `ulimit -v` skip there
+/// (AddressSanitizer reserves terabytes of address space, so no such limit lets it start).
+#ifdef SPACEWARP_SANITIZED
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 /// What one run of the executable did.
 struct CliResult {
   int exitCode = -1;  ///< -1 if it did not exit normally

@@ -28,11 +28,7 @@ using ::testing::StartsWith;
 
 namespace {
 
-#ifdef SPACEWARP_SANITIZED
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
+using ::spacewarp::test::kSanitized;
 
 class MemoryLimitsCliTest : public test::CliFixture {
  protected:

@@ -22,11 +22,7 @@ using ::testing::HasSubstr;
 
 namespace {
 
-#ifdef SPACEWARP_SANITIZED
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
+using ::spacewarp::test::kSanitized;
 
 using ::spacewarp::test::BadRig;
 using ::spacewarp::test::BadRigTest;
