@@ -1,4 +1,4 @@
-// Tests of the line reading that the text readers share (core/io/text_format.h): line ends,
+// Tests of the line reading that the text readers share (core/io/detail/text_format.h): line ends,
 // line numbers and byte offsets across the blocks it reads, and bounded reading of binary and
 // endless input.
 
