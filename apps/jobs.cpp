@@ -143,7 +143,7 @@ void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::pat
 }
 
 Rig loadRigFile(const std::filesystem::path& path, const CliContext& context) {
-  Rig rig = loadRig(path);
+  Rig rig = loadRig(path, context.progress());
   for (const std::string& warning : rig.warnings) context.warn(warning);
   return rig;
 }

@@ -176,8 +176,11 @@ ControlPointFit fitControlPoints(const Lattice& lattice, std::span<const Vec3> f
                       who + "the resolution " + std::to_string(l) + " x " + std::to_string(m) +
                           " x " + std::to_string(n) + " (" + std::to_string(count) +
                           " control points)");
-  const Eigen::MatrixXd d = solveNormalEquations(
-      assembleNormalEquations(lattice, from, to, options.smoothness, who), who);
+  ProgressTracker tracker(options.progress, "fit lattice", 2);
+  auto system = assembleNormalEquations(lattice, from, to, options.smoothness, who);
+  tracker.advance();
+  const Eigen::MatrixXd d = solveNormalEquations(system, who);
+  tracker.finish();
 
   ControlPointFit fit;
   fit.controlPoints.resize(count);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <spacewarp/core/math.h>
+#include <spacewarp/core/progress.h>
 #include <spacewarp/ffd/lattice.h>
 
 namespace spacewarp {
@@ -22,6 +23,9 @@ struct LatticeFitOptions {
   /// also fixes the controls no constraint reaches (they follow their neighbours). Default 1e-4:
   /// small enough that the constraints dominate, large enough that the system is well posed.
   double smoothness = 1e-4;
+  /// Told "fit lattice" and the fraction done (assembly, then the solve); may cancel
+  /// (Cancelled). Default: none.
+  ProgressCallback progress;
 };
 
 /// What fitControlPoints() found.

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <spacewarp/core/math.h>
+#include <spacewarp/core/progress.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
@@ -74,6 +75,10 @@ struct DeformationGraphSolveOptions {
   /// coordinate, whichever is larger). 0 runs to the numerical minimum: decreases below
   /// 64 ε · E_{k−1} are rounding and stop the solve too.
   double tolerance = 1e-6;
+  /// Told "solve graph" and the fraction of maxIterations done after each iteration, and 1
+  /// when they end, converged or not (nothing when the start already meets the stopping
+  /// rule); may cancel (Cancelled). Default: none.
+  ProgressCallback progress;
 };
 
 /// What solve() did.

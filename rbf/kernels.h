@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <spacewarp/core/math.h>
+#include <spacewarp/core/progress.h>
 
 namespace spacewarp {
 
@@ -41,6 +42,9 @@ struct RbfOptions {
   /// duplicates (merged when their targets agree within the same tolerance, an error
   /// otherwise). Default 1e-10.
   double duplicateTolerance = 1e-10;
+  /// Told "fit rbf" and the fraction done (the kernel matrix, its projection, the
+  /// factorisation) while the system is set up; may cancel (Cancelled). Default: none.
+  ProgressCallback progress;
 };
 
 /// "triharmonic", "biharmonic", "thin-plate", "gaussian", "inverse-multiquadric", "wendland".

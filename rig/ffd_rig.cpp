@@ -87,6 +87,7 @@ Rig ffdRig(RigReader& r) {
                                  "), not " + std::to_string(to.size()));
     constraints.finish();
     LatticeFitOptions options;
+    options.progress = r.place().progress;
     options.smoothness = r.number("smoothness", options.smoothness);
     if (!(std::isfinite(options.smoothness) && options.smoothness >= 0.0))
       r.fail("smoothness", "must be finite and >= 0");

@@ -95,6 +95,7 @@ Rig graphRig(RigReader& r) {
   solve.maxIterations = int(maxIterations);
   solve.tolerance = r.number("tolerance", solve.tolerance);
   if (!(solve.tolerance >= 0.0)) r.fail("tolerance", "must be >= 0");
+  solve.progress = r.place().progress;
   r.finish();  // a misspelt key is reported before a long solve, not after it
   DeformationGraph graph(nodes, {}, options);
   if (r.checking()) return {};  // the solve is the expensive part

@@ -85,6 +85,7 @@ Rig rbfRig(RigReader& r) {
     fixed = r.points("fixed", 0);
   }
   options.smoothing = r.number("smoothing", options.smoothing);
+  options.progress = r.place().progress;
   if (options.smoothing < 0.0) r.fail("smoothing", "must be >= 0");
   const bool scaled =
       options.kernel == RbfKernel::Gaussian || options.kernel == RbfKernel::InverseMultiquadric;

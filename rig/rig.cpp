@@ -237,8 +237,9 @@ json parseRigJson(std::string_view text, const std::string& where) {
   }
 }
 
-Rig rigFromJson(const json& rig, const std::filesystem::path& baseDir, const std::string& where) {
-  return buildRig(rig, baseDir, {where, {}}, false);
+Rig rigFromJson(const json& rig, const std::filesystem::path& baseDir, const std::string& where,
+                const ProgressCallback& progress) {
+  return buildRig(rig, baseDir, {where, {}, progress}, false);
 }
 
 void checkRig(const json& rig, const std::filesystem::path& baseDir, const std::string& where) {
@@ -272,8 +273,8 @@ json readRigFile(const std::filesystem::path& path) {
   return parseRigJson(text, where);
 }
 
-Rig loadRig(const std::filesystem::path& path) {
-  return rigFromJson(readRigFile(path), path.parent_path(), printable(path.string()));
+Rig loadRig(const std::filesystem::path& path, const ProgressCallback& progress) {
+  return rigFromJson(readRigFile(path), path.parent_path(), printable(path.string()), progress);
 }
 
 std::vector<std::string> rigMethods() {

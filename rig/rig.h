@@ -12,6 +12,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <spacewarp/core/progress.h>
+
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/warp.h>
 
@@ -46,7 +48,7 @@ nlohmann::json parseRigJson(std::string_view text, const std::string& where);
 /// kMaxComposeDepth; errors of the library while building the warp (InvalidInput, SolverError,
 /// IoError) are rethrown with `where` in front.
 Rig rigFromJson(const nlohmann::json& rig, const std::filesystem::path& baseDir,
-                const std::string& where);
+                const std::string& where, const ProgressCallback& progress = {});
 
 /// Checks `rig` exactly as rigFromJson() does — the same code, every key, the cage files
 /// read — but stops before the expensive solves (harmonic coordinates, FFD fits, RBF fits,
@@ -61,8 +63,9 @@ void checkRig(const nlohmann::json& rig, const std::filesystem::path& baseDir,
 /// is not JSON, and InvalidInput as parseRigJson does.
 nlohmann::json readRigFile(const std::filesystem::path& path);
 
-/// Reads and builds a rig file: readRigFile, then rigFromJson.
-Rig loadRig(const std::filesystem::path& path);
+/// Reads and builds a rig file: readRigFile, then rigFromJson. `progress` is told about the
+/// rig's solves (graph, lattice fit, RBF fit; harmonic coordinates report their own stages).
+Rig loadRig(const std::filesystem::path& path, const ProgressCallback& progress = {});
 
 /// The method names a rig may use, sorted.
 std::vector<std::string> rigMethods();

@@ -14,6 +14,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -22,9 +23,40 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/inverse.h>
 #include <spacewarp/core/math.h>
+#include <spacewarp/core/progress.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp::test {
+
+/// Records what a long operation reports for `stage`: every fraction, in order, and whether
+/// any report named another stage.
+struct ProgressLog {
+  explicit ProgressLog(std::string name) : stage(std::move(name)) {}
+
+  std::string stage;
+  std::vector<double> fractions;
+  bool otherStage = false;
+
+  ProgressCallback callback() {
+    return [this](std::string_view s, double fraction) {
+      if (s == stage)
+        fractions.push_back(fraction);
+      else
+        otherStage = true;
+      return true;
+    };
+  }
+
+  /// The stage reported 0 first, 1 last, never went back, and no other stage was named.
+  void expectFromZeroToOne() const {
+    ASSERT_GE(fractions.size(), 2u) << stage;
+    EXPECT_EQ(fractions.front(), 0.0) << stage;
+    EXPECT_EQ(fractions.back(), 1.0) << stage;
+    for (std::size_t i = 1; i < fractions.size(); ++i)
+      EXPECT_LE(fractions[i - 1], fractions[i]) << stage;
+    EXPECT_FALSE(otherStage) << stage;
+  }
+};
 
 /// A point with components uniform in [lo, hi).
 inline Vec3 randomPoint(std::mt19937& rng, double lo, double hi) {

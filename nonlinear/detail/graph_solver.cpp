@@ -10,6 +10,7 @@
 #include <Eigen/SVD>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/progress.h>
 #include <spacewarp/nonlinear/detail/graph_problem.h>
 
 namespace spacewarp::detail {
@@ -394,7 +395,10 @@ void GraphSolve::iterate(SolverCache& cache) {
   Eigen::VectorXd rhs(p_.unknowns), diag;
   a2_ = a_;
   t2_ = t_;
+  ProgressTracker tracker(options_.progress, "solve graph",
+                          static_cast<std::size_t>(options_.maxIterations));
   for (int iter = 0; iter < options_.maxIterations; ++iter) {
+    tracker.check();
     energyOf(a_, t_, rhs.data());  // −Jᵀf at the current state
     cache.assemble(p_, a_, diag);
     if (lambda_ < 0.0) lambda_ = 1e-9;
@@ -414,6 +418,7 @@ void GraphSolve::iterate(SolverCache& cache) {
     energy_ = next;
     report_.energies.push_back(energy_);
     report_.iterations = iter + 1;
+    tracker.advance();
     lambda_ = std::max(lambda_ / 10.0, 1e-12);
     // A relative decrease of a few ulps is rounding in the energy's sum, not progress.
     constexpr double kRoundingDecrease = 64.0 * std::numeric_limits<double>::epsilon();
@@ -423,6 +428,7 @@ void GraphSolve::iterate(SolverCache& cache) {
       break;
     }
   }
+  tracker.finish();
 }
 
 // Tries steps with a ten times larger damping each until one lowers the energy: true with the

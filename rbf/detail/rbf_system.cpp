@@ -168,6 +168,7 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
   const Eigen::Index n = static_cast<Eigen::Index>(n_);
   const Eigen::MatrixXd p = polynomialBlock(centers, origin_, length_);
   qr_.compute(p);
+  ProgressTracker tracker(options.progress, "fit rbf", 3);
 
   // Φ, then QᵀΦQ (four Householder reflections on each side).
   Eigen::MatrixXd phi(n, n);
@@ -182,6 +183,7 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
         }
       });
   // Pivots of the reduced system below the rounding error of forming it mean singular.
+  tracker.advance();
   const double pivotFloor =
       static_cast<double>(n_) * std::numeric_limits<double>::epsilon() * phi.cwiseAbs().maxCoeff();
   phi.applyOnTheLeft(qr_.householderQ().adjoint());
@@ -191,6 +193,7 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
   Eigen::MatrixXd k = sigma_ * phi.bottomRightCorner(m, m);
   k.diagonal().array() += options.smoothing;
   phi.resize(0, 0);
+  tracker.advance();
   if (m > 0) {
     llt_.compute(k);
     if (llt_.info() != Eigen::Success ||
@@ -202,6 +205,7 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
                         "; try another kernel scale or radius, or smoothing > 0)");
     }
   }
+  tracker.finish();
 }
 
 void RbfSystem::solve(const Eigen::MatrixXd& d, Eigen::MatrixXd& w, Eigen::MatrixXd& a) const {

@@ -15,6 +15,7 @@
 
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/math.h>
+#include <spacewarp/core/progress.h>
 #include <spacewarp/rig/rig.h>
 
 namespace spacewarp::detail {
@@ -24,6 +25,8 @@ namespace spacewarp::detail {
 struct RigPlace {
   std::string file;
   std::vector<std::size_t> warps;
+  /// Given to the solves a rig runs (graph, lattice fit, RBF fit); nested rigs share it.
+  ProgressCallback progress = {};
 
   /// The place nested as warps[index] of this one.
   RigPlace nested(std::size_t index) const {

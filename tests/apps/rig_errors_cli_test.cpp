@@ -15,6 +15,7 @@
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/rig/rig.h>
 #include "apps/cli_test_util.h"
+#include "test_util.h"
 
 namespace fs = std::filesystem;
 using namespace spacewarp;
@@ -247,5 +248,27 @@ TEST_F(RigErrorsCliTest, ASelfIntersectingCageIsNamedByItsFile) {
   EXPECT_THAT(r.err, HasSubstr("intersects itself"));
 }
 #endif
+
+// The solves a rig runs report their progress to the callback given to rigFromJson, also
+// from inside a compose rig.
+TEST(RigProgress, SolvesReportToTheCallerThroughNestedRigs) {
+  const std::string graph =
+      R"({"method": "graph", "spacing": 0.5, "handles": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+          "targets": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.3]]})";
+  const std::string ffd =
+      R"({"method": "ffd", "basis": "trilinear", "origin": [0, 0, 0], "size": [1, 1, 1],
+          "resolution": [3, 3, 3],
+          "constraints": {"from": [[0.1, 0.1, 0.1]], "to": [[0.2, 0.1, 0.1]]}})";
+  const std::string rbf =
+      R"({"method": "rbf", "centers": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]],
+          "targets": [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1.2]]})";
+  for (const auto& [rig, stage] : {std::pair{graph, "solve graph"}, std::pair{ffd, "fit lattice"},
+                                   std::pair{rbf, "fit rbf"}}) {
+    test::ProgressLog progress(stage);
+    const std::string composed = R"({"method": "compose", "warps": [)" + rig + "]}";
+    rigFromJson(parseRigJson(composed, "rig.json"), ".", "rig.json", progress.callback());
+    progress.expectFromZeroToOne();
+  }
+}
 
 }  // namespace

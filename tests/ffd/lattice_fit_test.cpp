@@ -37,8 +37,12 @@ TEST(FitControlPoints, ReachesReachableTargetsExactly) {
     truth.applyBatch(from, to);
     LatticeFitOptions options;
     options.smoothness = 1e-10;
+    test::ProgressLog progress{"fit lattice"};
+    options.progress = progress.callback();
     const ControlPointFit fit = fitControlPoints(lattice, from, to, options);
     EXPECT_LE(fit.maxResidual, 1e-6) << test::basisName(basis);
+    progress.expectFromZeroToOne();
+    EXPECT_EQ(progress.fractions, (std::vector<double>{0.0, 0.5, 1.0}));
     EXPECT_LE(fit.rmsResidual, fit.maxResidual);
     // The reported residuals are those of the returned controls.
     const LatticeWarp warp(lattice, fit.controlPoints);

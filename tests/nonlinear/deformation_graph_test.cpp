@@ -252,10 +252,14 @@ TEST(DeformationGraph, BendingKeepsNodesNearlyRigidAndNeverRaisesTheEnergy) {
       targets.push_back(pivot + r * (p - pivot) + Vec3(0.0, 1.0, 0.0));
     }
   }
-  const DeformationGraphReport report = graph.solve(handles, targets);
+  test::ProgressLog progress{"solve graph"};
+  DeformationGraphSolveOptions options;
+  options.progress = progress.callback();
+  const DeformationGraphReport report = graph.solve(handles, targets, options);
   EXPECT_TRUE(report.converged);
   EXPECT_GT(report.iterations, 1);
   EXPECT_TRUE(nonIncreasing(report.energies));
+  progress.expectFromZeroToOne();
   EXPECT_LT(report.energies.back(), 1e-2 * report.energies.front());
   // Each node's map is close to a rotation: mean Rot(A_j) below 5e-3 (column lengths and
   // angles within about 2 %), far below what the same edit gives without E_rot.
