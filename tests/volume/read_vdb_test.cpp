@@ -91,20 +91,7 @@ openvdb::points::PointDataGrid::Ptr makePoints(int count, double voxelSize) {
   std::vector<openvdb::Vec3R> positions;
   for (int i = 0; i < count; ++i)
     positions.emplace_back(2.0 + std::cos(0.1 * i), 2.0 + std::sin(0.1 * i), 0.01 * i);
-  const auto transform = openvdb::math::Transform::createLinearTransform(voxelSize);
-  const openvdb::points::PointAttributeVector<openvdb::Vec3R> wrapped(positions);
-  auto index =
-      openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapped, *transform);
-  auto grid = openvdb::points::createPointDataGrid<openvdb::points::NullCodec,
-                                                   openvdb::points::PointDataGrid>(*index, wrapped,
-                                                                                   *transform);
-  openvdb::points::appendAttribute<int>(grid->tree(), "id");
-  std::vector<int> ids(positions.size());
-  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<int>(i);
-  openvdb::points::populateAttribute(grid->tree(), index->tree(), "id",
-                                     openvdb::points::PointAttributeVector<int>(ids));
-  grid->setName("points");
-  return grid;
+  return test::makePointGrid(positions, voxelSize);
 }
 
 /// Grids of every kind the reader meets, the point data grid last: a level set "sphere", a grid

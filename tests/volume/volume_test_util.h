@@ -8,7 +8,9 @@
 
 #include <gtest/gtest.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/points/PointConversion.h>
 #include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/PointIndexGrid.h>
 
 #include <spacewarp/core/math.h>
 #include <spacewarp/core/warp.h>
@@ -49,6 +51,27 @@ inline openvdb::FloatGrid::Ptr makeSphere(double radius, const Vec3& center, dou
       static_cast<float>(radius), openvdb::Vec3f(float(center.x), float(center.y), float(center.z)),
       static_cast<float>(voxelSize), static_cast<float>(halfWidth));
   grid->setName("sphere");
+  return grid;
+}
+
+/// A point data grid "points" of `positions` (world units) on voxels of `voxelSize`, with an
+/// integer attribute "id" holding each point's index in `positions`.
+inline openvdb::points::PointDataGrid::Ptr makePointGrid(
+    const std::vector<openvdb::Vec3R>& positions, double voxelSize) {
+  openvdb::initialize();
+  const auto xform = openvdb::math::Transform::createLinearTransform(voxelSize);
+  const openvdb::points::PointAttributeVector<openvdb::Vec3R> wrapper(positions);
+  auto index =
+      openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapper, *xform);
+  auto grid =
+      openvdb::points::createPointDataGrid<openvdb::points::NullCodec,
+                                           openvdb::points::PointDataGrid>(*index, wrapper, *xform);
+  openvdb::points::appendAttribute<int>(grid->tree(), "id");
+  std::vector<int> ids(positions.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<int>(i);
+  openvdb::points::populateAttribute(grid->tree(), index->tree(), "id",
+                                     openvdb::points::PointAttributeVector<int>(ids));
+  grid->setName("points");
   return grid;
 }
 

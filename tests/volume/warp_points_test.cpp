@@ -41,20 +41,7 @@ std::vector<PointWithId> readPoints(const PointDataGrid& grid) {
 }
 
 PointDataGrid::Ptr makePoints(const std::vector<openvdb::Vec3R>& positions, double voxelSize) {
-  openvdb::initialize();
-  const auto xform = openvdb::math::Transform::createLinearTransform(voxelSize);
-  const openvdb::points::PointAttributeVector<openvdb::Vec3R> wrapper(positions);
-  auto index =
-      openvdb::tools::createPointIndexGrid<openvdb::tools::PointIndexGrid>(wrapper, *xform);
-  auto grid = openvdb::points::createPointDataGrid<openvdb::points::NullCodec, PointDataGrid>(
-      *index, wrapper, *xform);
-  openvdb::points::appendAttribute<int>(grid->tree(), "id");
-  std::vector<int> ids(positions.size());
-  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<int>(i);
-  openvdb::points::populateAttribute(grid->tree(), index->tree(), "id",
-                                     openvdb::points::PointAttributeVector<int>(ids));
-  grid->setName("points");
-  return grid;
+  return test::makePointGrid(positions, voxelSize);
 }
 
 TEST(WarpPoints, MovedPositionsAreTheWarpOfTheOldOnes) {
