@@ -11,7 +11,6 @@
 #include <spacewarp/core/io/atomic_file.h>
 
 #ifdef SPACEWARP_WITH_OPENVDB
-#include <openvdb/io/Archive.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointCount.h>
@@ -21,6 +20,7 @@
 #include <spacewarp/volume/read_vdb.h>
 #include <spacewarp/volume/warp_grid.h>
 #include <spacewarp/volume/warp_points.h>
+#include <spacewarp/volume/write_vdb.h>
 #include "apps/openvdb_messages.h"
 #endif
 
@@ -69,31 +69,6 @@ VolumeSummary deformVolumeFile(const Warp&, const std::filesystem::path& input,
 
 #else
 
-namespace {
-
-// OpenVDB's own file writer (io::File) opens the file itself and checks no write; this writes
-// the same seekable format (with grid offsets, for delayed loading) to the stream of the one
-// atomic-write path instead.
-class VdbArchive : public openvdb::io::Archive {
- public:
-  void writeTo(std::ostream& out, const openvdb::GridCPtrVec& grids,
-               const openvdb::MetaMap& metadata) const {
-    write(out, grids, /*seekable=*/true, metadata);
-  }
-};
-
-void writeVdbAtomically(const std::filesystem::path& path, const openvdb::GridCPtrVec& grids,
-                        const openvdb::MetaMap& metadata) {
-  try {
-    writeFileAtomically(path,
-                        [&](std::ostream& out) { VdbArchive().writeTo(out, grids, metadata); });
-  } catch (const openvdb::Exception& e) {
-    throw IoError(path.string() + ": cannot be written (" + e.what() + ")");
-  }
-}
-
-}  // namespace
-
 bool volumesSupported() { return true; }
 
 void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
@@ -117,7 +92,7 @@ void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
   auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*transform, points, triangles,
                                                                  quads, 3.0f);
   grid->setName("surface");
-  writeVdbAtomically(path, {grid}, openvdb::MetaMap());
+  writeVdbFile(path, {grid}, openvdb::MetaMap());
 }
 
 /// Prints what OpenVDB logged about `file` as warnings of the tool.
@@ -139,21 +114,6 @@ std::string shortNumber(double value) {
   char text[32];
   std::snprintf(text, sizeof text, "%.3g", value);
   return text;
-}
-
-// Refuses a file with no grid that can be warped, listing what it holds.
-void checkSupportedGrids(const VdbFile& content, const std::filesystem::path& input) {
-  std::string found;
-  std::size_t supported = 0;
-  for (const openvdb::GridBase::Ptr& grid : content.grids) {
-    if (isWarpableGrid(*grid)) ++supported;
-    found += (found.empty() ? "" : ", ") + ("'" + grid->getName() + "' (" + grid->type() + ")");
-  }
-  if (supported == 0) {
-    throw InvalidInput(input.string() +
-                       ": no supported grid (float, double, vec3s or point data grids); found " +
-                       (found.empty() ? std::string("no grids") : found));
-  }
 }
 
 WarpVolumeOptions warpVolumeOptions(const VolumeCliOptions& options, const CliContext& context) {
@@ -227,7 +187,7 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
   OpenVdbMessages messages;
   const VdbFile content = readVdbFile(input);
   warnAbout(input, messages, context);
-  checkSupportedGrids(content, input);
+  checkWarpableGrids(content.grids, input.string());
   const WarpVolumeOptions volumeOptions = warpVolumeOptions(options, context);
 
   openvdb::GridCPtrVec warped;
@@ -256,7 +216,7 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
       summary.activeVoxels += r.outputActiveVoxels;
   }
   warnAbout(input, messages, context);
-  writeVdbAtomically(output, warped, *content.metadata);
+  writeVdbFile(output, warped, *content.metadata);
   warnAbout(output, messages, context);
   return summary;
 }

@@ -19,6 +19,20 @@ bool isWarpableGrid(const openvdb::GridBase& grid) {
          grid.isType<openvdb::Vec3SGrid>() || grid.isType<openvdb::points::PointDataGrid>();
 }
 
+void checkWarpableGrids(const openvdb::GridPtrVec& grids, const std::string& where) {
+  std::string found;
+  std::size_t supported = 0;
+  for (const openvdb::GridBase::Ptr& grid : grids) {
+    if (isWarpableGrid(*grid)) ++supported;
+    found += (found.empty() ? "" : ", ") + ("'" + grid->getName() + "' (" + grid->type() + ")");
+  }
+  if (supported == 0) {
+    throw InvalidInput(where +
+                       ": no supported grid (float, double, vec3s or point data grids); found " +
+                       (found.empty() ? std::string("no grids") : found));
+  }
+}
+
 WarpedGrid<openvdb::GridBase> warpGrid(const Warp& warp, const openvdb::GridBase& grid,
                                        const WarpVolumeOptions& options) {
   if (const auto* g = dynamic_cast<const openvdb::FloatGrid*>(&grid))

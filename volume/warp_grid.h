@@ -6,14 +6,18 @@
 
 #include <openvdb/openvdb.h>
 
-#include <spacewarp/volume/warp_volume.h>
 #include <spacewarp/core/warp.h>
+#include <spacewarp/volume/warp_volume.h>
 
 namespace spacewarp {
 
 /// True for the grid types warpGrid() handles: float, double and float-vector grids (level
 /// sets, fog volumes, fields) and point data grids.
 bool isWarpableGrid(const openvdb::GridBase& grid);
+
+/// Throws InvalidInput starting with `where` (the file) when none of `grids` is one that
+/// isWarpableGrid() accepts, listing the names and types of those there are.
+void checkWarpableGrids(const openvdb::GridPtrVec& grids, const std::string& where);
 
 /// Warps `grid` with warpVolume() or warpPoints(), whichever its type needs. Throws
 /// InvalidInput naming the grid and its type if isWarpableGrid() is false, and whatever the

@@ -1,0 +1,30 @@
+"""spacewarp: space deformations and cage coordinates, from NumPy.
+
+Every deformation is a :class:`Warp` (a map x -> x' of 3D space, world units) that applies to
+``(n, 3)`` float64 arrays, :class:`Geometry` (polygon soups and point clouds read from OBJ, OFF and
+PLY files) and OpenVDB volumes (:func:`warp_volume`). Coordinate functions (:class:`MeanValue`,
+:class:`Green`, :class:`Harmonic`, :class:`Lattice`, :class:`Rbf`) give weight matrices and bind
+point sets. The computations run in C++ with the GIL released; Ctrl-C cancels long ones.
+
+    import numpy as np, spacewarp
+    twist = spacewarp.Twist(axis=(0, 0, 1), rate=0.5)
+    moved = twist(np.random.rand(1000, 3))
+
+:mod:`spacewarp.testing` holds the property kit for any library's weights.
+"""
+
+from ._spacewarp import *  # noqa: F401,F403  (the bindings are the API)
+from ._spacewarp import __version__  # noqa: F401
+
+from . import _spacewarp as _ext
+
+__all__ = [name for name in dir(_ext) if not name.startswith("_")] + ["__version__", "testing"]
+
+
+def __getattr__(name: str):
+    # spacewarp.testing on first use, so `import spacewarp` stays cheap.
+    if name == "testing":
+        import importlib
+
+        return importlib.import_module(".testing", __name__)
+    raise AttributeError(f"module 'spacewarp' has no attribute {name!r}")

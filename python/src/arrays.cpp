@@ -1,0 +1,82 @@
+#include <algorithm>
+#include <string>
+
+#include <spacewarp/core/errors.h>
+
+#include "common.h"
+
+namespace spacewarp::python {
+namespace {
+
+static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
+
+std::string shapeText(const py::array& array) {
+  std::string text = "(";
+  for (py::ssize_t d = 0; d < array.ndim(); ++d) {
+    if (d > 0) text += ", ";
+    text += std::to_string(array.shape(d));
+  }
+  if (array.ndim() == 1) text += ",";
+  return text + ")";
+}
+
+}  // namespace
+
+Points toPoints(py::handle object, const char* name, bool allowSingle) {
+  Points points;
+  points.array = DoubleArray::ensure(object);
+  if (!points.array) {
+    PyErr_Clear();
+    throw InvalidInput(std::string(name) + " must be an array of numbers of shape (n, 3), not " +
+                       std::string(py::str(py::type::of(object).attr("__name__"))));
+  }
+  const py::array& a = points.array;
+  if (allowSingle && a.ndim() == 1 && a.shape(0) == 3) {
+    points.single = true;
+  } else if (a.ndim() != 2 || a.shape(1) != 3) {
+    throw InvalidInput(std::string(name) + " must have shape (n, 3)" +
+                       (allowSingle ? " or (3,)" : "") + ", not " + shapeText(a));
+  }
+  const std::size_t n = points.single ? 1 : static_cast<std::size_t>(a.shape(0));
+  points.span = {reinterpret_cast<const Vec3*>(points.array.data()), n};
+  return points;
+}
+
+DoubleArray outputPoints(std::size_t n, const std::optional<py::array>& out, bool single) {
+  if (!out) {
+    if (single) return DoubleArray(std::vector<py::ssize_t>{3});
+    return DoubleArray(std::vector<py::ssize_t>{static_cast<py::ssize_t>(n), 3});
+  }
+  const py::array& a = *out;
+  const bool shapeOk =
+      single ? (a.ndim() == 1 && a.shape(0) == 3)
+             : (a.ndim() == 2 && a.shape(0) == static_cast<py::ssize_t>(n) && a.shape(1) == 3);
+  if (!shapeOk) {
+    throw InvalidInput("out must have shape " +
+                       (single ? std::string("(3,)") : "(" + std::to_string(n) + ", 3)") +
+                       ", not " + shapeText(a));
+  }
+  if (!py::isinstance<DoubleArray>(a) || !(a.flags() & py::array::c_style) || !a.writeable()) {
+    throw InvalidInput("out must be a writable C-contiguous float64 array");
+  }
+  return py::reinterpret_borrow<DoubleArray>(a);
+}
+
+std::span<Vec3> pointsOf(DoubleArray& array) {
+  return {reinterpret_cast<Vec3*>(array.mutable_data()),
+          static_cast<std::size_t>(array.size() / 3)};
+}
+
+DoubleArray copyPoints(std::span<const Vec3> points) {
+  DoubleArray array(std::vector<py::ssize_t>{static_cast<py::ssize_t>(points.size()), 3});
+  std::copy(points.begin(), points.end(), pointsOf(array).begin());
+  return array;
+}
+
+Vec3 toVec3(py::handle object, const char* name) {
+  const Points p = toPoints(object, name, true);
+  if (!p.single) throw InvalidInput(std::string(name) + " must be three numbers (x, y, z)");
+  return p.span[0];
+}
+
+}  // namespace spacewarp::python

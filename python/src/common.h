@@ -1,0 +1,71 @@
+#pragma once
+// What every part of the bindings shares: NumPy arrays as spans of points, and running library
+// work with the GIL released while progress callbacks and Ctrl-C still reach Python.
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <span>
+#include <string>
+
+#include <spacewarp/core/math.h>
+#include <spacewarp/core/progress.h>
+
+namespace spacewarp::python {
+
+namespace py = pybind11;
+
+/// A float64 C-contiguous array (no copy when the input already is one).
+using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+/// Points given as an (n, 3) array-like (or one point as (3,)), viewed as n Vec3 without a copy
+/// when the input is float64 and C-contiguous. Keeps the array alive.
+struct Points {
+  DoubleArray array;
+  std::span<const Vec3> span;
+  bool single = false;  ///< Given as one (3,) point: results are returned as (3,) too.
+
+  std::size_t size() const { return span.size(); }
+};
+
+/// Converts `object` (named `name` in errors). Throws spacewarp::InvalidInput for another shape
+/// ("points must have shape (n, 3), not (4, 2)"); NaN is left for the library to name.
+Points toPoints(py::handle object, const char* name = "points", bool allowSingle = true);
+
+/// A new (n, 3) float64 array, or `out` checked to be one (float64, C-contiguous, writable,
+/// (n, 3)): the array results are written to. `single` gives shape (3,).
+DoubleArray outputPoints(std::size_t n, const std::optional<py::array>& out, bool single = false);
+
+/// The writable span of an array made by outputPoints().
+std::span<Vec3> pointsOf(DoubleArray& array);
+
+/// An (n, 3) float64 array copied from `points`.
+DoubleArray copyPoints(std::span<const Vec3> points);
+
+/// A 3-vector from a sequence of three numbers (`name` in the error).
+Vec3 toVec3(py::handle object, const char* name);
+
+/// Runs library work with the GIL released. While it runs, a Ctrl-C (SIGINT) in the main
+/// thread sets a flag that the progress callback handed to `work` turns into a cancel, and
+/// `progress` (a Python callable(stage, fraction), or None) is called with the GIL held; a
+/// callable that raises or returns False cancels too. When the work was cancelled, the Python
+/// error that caused it is raised (KeyboardInterrupt, or the callable's exception), or
+/// spacewarp.Cancelled when the callable returned False.
+void runCancellable(const py::object& progress,
+                    const std::function<void(const ProgressCallback&)>& work);
+
+/// Registers the exception types (spacewarp.InvalidInput, ...) and their translation.
+void registerErrors(py::module_& m);
+
+/// Emits a Python warning (category UserWarning) for each message, with the GIL held.
+void warnAll(const std::vector<std::string>& messages);
+
+void bindWarps(py::module_& m);
+void bindCoordinates(py::module_& m);
+void bindGeometry(py::module_& m);
+void bindVolume(py::module_& m);
+
+}  // namespace spacewarp::python

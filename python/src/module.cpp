@@ -1,0 +1,14 @@
+// The extension module spacewarp._spacewarp; the package's __init__.py re-exports it.
+
+#include "common.h"
+
+PYBIND11_MODULE(_spacewarp, m) {
+  namespace py = pybind11;
+  m.doc() = "spacewarp's C++ engine: warps, cage coordinates, bindings, files and volumes.";
+  m.attr("__version__") = SPACEWARP_VERSION;
+  spacewarp::python::registerErrors(m);
+  spacewarp::python::bindWarps(m);
+  spacewarp::python::bindCoordinates(m);
+  spacewarp::python::bindGeometry(m);
+  spacewarp::python::bindVolume(m);
+}
