@@ -5,13 +5,16 @@ ASAN_BUILD ?= build-asan
 JOBS ?= $(shell nproc)
 DEMO_OUT ?= out/demo
 CMAKE_FLAGS ?=
+# The interpreter the Python package is built and installed for: Debian's, which has Debian's
+# NumPy and pybind11 (another python3 first on PATH, e.g. pyenv's, has neither).
+PYTHON ?= /usr/bin/python3
 
 # CI turns warnings into errors.
 ifeq ($(CI),true)
   CMAKE_FLAGS += -DSPACEWARP_WARNINGS_AS_ERRORS=ON
 endif
 
-.PHONY: all deps configure build demo test sanitize bench fuzz format clean
+.PHONY: all deps configure build python-install demo test sanitize bench fuzz format clean
 
 all: build
 
@@ -19,15 +22,20 @@ deps:
 	./scripts/install-deps.sh
 
 configure: deps
-	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DPython3_EXECUTABLE=$(PYTHON) $(CMAKE_FLAGS)
 
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
 
-demo: build
+# Installs the Python package for $(PYTHON) (into its site folder, /usr/local/lib/python3.X/
+# dist-packages for Debian's), so that `import spacewarp` works after `make demo` or `make test`.
+python-install: build
+	./scripts/install-python.sh $(BUILD) $(PYTHON)
+
+demo: build python-install
 	$(BUILD)/apps/spacewarp demo $(DEMO_OUT)
 
-test: build
+test: build python-install
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
 # The test suite under AddressSanitizer and UndefinedBehaviorSanitizer. -O1 -g1 (line tables

@@ -15,6 +15,9 @@ packages=(
   # supernodal kernels: with the reference BLAS CHOLMOD runs ~3x slower.
   libsuitesparse-dev libstb-dev libopenblas0-pthread
   clang libclang-rt-14-dev clang-format
+  # The Python package (python/): pybind11 and NumPy for Debian's python3, pytest for its
+  # tests, SciPy for sparse weight matrices, setuptools for `pip install --no-build-isolation .`
+  python3-dev pybind11-dev python3-numpy python3-pytest python3-scipy python3-setuptools
 )
 
 missing=()

@@ -24,7 +24,9 @@ void checkWarpableGrids(const openvdb::GridPtrVec& grids, const std::string& whe
   std::size_t supported = 0;
   for (const openvdb::GridBase::Ptr& grid : grids) {
     if (isWarpableGrid(*grid)) ++supported;
-    found += (found.empty() ? "" : ", ") + ("'" + grid->getName() + "' (" + grid->type() + ")");
+    // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) about "'" + std::string.
+    found.append(found.empty() ? "'" : ", '").append(grid->getName()).append("' (");
+    found.append(grid->type()).append(")");
   }
   if (supported == 0) {
     throw InvalidInput(where +

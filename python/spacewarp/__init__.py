@@ -13,10 +13,19 @@ point sets. The computations run in C++ with the GIL released; Ctrl-C cancels lo
 :mod:`spacewarp.testing` holds the property kit for any library's weights.
 """
 
-from ._spacewarp import *  # noqa: F401,F403  (the bindings are the API)
-from ._spacewarp import __version__  # noqa: F401
+import sys as _sys
+import warnings as _warnings
 
-from . import _spacewarp as _ext
+if "pyopenvdb" in _sys.modules:
+    # libopenvdb binds its chunk readers when it is loaded: loaded by pyopenvdb, they are not
+    # spacewarp's size-checked ones, and warp_volume then refuses to read files.
+    _warnings.warn("spacewarp was imported after pyopenvdb: warp_volume cannot read VDB files safely in "
+                   "this process (import spacewarp first)", stacklevel=2)
+
+from ._spacewarp import *  # noqa: F401,F403,E402  (the bindings are the API)
+from ._spacewarp import __version__  # noqa: F401,E402
+
+from . import _spacewarp as _ext  # noqa: E402
 
 __all__ = [name for name in dir(_ext) if not name.startswith("_")] + ["__version__", "testing"]
 

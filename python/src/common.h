@@ -67,5 +67,6 @@ void bindWarps(py::module_& m);
 void bindCoordinates(py::module_& m);
 void bindGeometry(py::module_& m);
 void bindVolume(py::module_& m);
+void bindBenchHooks(py::module_& m);
 
 }  // namespace spacewarp::python

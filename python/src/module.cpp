@@ -11,4 +11,5 @@ PYBIND11_MODULE(_spacewarp, m) {
   spacewarp::python::bindCoordinates(m);
   spacewarp::python::bindGeometry(m);
   spacewarp::python::bindVolume(m);
+  spacewarp::python::bindBenchHooks(m);
 }
