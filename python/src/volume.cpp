@@ -10,6 +10,7 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/Dense.h>
+#include <openvdb/tools/Prune.h>
 
 #include <spacewarp/volume/read_vdb.h>
 #include <spacewarp/volume/warp_grid.h>
@@ -141,8 +142,16 @@ py::tuple warpDenseAs(const Warp& warp, const py::array& values, double voxelSiz
     auto grid = GridT::create(static_cast<ValueT>(background));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
     grid->transform().postTranslate(openvdb::Vec3d(origin.x, origin.y, origin.z));
-    if (levelSet) grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    openvdb::tools::copyFromDense(dense, *grid, static_cast<ValueT>(background));
+    openvdb::tools::copyFromDense(dense, *grid,
+                                  ValueT(0));  // tolerance 0: exactly background is off
+    if (levelSet) {
+      // A narrow band: voxels at or beyond the background distance, inside (negative) too,
+      // are inactive, and uniform regions become tiles of -background or +background.
+      grid->setGridClass(openvdb::GRID_LEVEL_SET);
+      for (auto voxel = grid->beginValueOn(); voxel; ++voxel)
+        if (std::abs(double(*voxel)) >= std::abs(background)) voxel.setValueOff();
+      openvdb::tools::pruneLevelSet(grid->tree());
+    }
     const auto warped = warpVolume(warp, *grid, options).grid;
     const openvdb::CoordBBox active = warped->evalActiveVoxelBoundingBox();
     const openvdb::Coord size = active.empty() ? openvdb::Coord(0) : active.dim();

@@ -1,8 +1,11 @@
 #include <spacewarp/volume/detail/openvdb_chunks.h>
 
 #include <dlfcn.h>
+#include <elf.h>
+#include <link.h>
 
 #include <cstdint>
+#include <cstring>
 #include <istream>
 #include <string>
 
@@ -79,10 +82,84 @@ void bloscFromStream(std::istream& is, char* data, std::size_t numBytes) {
 }  // namespace openvdb
 
 namespace spacewarp::detail {
+namespace {
+
+/// What libopenvdb's own calls of `symbol` are bound to: the pointer in its global offset table
+/// (libopenvdb is linked with BIND_NOW, so the slots are filled when it is loaded). Null when no
+/// library named libopenvdb is loaded or it has no relocation for `symbol`.
+struct GotLookup {
+  const char* symbol;
+  void* bound = nullptr;
+  bool found = false;
+};
+
+int findGotSlot(dl_phdr_info* info, std::size_t, void* data) {
+  auto& lookup = *static_cast<GotLookup*>(data);
+  if (info->dlpi_name == nullptr || std::strstr(info->dlpi_name, "libopenvdb") == nullptr) return 0;
+  const ElfW(Dyn)* dynamic = nullptr;
+  for (int h = 0; h < info->dlpi_phnum; ++h)
+    if (info->dlpi_phdr[h].p_type == PT_DYNAMIC)
+      dynamic = reinterpret_cast<const ElfW(Dyn)*>(info->dlpi_addr + info->dlpi_phdr[h].p_vaddr);
+  if (dynamic == nullptr) return 0;
+  // glibc relocates these pointers in place on most targets; add the base where it did not.
+  const auto address = [&](ElfW(Addr) p) { return p < info->dlpi_addr ? p + info->dlpi_addr : p; };
+  const char* strings = nullptr;
+  const ElfW(Sym)* symbols = nullptr;
+  const ElfW(Rela) * tables[2] = {nullptr, nullptr};
+  std::size_t sizes[2] = {0, 0};
+  for (const ElfW(Dyn)* d = dynamic; d->d_tag != DT_NULL; ++d) {
+    switch (d->d_tag) {
+      case DT_STRTAB:
+        strings = reinterpret_cast<const char*>(address(d->d_un.d_ptr));
+        break;
+      case DT_SYMTAB:
+        symbols = reinterpret_cast<const ElfW(Sym)*>(address(d->d_un.d_ptr));
+        break;
+      case DT_JMPREL:
+        tables[0] = reinterpret_cast<const ElfW(Rela)*>(address(d->d_un.d_ptr));
+        break;
+      case DT_PLTRELSZ:
+        sizes[0] = d->d_un.d_val;
+        break;
+      case DT_RELA:
+        tables[1] = reinterpret_cast<const ElfW(Rela)*>(address(d->d_un.d_ptr));
+        break;
+      case DT_RELASZ:
+        sizes[1] = d->d_un.d_val;
+        break;
+      default:
+        break;
+    }
+  }
+  if (strings == nullptr || symbols == nullptr) return 0;
+  for (int t = 0; t < 2; ++t) {
+    for (std::size_t r = 0; tables[t] != nullptr && r < sizes[t] / sizeof(ElfW(Rela)); ++r) {
+      const ElfW(Rela)& rela = tables[t][r];
+#if __ELF_NATIVE_CLASS == 64
+      const std::size_t index = ELF64_R_SYM(rela.r_info);
+#else
+      const std::size_t index = ELF32_R_SYM(rela.r_info);
+#endif
+      if (index == 0 || std::strcmp(strings + symbols[index].st_name, lookup.symbol) != 0) continue;
+      lookup.bound = *reinterpret_cast<void**>(info->dlpi_addr + rela.r_offset);
+      lookup.found = true;
+      return 1;
+    }
+  }
+  return 1;  // libopenvdb calls it directly (no relocation): it cannot be replaced
+}
+
+}  // namespace
 
 bool openVdbChunksChecked() {
-  void* bound = dlsym(RTLD_DEFAULT, mangledName("unzipFromStream").c_str());
-  return bound == reinterpret_cast<void*>(&openvdb::io::unzipFromStream);
+  const std::string name = mangledName("unzipFromStream");
+  GotLookup lookup{name.c_str()};
+  if (dl_iterate_phdr(findGotSlot, &lookup) == 0) {
+    // No shared libopenvdb (a static build): this program's definition is the one.
+    void* bound = dlsym(RTLD_DEFAULT, name.c_str());
+    return bound == nullptr || bound == reinterpret_cast<void*>(&openvdb::io::unzipFromStream);
+  }
+  return lookup.found && lookup.bound == reinterpret_cast<void*>(&openvdb::io::unzipFromStream);
 }
 
 }  // namespace spacewarp::detail

@@ -1,0 +1,802 @@
+"""Type stubs of spacewarp._spacewarp, written by python/tools/make_stubs.py from the
+built module's pybind11 signatures and docstrings. Do not edit: run the generator."""
+
+import os
+from typing import Any, Callable, Literal, Optional, Sequence, Union
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+_Float64Array = NDArray[np.float64]
+_Points = ArrayLike
+"""(n, 3) array-like of numbers (any float dtype and layout), world units."""
+_Vec3 = Union[Sequence[float], NDArray[np.floating[Any]]]
+"""Three numbers (x, y, z)."""
+_Faces = Union[NDArray[np.integer[Any]], Sequence[Sequence[int]]]
+"""An (m, k) integer array, or a sequence of polygons (index sequences of any length)."""
+_Progress = Optional[Callable[[str, float], Optional[bool]]]
+"""callable(stage, fraction in [0, 1]); returning False cancels (spacewarp.Cancelled)."""
+_Path = Union[str, os.PathLike[str]]
+_Kernel = Literal["triharmonic", "biharmonic", "thin-plate", "gaussian", "inverse-multiquadric",
+                  "wendland"]
+_Basis = Literal["trilinear", "bernstein", "bspline"]
+_Sampler = Literal["trilinear", "triquadratic"]
+_Dtype = Literal["int8", "uint8", "int16", "uint16", "int32", "uint32", "float32", "float64"]
+
+__all__ = [
+    "Affine",
+    "Bend",
+    "Binding",
+    "Cage",
+    "Cancelled",
+    "Compose",
+    "Coordinates",
+    "DeformationGraph",
+    "DeformationGraphWarp",
+    "Geometry",
+    "GraphSolveReport",
+    "Green",
+    "Harmonic",
+    "Identity",
+    "InvalidInput",
+    "IoError",
+    "Lattice",
+    "MeanValue",
+    "Mls",
+    "MlsAffine",
+    "OutOfMemory",
+    "Rbf",
+    "RbfWarp",
+    "SolverError",
+    "Taper",
+    "Twist",
+    "Warp",
+    "cage_coordinates",
+    "cage_methods",
+    "coordinate_properties",
+    "deform",
+    "deform_inverse",
+    "has_volumes",
+    "interior_samples",
+    "load_rig",
+    "read",
+    "rig",
+    "rig_methods",
+    "warp_dense",
+    "warp_volume",
+    "write",
+]
+
+__version__: str
+has_volumes: bool
+
+
+class Cancelled(RuntimeError):
+    """Work stopped because a progress callback returned False. Nothing was written."""
+
+
+class InvalidInput(ValueError):
+    """Input that violates a documented precondition: NaN coordinates, an empty set, an open
+    cage, a degenerate lattice, a malformed rig. A ValueError.
+    """
+
+
+class IoError(OSError):
+    """A file that could not be read or written, or whose content is malformed; the message names
+    the file. An OSError.
+    """
+
+
+class SolverError(RuntimeError):
+    """A numerical method that produced no result: a singular system, a failed factorisation, an
+    inverse that did not converge. A RuntimeError.
+    """
+
+
+class OutOfMemory(SolverError, MemoryError):
+    """A job that does not fit in the memory available (refused by its estimate before it starts,
+    or TetGen/CHOLMOD ran out). A SolverError and a MemoryError.
+    """
+
+
+class Warp:
+    """A map x -> x' of 3D space (world units).
+
+    Every warp in spacewarp is one: call it on points, ask for its Jacobian, invert it, carry normals.
+    Methods release the GIL and are safe to call from several threads at once.
+    """
+
+    def __call__(
+        self,
+        points: _Points,
+        *,
+        out: Optional[_Float64Array] = None,
+        progress: _Progress = None,
+    ) -> _Float64Array:
+        """The warped positions of `points`: (n, 3) float64 (or one (3,) point), world units.
+
+        points: (n, 3) array-like, any float dtype and layout (copied only if not float64 C-order).
+        out: optional (n, 3) float64 C-contiguous array to write into (may be `points` itself).
+        progress: optional callable(stage: str, fraction: float); return False to cancel.
+        Returns a new (n, 3) array, or `out`. Raises InvalidInput for non-finite points or points
+        outside the warp's domain (naming the first).
+        """
+
+    def jacobian(self, points: _Points) -> _Float64Array:
+        """The Jacobians d x'/d x at `points`: (n, 3, 3) float64, J[i, r, c] = d x'_r / d x_c
+        (unitless). Analytic where the warp has one, central differences otherwise.
+        """
+
+    def transform_normals(self, points: _Points, normals: _Points) -> _Float64Array:
+        """The normals `normals` (n, 3) at `points` (n, 3) carried through the warp: J^-T n,
+        normalised; (n, 3) float64. Where J is singular: the image plane's normal (rank 2) or zero.
+        """
+
+    def inverse(
+        self,
+        points: _Points,
+        *,
+        tolerance: float = 1e-12,
+        max_iterations: int = 50,
+        length_scale: float = 0.0,
+        continuation: bool = True,
+        closed_form: bool = True,
+        progress: _Progress = None,
+    ) -> tuple[_Float64Array, Any, Any]:
+        """The preimages x of `points` y (n, 3): warp(x) = y.
+
+        Returns (x, converged, residual): x (n, 3) float64 world units, converged (n,) bool, residual
+        (n,) float64 = |warp(x) - y| in world units. Converged when the residual is at most
+        tolerance * length_scale (world units) if length_scale > 0, else tolerance relative to |y|.
+        Closed forms where the warp has one (twist, bend, taper, affine and their compositions), else
+        damped Newton with a continuation fallback (max_iterations each). Never raises for points that
+        did not converge: check `converged`. Parallel; results do not depend on the thread count.
+        """
+
+    def exact_inverse(self, point: _Vec3) -> Optional[_Float64Array]:
+        """The closed-form preimage of one point (3,), or None when the warp has none there."""
+
+
+class Affine(Warp):
+    """x' = A x + t, from a (4, 4) homogeneous matrix (last row 0 0 0 1), a (3, 4) [A | t] or a
+    (3, 3) A.
+    """
+
+    def __init__(self, matrix: ArrayLike) -> None: ...
+
+    @property
+    def matrix(self) -> _Float64Array:
+        """The (4, 4) homogeneous matrix."""
+
+
+class Bend(Warp):
+    """Bends the axis (through origin) into a circular arc towards `direction`: curvature
+    `rate` (1 / world units), the bent part limited to lo <= y <= hi along the axis.
+    """
+
+    def __init__(
+        self,
+        *,
+        origin: _Vec3 = ...,
+        axis: _Vec3 = ...,
+        direction: _Vec3 = ...,
+        rate: float = 0.0,
+        lo: float = ...,
+        hi: float = ...,
+    ) -> None: ...
+
+
+class Binding:
+    """The weights of a fixed point set, computed once (Coordinates.bind): deform() re-poses
+    the points by one matrix product. Weights are stored dense or sparse (CSR) as the coordinates
+    suit; `weights` shows them without a copy.
+    """
+
+    def deform(self, posed: _Points, *, out: Optional[_Float64Array] = None) -> _Float64Array:
+        """The bound points deformed by the posed control points `posed` (V, 3): (n, 3)
+        float64, world units, a new array (or `out`).
+        """
+
+    @property
+    def point_count(self) -> int: ...
+
+    @property
+    def column_count(self) -> int: ...
+
+    @property
+    def is_sparse(self) -> bool: ...
+
+    @property
+    def rest_points(self) -> _Float64Array:
+        """The points as bound (n, 3)."""
+
+    @property
+    def weights(self) -> Any:
+        """The weight matrix (n, columns): a read-only view of the binding's own dense matrix,
+        or a scipy.sparse.csr_matrix over its CSR arrays when is_sparse (needs SciPy).
+        """
+
+
+class Cage:
+    """A closed, outward-oriented cage: vertices (V, 3) world units and polygons (an (F, k)
+    integer array, or a list of index lists for mixed sizes), triangulated for the methods.
+    Raises InvalidInput naming the element for an open, non-manifold or degenerate cage.
+    """
+
+    def __init__(self, vertices: _Points, faces: _Faces, *, name: str = "cage") -> None: ...
+
+    @staticmethod
+    def from_file(path: _Path) -> Cage:
+        """A cage read from an OBJ, OFF or PLY file."""
+
+    @property
+    def vertices(self) -> _Float64Array:
+        """(V, 3) float64, world units."""
+
+    @property
+    def triangles(self) -> NDArray[np.uint32]:
+        """(T, 3) uint32 vertex indices, outward oriented."""
+
+    @property
+    def triangle_source(self) -> NDArray[np.uint32]:
+        """(T,) the input polygon each triangle was cut from."""
+
+    @property
+    def diagonal(self) -> float:
+        """Bounding-box diagonal, world units."""
+
+    @property
+    def volume(self) -> float:
+        """Enclosed volume, world units^3."""
+
+    @property
+    def reoriented_count(self) -> int:
+        """Input triangles flipped for a consistent outward orientation."""
+
+    def winding_number(self, points: _Points) -> _Float64Array:
+        """The generalised winding number (n,) at points (n, 3): 1 inside, 0 outside."""
+
+    def contains(self, points: _Points) -> NDArray[np.bool_]:
+        """(n,) bool: whether each point is strictly inside."""
+
+    def posed_vertices(self, path: _Path) -> _Float64Array:
+        """The vertices (V, 3) of a posed cage file, checked against this cage."""
+
+
+class Compose(Warp):
+    """The warps applied one after the other: Compose(a, b)(x) = b(a(x))."""
+
+    def __init__(self, *warps: Warp) -> None: ...
+
+
+class Coordinates:
+    """Coordinates of points with respect to controls (cage vertices, lattice points, RBF
+    handles): x' = x + sum_c w_c(x) (C_c(posed) - C_c(rest)). Thread-safe; the GIL is released.
+    """
+
+    def weights(self, points: _Points, *, progress: _Progress = None) -> _Float64Array:
+        """The weights of `points` (n, 3): an (n, column_count) float64 array, one row per
+        point. Raises InvalidInput for non-finite points or points outside the domain (naming the first).
+        """
+
+    def sparse_weights(self, points: _Points) -> Any:
+        """The weights as a scipy.sparse.csr_matrix (n, column_count) of the non-zeros (needs
+        SciPy).
+        """
+
+    def bind(self, points: _Points, *, progress: _Progress = None) -> Binding:
+        """The Binding of `points` (n, 3): their weights computed once, in parallel."""
+
+    def warp(self, posed: _Points) -> Warp:
+        """The Warp of these coordinates posed by `posed` (control_point_count, 3)."""
+
+    def column_controls(self, posed: _Points) -> _Float64Array:
+        """The column controls C (column_count, 3) of posed control points (V, 3): the points,
+        plus Green's scaled face normals.
+        """
+
+    @property
+    def control_point_count(self) -> int: ...
+
+    @property
+    def column_count(self) -> int: ...
+
+    @property
+    def rest_control_points(self) -> _Float64Array:
+        """(V, 3) world units."""
+
+    @property
+    def column_names(self) -> list[str]:
+        """One name per column: "v<i>" for control point i, "f<j>" for face j."""
+
+
+class DeformationGraph:
+    """The embedded deformation graph (Sumner et al. 2007) over `positions` (n, 3): nodes
+    sampled every `spacing` world units (sampling "voxel" or "poisson"), or given as `nodes` (m, 3);
+    each point follows its k nearest nodes. solve() poses it; warp() is the posed Warp.
+    """
+
+    def __init__(
+        self,
+        positions: _Points,
+        *,
+        spacing: float = 0.0,
+        k: int = 4,
+        sampling: Literal["voxel", "poisson"] = "voxel",
+        nodes: Optional[_Points] = None,
+    ) -> None: ...
+
+    @property
+    def nodes(self) -> _Float64Array:
+        """The node positions (m, 3), world units."""
+
+    @property
+    def k(self) -> int: ...
+
+    @property
+    def edges(self) -> NDArray[np.uint32]:
+        """The graph's edges (e, 2), node indices."""
+
+    def solve(
+        self,
+        handles: _Points,
+        targets: _Points,
+        *,
+        rotation_weight: float = 1.0,
+        regularization_weight: float = 10.0,
+        constraint_weight: float = 100.0,
+        max_iterations: int = 50,
+        tolerance: float = 1e-06,
+        progress: _Progress = None,
+    ) -> GraphSolveReport:
+        """Poses the graph so that the points `handles` (k, 3) reach `targets` (k, 3), world
+        units (Gauss-Newton on the paper's energy; weights as in the paper). Returns a GraphSolveReport;
+        check `converged`.
+        """
+
+    def reset(self) -> None:
+        """Back to the rest pose."""
+
+    def warp(self) -> DeformationGraphWarp:
+        """The graph's current pose as a Warp (a snapshot: later solves do not change it)."""
+
+
+class DeformationGraphWarp(Warp):
+    """A posed deformation graph (DeformationGraph.warp())."""
+
+
+class Geometry:
+    """A polygon soup or point cloud: positions (n, 3) world units, optional unit normals
+    (n, 3), polygons of any size, per-vertex and per-face scalar attributes; what read() keeps of a
+    file (texture coordinates, per-corner normals, OBJ groups) travels with it to write(). Array
+    properties return copies; assign to change them.
+    """
+
+    def __init__(
+        self,
+        positions: _Points,
+        faces: Optional[_Faces] = None,
+        *,
+        normals: Optional[_Points] = None,
+    ) -> None: ...
+
+    @property
+    def positions(self) -> _Float64Array:
+        """(n, 3) float64, world units (a copy)."""
+    @positions.setter
+    def positions(self, value: _Points) -> None: ...
+
+    @property
+    def normals(self) -> Optional[_Float64Array]:
+        """(n, 3) unit normals per vertex, or None."""
+    @normals.setter
+    def normals(self, value: Optional[_Points]) -> None: ...
+
+    @property
+    def faces(self) -> Union[NDArray[np.uint32], list[NDArray[np.uint32]]]:
+        """The polygons: (m, k) uint32 when all have k vertices, else a list of index arrays."""
+    @faces.setter
+    def faces(self, value: Optional[_Faces]) -> None: ...
+
+    @property
+    def vertex_attributes(self) -> dict[str, _Float64Array]:
+        """dict of name -> (n,) float64 per-vertex values (copies)."""
+
+    @property
+    def face_attributes(self) -> dict[str, _Float64Array]:
+        """dict of name -> (m,) float64 per-polygon values (copies)."""
+
+    def set_vertex_attribute(
+        self,
+        name: str,
+        values: ArrayLike,
+        *,
+        dtype: _Dtype = "float64",
+    ) -> None:
+        """Sets the per-vertex attribute `name` (n,), stored as `dtype` in PLY files."""
+
+    def set_face_attribute(
+        self,
+        name: str,
+        values: ArrayLike,
+        *,
+        dtype: _Dtype = "float64",
+    ) -> None:
+        """Sets the per-polygon attribute `name` (m,), stored as `dtype` in PLY files."""
+
+    @property
+    def point_count(self) -> int: ...
+
+    @property
+    def polygon_count(self) -> int: ...
+
+    def copy(self) -> Geometry: ...
+
+    def __len__(self) -> int: ...
+
+    def __repr__(self) -> str: ...
+
+
+class GraphSolveReport:
+    """What DeformationGraph.solve() found."""
+
+    @property
+    def energies(self) -> list[float]:
+        """Energy after each accepted step."""
+
+    @property
+    def iterations(self) -> int:
+        """Accepted Gauss-Newton steps."""
+
+    @property
+    def converged(self) -> bool: ...
+
+    @property
+    def rotation_energy(self) -> float: ...
+
+    @property
+    def regularization_energy(self) -> float: ...
+
+    @property
+    def constraint_energy(self) -> float: ...
+
+    @property
+    def component_count(self) -> int: ...
+
+    @property
+    def unconstrained_nodes(self) -> list[int]:
+        """Nodes of parts of the graph that no handle reaches."""
+
+
+class Green(Coordinates):
+    """Green coordinates (Lipman et al. 2008) of a Cage: (n, V + F) weights, vertex columns then
+    face columns.
+    """
+
+    def __init__(self, cage: Cage, *, surface_tolerance: float = 1e-14) -> None: ...
+
+    @property
+    def cage(self) -> Cage: ...
+
+
+class Harmonic(Coordinates):
+    """Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
+    about `tets` tetrahedra. cache: a file of solved coordinates, loaded when it matches the cage and
+    tets, else solved and saved there. outside: "raise" or "nearest" for points outside the cage.
+    """
+
+    def __init__(
+        self,
+        cage: Cage,
+        *,
+        tets: int = 0,
+        cache: Optional[_Path] = None,
+        outside: Literal["raise", "nearest"] = "raise",
+        progress: _Progress = None,
+    ) -> None: ...
+
+    @property
+    def tet_count(self) -> int: ...
+
+    def save(self, path: _Path) -> None:
+        """Writes the solve to a file (atomically)."""
+
+
+class Identity(Warp):
+    """x' = x."""
+
+    def __init__(self) -> None: ...
+
+
+class Lattice(Coordinates):
+    """A free-form deformation lattice (Sederberg and Parry 1986): a box at `origin` along
+    `axes` (3 unit vectors) with `extents` (world units), resolution (l, m, n) control points,
+    basis "trilinear", "bernstein" or "bspline"; points outside: "identity", "clamp" or "falloff"
+    (over falloff x the box diagonal). Control point (i, j, k) is index i + l (j + m k).
+    """
+
+    def __init__(
+        self,
+        *,
+        origin: _Vec3 = ...,
+        axes: ArrayLike = ...,
+        extents: _Vec3 = ...,
+        resolution: Sequence[int] = ...,
+        basis: _Basis = "trilinear",
+        outside: Literal["identity", "clamp", "falloff"] = "identity",
+        falloff: float = 0.1,
+    ) -> None: ...
+
+    @staticmethod
+    def around(
+        points: _Points,
+        *,
+        padding: float = 0.05,
+        resolution: Sequence[int] = ...,
+        basis: _Basis = "trilinear",
+    ) -> Lattice:
+        """An axis-aligned lattice around `points` (n, 3), padded by `padding` x the box
+        diagonal.
+        """
+
+    def fit(
+        self,
+        from_points: _Points,
+        to_points: _Points,
+        *,
+        smoothness: float = 0.0001,
+        progress: _Progress = None,
+    ) -> tuple[_Float64Array, float, float]:
+        """Direct manipulation (Hsu et al. 1992): the posed control points (V, 3) that carry
+        `from_points` (k, 3) to `to_points` (k, 3) in least squares with a smoothness regulariser.
+        Returns (posed, rms_residual, max_residual), world units.
+        """
+
+    @property
+    def resolution(self) -> list[int]: ...
+
+
+class MeanValue(Coordinates):
+    """Mean-value coordinates (Ju et al. 2005) of a Cage: (n, V) weights, everywhere in space."""
+
+    def __init__(self, cage: Cage, *, snap_tolerance: float = 1e-14) -> None: ...
+
+    @property
+    def cage(self) -> Cage: ...
+
+
+class Mls(Warp):
+    """Moving least squares (Schaefer et al. 2006): handles (k, 3) move to targets (k, 3);
+    each point gets the affine, similarity or rigid map that best fits the handles weighted by
+    1 / |p - x|^(2 alpha). mode: "affine", "similarity" or "rigid" (default).
+    """
+
+    def __init__(
+        self,
+        handles: _Points,
+        targets: _Points,
+        *,
+        mode: Literal["rigid", "similarity", "affine"] = "rigid",
+        alpha: float = 1.0,
+    ) -> None: ...
+
+
+class MlsAffine(Coordinates):
+    """The coordinates of affine moving least squares over `handles` (k, 3)."""
+
+    def __init__(self, handles: _Points, *, alpha: float = 1.0) -> None: ...
+
+
+class Rbf(Coordinates):
+    """RBF handle coordinates (Botsch and Kobbelt 2005, the fit folded in): handles `centers`
+    (k, 3), `fixed` (f, 3) held in place; kernel and options as RbfWarp. warp(posed) is the RbfWarp
+    that moves the centers to `posed`.
+    """
+
+    def __init__(
+        self,
+        centers: _Points,
+        fixed: Optional[_Points] = None,
+        *,
+        kernel: _Kernel = "triharmonic",
+        scale: float = 1.0,
+        radius: float = 1.0,
+        smoothing: float = 0.0,
+        progress: _Progress = None,
+    ) -> None: ...
+
+
+class RbfWarp(Warp):
+    """A radial-basis displacement field (Botsch and Kobbelt 2005) that moves `centers` (k, 3)
+    to `targets` (k, 3) and keeps `fixed` (f, 3) in place, plus a linear polynomial. kernel:
+    "triharmonic" (r^3, default), "biharmonic", "thin_plate", "gaussian", "inverse_multiquadric",
+    "wendland_c2"; scale (world units) for gaussian/inverse multiquadric; radius (world units) for
+    Wendland; smoothing >= 0 turns interpolation into approximation.
+    """
+
+    def __init__(
+        self,
+        centers: _Points,
+        targets: _Points,
+        fixed: Optional[_Points] = None,
+        *,
+        kernel: _Kernel = "triharmonic",
+        scale: float = 1.0,
+        radius: float = 1.0,
+        smoothing: float = 0.0,
+        progress: _Progress = None,
+    ) -> None: ...
+
+
+class Taper(Warp):
+    """Scales the cross-sections of an axis by 1 + rate * s (s along the axis from origin,
+    clamped to [lo, hi]; rate in 1 / world units).
+    """
+
+    def __init__(
+        self,
+        *,
+        origin: _Vec3 = ...,
+        axis: _Vec3 = ...,
+        rate: float = 0.0,
+        lo: float = ...,
+        hi: float = ...,
+    ) -> None: ...
+
+
+class Twist(Warp):
+    """Rotation about an axis by an angle proportional to the position along it: rate radians
+    per world unit, s (the position along the axis from origin) clamped to [lo, hi].
+    """
+
+    def __init__(
+        self,
+        *,
+        origin: _Vec3 = ...,
+        axis: _Vec3 = ...,
+        rate: float = 0.0,
+        lo: float = ...,
+        hi: float = ...,
+    ) -> None: ...
+
+
+def cage_coordinates(
+    method: str,
+    cage: Cage,
+    *,
+    tets: int = 0,
+    cache: Optional[_Path] = None,
+    outside: Literal["raise", "nearest"] = "raise",
+    progress: _Progress = None,
+) -> Coordinates:
+    """The coordinates of a cage method by its CLI name (see cage_methods())."""
+
+
+def cage_methods() -> list[str]:
+    """The cage methods of this build ("green", "harmonic", "mvc")."""
+
+
+def coordinate_properties(
+    coordinates: Coordinates,
+    samples: _Points,
+    *,
+    cage: Optional[Cage] = None,
+    diagonal: Optional[float] = None,
+) -> dict[str, float]:
+    """The C++ property kit (the figures of `spacewarp compare`) for spacewarp Coordinates at
+    `samples` (n, 3): a dict of partition_of_unity, linear_reproduction (relative to the cage
+    diagonal), min_weight, negative_fraction, samples_with_negative, lagrange, face_interpolation,
+    similarity_reproduction (NaN where a check needs the cage). For any weight matrix, see
+    spacewarp.testing.
+    """
+
+
+def deform(
+    warp: Warp,
+    geometry: Geometry,
+    *,
+    in_place: bool = False,
+    progress: _Progress = None,
+) -> Geometry:
+    """The Geometry moved through `warp`: positions warped, normals carried by J^-T (the same
+    code as `spacewarp deform`). Returns a new Geometry, or `geometry` itself changed when in_place.
+    All or nothing: raises InvalidInput naming the first vertex that is not finite.
+    """
+
+
+def deform_inverse(
+    warp: Warp,
+    geometry: Geometry,
+    *,
+    tolerance: float = 1e-12,
+    max_iterations: int = 50,
+    in_place: bool = False,
+    progress: _Progress = None,
+) -> Geometry:
+    """The inverse of deform(): every vertex moved to its preimage under `warp` (as
+    `spacewarp inverse`; tolerance relative to the geometry's bounding-box diagonal). All or nothing:
+    raises SolverError naming the first vertex whose inverse did not converge.
+    """
+
+
+def interior_samples(cage: Cage, count: int, *, seed: int = 1) -> _Float64Array:
+    """`count` points (count, 3) uniformly inside the cage, deterministic for a seed."""
+
+
+def load_rig(path: _Path, *, progress: _Progress = None) -> Warp:
+    """The Warp a rig file (JSON, as `spacewarp deform --rig`) describes; the same warp the
+    CLI builds. Paths inside the rig are relative to its folder. Warnings (a graph solve that did
+    not converge) are Python warnings. Raises InvalidInput naming the key at fault, IoError.
+    """
+
+
+def read(path: _Path) -> Geometry:
+    """Reads a soup or point cloud from an OBJ, OFF or PLY file (format by extension) as a
+    Geometry. Raises IoError naming the file and line or element at fault. What the file holds but
+    spacewarp does not keep (OBJ line elements, PLY edges, ...) is a warning.
+    """
+
+
+def rig(
+    description: dict[str, Any],
+    *,
+    base_dir: Optional[_Path] = None,
+    progress: _Progress = None,
+) -> Warp:
+    """The Warp a rig given as a dict (the JSON of a rig file) describes; relative paths in it
+    are resolved against base_dir (default: the current folder).
+    """
+
+
+def rig_methods() -> list[str]:
+    """The rig methods ("twist", "mvc", ...) this build knows."""
+
+
+def warp_dense(
+    warp: Warp,
+    values: NDArray[Any],
+    *,
+    voxel_size: float = 1.0,
+    origin: _Vec3 = ...,
+    background: float = 0.0,
+    level_set: bool = False,
+    sampler: _Sampler = "trilinear",
+    conserve_mass: bool = False,
+    progress: _Progress = None,
+) -> tuple[NDArray[Any], _Float64Array]:
+    """Warps a dense block of voxel values (nx, ny, nz) (float32 stays float32, anything else
+    is float64): voxel (i, j, k) is centered at origin + voxel_size * (i, j, k), world units; values
+    equal to `background` are inactive. level_set: the values are signed distances (re-distanced
+    after the warp). Returns (values, origin): the output's active bounding block and the world
+    position of its voxel (0, 0, 0). For grids of pyopenvdb, copy them to and from dense arrays
+    (copyToArray / copyFromArray), or go through files with warp_volume.
+    """
+
+
+def warp_volume(
+    warp: Warp,
+    input: _Path,
+    output: _Path,
+    *,
+    sampler: _Sampler = "trilinear",
+    conserve_mass: bool = False,
+    vectors: Literal["auto", "push", "normal", "keep"] = "auto",
+    redistance: Literal["normalize", "rebuild", "none"] = "normalize",
+    seed_spacing: int = 4,
+    cache_spacing: float = 0.0,
+    progress: _Progress = None,
+) -> list[dict[str, Any]]:
+    """Warps every grid of the VDB file `input` (float, double, vec3s grids: level sets, fog
+    volumes, fields; point data grids) by `warp` and writes them atomically to `output`, as
+    `spacewarp deform` does. sampler: "trilinear" or "triquadratic"; conserve_mass (fog volumes);
+    vectors: "auto", "push", "normal", "keep"; redistance (level sets): "normalize", "rebuild",
+    "none"; seed_spacing: seeding cells in voxels; cache_spacing: a displacement cache lattice in
+    voxels (0: the exact warp). Returns one dict per grid written (active voxels, inverse failures,
+    mass, ...). Voxels lost are warnings; on any error nothing is written.
+    """
+
+
+def write(path: _Path, geometry: Geometry, *, ascii: bool = False) -> None:
+    """Writes a Geometry to an OBJ, OFF or PLY file (binary PLY unless ascii), atomically:
+    on any failure no partial file is left and an existing file is untouched.
+    """
