@@ -215,9 +215,11 @@ suit; `weights` shows them without a copy.)")
           "posed"_a, py::kw_only(), "out"_a = py::none(),
           R"(The bound points deformed by the posed control points `posed` (V, 3): (n, 3)
 float64, world units, a new array (or `out`).)")
-      .def_property_readonly("point_count", &Binding::pointCount)
-      .def_property_readonly("column_count", &Binding::columnCount)
-      .def_property_readonly("is_sparse", &Binding::isSparse)
+      .def_property_readonly("point_count", &Binding::pointCount, "Points bound (n).")
+      .def_property_readonly("column_count", &Binding::columnCount, "Columns of the weight matrix.")
+      .def_property_readonly("is_sparse", &Binding::isSparse,
+                             "Whether the weights are stored sparse (CSR): at most a quarter of "
+                             "the columns non-zero per point.")
       .def_property_readonly(
           "rest_points", [](const Binding& b) { return copyPoints(b.restPoints()); },
           "The points as bound (n, 3).")
@@ -283,8 +285,11 @@ point. Raises InvalidInput for non-finite points or points outside the domain (n
           "The column controls C (column_count, 3) of posed control points (V, 3): the points, "
           "plus "
           "Green's scaled face normals.")
-      .def_property_readonly("control_point_count", &Coordinates::controlPointCount)
-      .def_property_readonly("column_count", &Coordinates::columnCount)
+      .def_property_readonly(
+          "control_point_count", &Coordinates::controlPointCount,
+          "Control points a user poses (V): cage vertices, lattice points, handles.")
+      .def_property_readonly("column_count", &Coordinates::columnCount,
+                             "Columns of a weight row: V, plus one per cage face for Green.")
       .def_property_readonly(
           "rest_control_points",
           [](const Coordinates& c) { return copyPoints(c.restControlPoints()); },
@@ -316,7 +321,8 @@ void bindCageCoordinates(py::module_& m) {
              return std::make_shared<MeanValueCoordinates>(cage, MeanValueOptions{snapTolerance});
            }),
            "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14)
-      .def_property_readonly("cage", [](const MeanValueCoordinates& c) { return c.cage(); });
+      .def_property_readonly(
+          "cage", [](const MeanValueCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
   py::class_<GreenCoordinates, Coordinates, std::shared_ptr<GreenCoordinates>>(
       m, "Green",
       "Green coordinates (Lipman et al. 2008) of a Cage: (n, V + F) weights, vertex columns then "
@@ -325,11 +331,12 @@ void bindCageCoordinates(py::module_& m) {
              return std::make_shared<GreenCoordinates>(cage, GreenOptions{surfaceTolerance});
            }),
            "cage"_a, py::kw_only(), "surface_tolerance"_a = 1e-14)
-      .def_property_readonly("cage", [](const GreenCoordinates& c) { return c.cage(); });
+      .def_property_readonly(
+          "cage", [](const GreenCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
   py::class_<HarmonicCoordinates, Coordinates, std::shared_ptr<HarmonicCoordinates>>(
       m, "Harmonic",
       R"(Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
-about `tets` tetrahedra. cache: a file of solved coordinates, loaded when it matches the cage and
+about `tets` tetrahedra (0: the library's default, about 200k). cache: a file of solved coordinates, loaded when it matches the cage and
 tets, else solved and saved there. outside: "raise" or "nearest" for points outside the cage.)")
       .def(py::init([](std::shared_ptr<Cage> cage, std::size_t tets,
                        const std::optional<std::filesystem::path>& cache,
@@ -513,8 +520,8 @@ spacewarp.testing.)");
 
 void bindCoordinates(py::module_& m) {
   bindCage(m);
-  bindCoordinatesBase(m);
   bindBinding(m);
+  bindCoordinatesBase(m);
   bindCageCoordinates(m);
   bindLattice(m);
   bindHandleCoordinates(m);

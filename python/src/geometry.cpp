@@ -173,9 +173,12 @@ properties return copies; assign to change them.)")
           },
           "name"_a, "values"_a, py::kw_only(), "dtype"_a = "float64",
           "Sets the per-polygon attribute `name` (m,), stored as `dtype` in PLY files.")
-      .def_property_readonly("point_count", &PolygonSoup::size)
-      .def_property_readonly("polygon_count", &PolygonSoup::polygonCount)
-      .def("copy", [](const PolygonSoup& s) { return std::make_shared<PolygonSoup>(s); })
+      .def_property_readonly("point_count", &PolygonSoup::size, "Vertices or points (n).")
+      .def_property_readonly("polygon_count", &PolygonSoup::polygonCount,
+                             "Polygons (m); 0 for a point cloud.")
+      .def(
+          "copy", [](const PolygonSoup& s) { return std::make_shared<PolygonSoup>(s); },
+          "A deep copy.")
       .def("__len__", &PolygonSoup::size)
       .def("__repr__", [](const PolygonSoup& s) {
         return "<spacewarp.Geometry: " + std::to_string(s.size()) + " points, " +

@@ -3,6 +3,7 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
 #include <limits>
 #include <mutex>
 
@@ -44,17 +45,39 @@ void forEachPoint(std::size_t n, const F& f) {
                     });
 }
 
+/// The index of the first point of `points` that is not finite, or points.size(). One
+/// vectorisable pass: x - x is 0 for finite x and NaN otherwise, and NaN survives the sum.
+std::size_t firstNonFinite(std::span<const Vec3> points) {
+  double sum = 0.0;
+  for (const Vec3& p : points) sum += (p.x - p.x) + (p.y - p.y) + (p.z - p.z);
+  if (sum == 0.0) return points.size();
+  return static_cast<std::size_t>(
+      std::find_if(points.begin(), points.end(), [](const Vec3& p) { return !isFinite(p); }) -
+      points.begin());
+}
+
 DoubleArray applyWarp(const Warp& warp, py::handle points, const std::optional<py::array>& out,
                       const py::object& progress) {
   const Points in = toPoints(points);
   DoubleArray result = outputPoints(in.size(), out, in.single);
   const std::span<Vec3> moved = pointsOf(result);
   runCancellable(progress, [&](const ProgressCallback& callback) {
-    // The blocks of deform() (core/deform.cpp), so that results match the CLI bit for bit.
+    // The blocks of deform() (core/deform.cpp) with a display; each block's results are checked
+    // while they are in cache (a NaN input, or a warp that overflows, is an error as in deform()).
     ProgressTracker tracker(callback, "warp", in.size());
-    forEachBlock(in.size(), callback ? std::size_t{1} << 16 : 0, tracker,
+    forEachBlock(in.size(), std::size_t{1} << 16, tracker,
                  [&](std::size_t begin, std::size_t count) {
-                   warp.applyBatch(in.span.subspan(begin, count), moved.subspan(begin, count));
+                   const auto block = moved.subspan(begin, count);
+                   warp.applyBatch(in.span.subspan(begin, count), block);
+                   if (const std::size_t bad = firstNonFinite(block); bad < count) {
+                     const std::size_t i = begin + bad;
+                     const std::string point = "point " + std::to_string(i);
+                     if (in.span.data() == moved.data())  // in place: the input is gone
+                       throw InvalidInput(point + ": the warped position is not finite");
+                     throw InvalidInput(isFinite(in.span[i])
+                                            ? "the warp sent " + point + " to a non-finite position"
+                                            : point + " is not finite");
+                   }
                  });
   });
   return result;
@@ -133,7 +156,7 @@ points: (n, 3) array-like, any float dtype and layout (copied only if not float6
 out: optional (n, 3) float64 C-contiguous array to write into (may be `points` itself).
 progress: optional callable(stage: str, fraction: float); return False to cancel.
 Returns a new (n, 3) array, or `out`. Raises InvalidInput for non-finite points or points
-outside the warp's domain (naming the first).)")
+outside the warp's domain (naming the first); `out`, if given, may then be partly written.)")
       .def("jacobian", &jacobians, "points"_a,
            R"(The Jacobians d x'/d x at `points`: (n, 3, 3) float64, J[i, r, c] = d x'_r / d x_c
 (unitless). Analytic where the warp has one, central differences otherwise.)")
@@ -269,16 +292,23 @@ each point gets the affine, similarity or rigid map that best fits the handles w
                }),
            "handles"_a, "targets"_a, py::kw_only(), "mode"_a = "rigid", "alpha"_a = 1.0);
 
+  py::class_<DeformationGraphWarp, Warp, std::shared_ptr<DeformationGraphWarp>>(
+      m, "DeformationGraphWarp", "A posed deformation graph (DeformationGraph.warp()).");
   py::class_<DeformationGraphReport>(m, "GraphSolveReport", "What DeformationGraph.solve() found.")
       .def_readonly("energies", &DeformationGraphReport::energies,
                     "Energy after each accepted step.")
       .def_readonly("iterations", &DeformationGraphReport::iterations,
                     "Accepted Gauss-Newton steps.")
-      .def_readonly("converged", &DeformationGraphReport::converged)
-      .def_readonly("rotation_energy", &DeformationGraphReport::rotationEnergy)
-      .def_readonly("regularization_energy", &DeformationGraphReport::regularizationEnergy)
-      .def_readonly("constraint_energy", &DeformationGraphReport::constraintEnergy)
-      .def_readonly("component_count", &DeformationGraphReport::componentCount)
+      .def_readonly("converged", &DeformationGraphReport::converged,
+                    "Whether the energy stopped changing within the tolerance.")
+      .def_readonly("rotation_energy", &DeformationGraphReport::rotationEnergy,
+                    "E_rot at the end (unitless).")
+      .def_readonly("regularization_energy", &DeformationGraphReport::regularizationEnergy,
+                    "E_reg at the end, in units of the nodes' largest extent squared.")
+      .def_readonly("constraint_energy", &DeformationGraphReport::constraintEnergy,
+                    "E_con at the end, in units of the nodes' largest extent squared.")
+      .def_readonly("component_count", &DeformationGraphReport::componentCount,
+                    "Connected parts of the graph.")
       .def_readonly("unconstrained_nodes", &DeformationGraphReport::unconstrainedNodes,
                     "Nodes of parts of the graph that no handle reaches.");
 
@@ -309,7 +339,8 @@ each point follows its k nearest nodes. solve() poses it; warp() is the posed Wa
       .def_property_readonly(
           "nodes", [](Graph& g) { return copyPoints(g.graph.nodes()); },
           "The node positions (m, 3), world units.")
-      .def_property_readonly("k", [](Graph& g) { return g.graph.k(); })
+      .def_property_readonly(
+          "k", [](Graph& g) { return g.graph.k(); }, "Nodes that influence each point.")
       .def_property_readonly(
           "edges",
           [](Graph& g) {
@@ -359,8 +390,6 @@ check `converged`.)")
             return std::make_shared<DeformationGraphWarp>(g.graph.warp());
           },
           "The graph's current pose as a Warp (a snapshot: later solves do not change it).");
-  py::class_<DeformationGraphWarp, Warp, std::shared_ptr<DeformationGraphWarp>>(
-      m, "DeformationGraphWarp", "A posed deformation graph (DeformationGraph.warp()).");
 }
 
 void bindRbfWarp(py::module_& m) {
@@ -368,8 +397,8 @@ void bindRbfWarp(py::module_& m) {
       m, "RbfWarp",
       R"(A radial-basis displacement field (Botsch and Kobbelt 2005) that moves `centers` (k, 3)
 to `targets` (k, 3) and keeps `fixed` (f, 3) in place, plus a linear polynomial. kernel:
-"triharmonic" (r^3, default), "biharmonic", "thin_plate", "gaussian", "inverse_multiquadric",
-"wendland_c2"; scale (world units) for gaussian/inverse multiquadric; radius (world units) for
+"triharmonic" (r^3, default), "biharmonic", "thin-plate", "gaussian", "inverse-multiquadric",
+"wendland"; scale (world units) for gaussian/inverse multiquadric; radius (world units) for
 Wendland; smoothing >= 0 turns interpolation into approximation.)")
       .def(py::init([](py::handle centers, py::handle targets,
                        const std::optional<py::handle>& fixed, const std::string& kernel,
