@@ -51,6 +51,7 @@ sanitize: deps
 bench: build
 	$(BUILD)/bench/spacewarp_bench --benchmark_repetitions=3 \
 	  --benchmark_report_aggregates_only=true --benchmark_counters_tabular=true
+	PYTHONPATH=$(BUILD)/python $(PYTHON) bench/python_overhead.py
 
 # Runs each fuzzer (the OBJ, OFF and PLY readers, the rig reader, the VDB input) for FUZZ_SECONDS (default 60).
 fuzz: deps

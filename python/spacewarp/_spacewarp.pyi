@@ -119,7 +119,7 @@ class Warp:
         out: optional (n, 3) float64 C-contiguous array to write into (may be `points` itself).
         progress: optional callable(stage: str, fraction: float); return False to cancel.
         Returns a new (n, 3) array, or `out`. Raises InvalidInput for non-finite points or points
-        outside the warp's domain (naming the first).
+        outside the warp's domain (naming the first); `out`, if given, may then be partly written.
         """
 
     def jacobian(self, points: _Points) -> _Float64Array:
@@ -198,13 +198,18 @@ class Binding:
         """
 
     @property
-    def point_count(self) -> int: ...
+    def point_count(self) -> int:
+        """Points bound (n)."""
 
     @property
-    def column_count(self) -> int: ...
+    def column_count(self) -> int:
+        """Columns of the weight matrix."""
 
     @property
-    def is_sparse(self) -> bool: ...
+    def is_sparse(self) -> bool:
+        """Whether the weights are stored sparse (CSR): at most a quarter of the columns non-zero
+        per point.
+        """
 
     @property
     def rest_points(self) -> _Float64Array:
@@ -296,10 +301,12 @@ class Coordinates:
         """
 
     @property
-    def control_point_count(self) -> int: ...
+    def control_point_count(self) -> int:
+        """Control points a user poses (V): cage vertices, lattice points, handles."""
 
     @property
-    def column_count(self) -> int: ...
+    def column_count(self) -> int:
+        """Columns of a weight row: V, plus one per cage face for Green."""
 
     @property
     def rest_control_points(self) -> _Float64Array:
@@ -331,7 +338,8 @@ class DeformationGraph:
         """The node positions (m, 3), world units."""
 
     @property
-    def k(self) -> int: ...
+    def k(self) -> int:
+        """Nodes that influence each point."""
 
     @property
     def edges(self) -> NDArray[np.uint32]:
@@ -425,12 +433,15 @@ class Geometry:
         """Sets the per-polygon attribute `name` (m,), stored as `dtype` in PLY files."""
 
     @property
-    def point_count(self) -> int: ...
+    def point_count(self) -> int:
+        """Vertices or points (n)."""
 
     @property
-    def polygon_count(self) -> int: ...
+    def polygon_count(self) -> int:
+        """Polygons (m); 0 for a point cloud."""
 
-    def copy(self) -> Geometry: ...
+    def copy(self) -> Geometry:
+        """A deep copy."""
 
     def __len__(self) -> int: ...
 
@@ -449,19 +460,24 @@ class GraphSolveReport:
         """Accepted Gauss-Newton steps."""
 
     @property
-    def converged(self) -> bool: ...
+    def converged(self) -> bool:
+        """Whether the energy stopped changing within the tolerance."""
 
     @property
-    def rotation_energy(self) -> float: ...
+    def rotation_energy(self) -> float:
+        """E_rot at the end (unitless)."""
 
     @property
-    def regularization_energy(self) -> float: ...
+    def regularization_energy(self) -> float:
+        """E_reg at the end, in units of the nodes' largest extent squared."""
 
     @property
-    def constraint_energy(self) -> float: ...
+    def constraint_energy(self) -> float:
+        """E_con at the end, in units of the nodes' largest extent squared."""
 
     @property
-    def component_count(self) -> int: ...
+    def component_count(self) -> int:
+        """Connected parts of the graph."""
 
     @property
     def unconstrained_nodes(self) -> list[int]:
@@ -476,12 +492,13 @@ class Green(Coordinates):
     def __init__(self, cage: Cage, *, surface_tolerance: float = 1e-14) -> None: ...
 
     @property
-    def cage(self) -> Cage: ...
+    def cage(self) -> Cage:
+        """The Cage (a copy)."""
 
 
 class Harmonic(Coordinates):
     """Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
-    about `tets` tetrahedra. cache: a file of solved coordinates, loaded when it matches the cage and
+    about `tets` tetrahedra (0: the library's default, about 200k). cache: a file of solved coordinates, loaded when it matches the cage and
     tets, else solved and saved there. outside: "raise" or "nearest" for points outside the cage.
     """
 
@@ -562,7 +579,8 @@ class MeanValue(Coordinates):
     def __init__(self, cage: Cage, *, snap_tolerance: float = 1e-14) -> None: ...
 
     @property
-    def cage(self) -> Cage: ...
+    def cage(self) -> Cage:
+        """The Cage (a copy)."""
 
 
 class Mls(Warp):
@@ -609,8 +627,8 @@ class Rbf(Coordinates):
 class RbfWarp(Warp):
     """A radial-basis displacement field (Botsch and Kobbelt 2005) that moves `centers` (k, 3)
     to `targets` (k, 3) and keeps `fixed` (f, 3) in place, plus a linear polynomial. kernel:
-    "triharmonic" (r^3, default), "biharmonic", "thin_plate", "gaussian", "inverse_multiquadric",
-    "wendland_c2"; scale (world units) for gaussian/inverse multiquadric; radius (world units) for
+    "triharmonic" (r^3, default), "biharmonic", "thin-plate", "gaussian", "inverse-multiquadric",
+    "wendland"; scale (world units) for gaussian/inverse multiquadric; radius (world units) for
     Wendland; smoothing >= 0 turns interpolation into approximation.
     """
 

@@ -137,8 +137,8 @@ py::tuple warpDenseAs(const Warp& warp, const py::array& values, double voxelSiz
         openvdb::Coord(0),
         openvdb::Coord(static_cast<int>(in.shape(0)) - 1, static_cast<int>(in.shape(1)) - 1,
                        static_cast<int>(in.shape(2)) - 1));
-    // Dense<T, LayoutXYZ>: z fastest, as a C-ordered (nx, ny, nz) array.
-    const openvdb::tools::Dense<const ValueT, openvdb::tools::LayoutXYZ> dense(box, in.data());
+    // LayoutZYX: z varies fastest, as in a C-ordered (nx, ny, nz) array.
+    const openvdb::tools::Dense<const ValueT, openvdb::tools::LayoutZYX> dense(box, in.data());
     auto grid = GridT::create(static_cast<ValueT>(background));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(voxelSize));
     grid->transform().postTranslate(openvdb::Vec3d(origin.x, origin.y, origin.z));
@@ -160,7 +160,7 @@ py::tuple warpDenseAs(const Warp& warp, const py::array& values, double voxelSiz
       out = py::array_t<ValueT>(std::vector<py::ssize_t>{size.x(), size.y(), size.z()});
     }
     if (!active.empty()) {
-      openvdb::tools::Dense<ValueT, openvdb::tools::LayoutXYZ> result(active, out.mutable_data());
+      openvdb::tools::Dense<ValueT, openvdb::tools::LayoutZYX> result(active, out.mutable_data());
       openvdb::tools::copyToDense(*warped, result);
       const openvdb::Vec3d o = warped->indexToWorld(active.min());
       outOrigin = Vec3(o.x(), o.y(), o.z());
