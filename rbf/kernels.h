@@ -43,7 +43,10 @@ struct RbfOptions {
   /// otherwise). Default 1e-10.
   double duplicateTolerance = 1e-10;
   /// Told "fit rbf" and the fraction done (the kernel matrix, its projection, the
-  /// factorisation) while the system is set up; may cancel (Cancelled). Default: none.
+  /// factorisation) while the system is set up; may cancel (Cancelled). Default: none. Used by
+  /// the constructor it is given to and not kept: options() of the object built has none, and
+  /// RbfCoordinates' warps fit without one (a callback bound to the caller's frame would
+  /// otherwise be called after that frame is gone).
   ProgressCallback progress;
 };
 

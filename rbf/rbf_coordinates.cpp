@@ -23,6 +23,7 @@ RbfCoordinates::RbfCoordinates(std::span<const Vec3> centers, std::span<const Ve
     : options_(options),
       handles_(centers.begin(), centers.end()),
       fixed_(fixed.begin(), fixed.end()) {
+  options_.progress = nullptr;  // the caller's, for this fit only: warps made later fit silently
   const std::string who = "RbfCoordinates";
   detail::checkMemory(
       memoryEstimate(centers.size(), fixed.size()),

@@ -192,6 +192,7 @@ void RbfWarp::check(std::span<const Vec3> centers, std::span<const Vec3> targets
 RbfWarp::RbfWarp(std::span<const Vec3> centers, std::span<const Vec3> targets,
                  std::span<const Vec3> fixed, const RbfOptions& options)
     : options_(options) {
+  options_.progress = nullptr;  // the caller's, for this fit only
   const std::string who = "RbfWarp";
   const detail::RbfCenters c = detail::prepareRbfCenters(who, centers, &targets, fixed, options);
   const detail::RbfSystem system(who, c.unique, options);

@@ -94,8 +94,9 @@ class SolverError(RuntimeError):
 
 
 class OutOfMemory(SolverError, MemoryError):
-    """A job that does not fit in the memory available (refused by its estimate before it starts,
-    or TetGen/CHOLMOD ran out). A SolverError and a MemoryError.
+    """Memory that ran out inside TetGen or CHOLMOD (which report it by a status code). A
+    SolverError and a MemoryError. (A job that its memory estimate refuses before it starts is
+    InvalidInput, naming what to make smaller.)
     """
 
 
@@ -402,7 +403,9 @@ class Geometry:
 
     @property
     def faces(self) -> Union[NDArray[np.uint32], list[NDArray[np.uint32]]]:
-        """The polygons: (m, k) uint32 when all have k vertices, else a list of index arrays."""
+        """The polygons: (m, k) uint32 when all have k vertices, else a list of index arrays.
+        Assigning polygons of other sizes drops the per-face and per-corner data.
+        """
     @faces.setter
     def faces(self, value: Optional[_Faces]) -> None: ...
 

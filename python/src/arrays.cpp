@@ -79,4 +79,50 @@ Vec3 toVec3(py::handle object, const char* name) {
   return p.span[0];
 }
 
+Polygons toPolygons(py::handle faces, std::size_t vertexCount) {
+  Polygons polygons;
+  const auto add = [&](long long index) {
+    const std::size_t face = polygons.offsets.size() - 1;
+    if (index < 0 || static_cast<unsigned long long>(index) >= vertexCount)
+      throw InvalidInput("face " + std::to_string(face) + " refers to vertex " +
+                         std::to_string(index) + ", not one of the " + std::to_string(vertexCount) +
+                         " vertices");
+    polygons.indices.push_back(static_cast<std::uint32_t>(index));
+  };
+  const auto close = [&] {
+    polygons.offsets.push_back(static_cast<std::uint32_t>(polygons.indices.size()));
+  };
+  if (py::isinstance<py::array>(faces)) {
+    const auto a = py::reinterpret_borrow<py::array>(faces);
+    const char kind = a.dtype().kind();
+    if (kind != 'i' && kind != 'u')
+      throw InvalidInput("faces must be an integer array, not " + std::string(py::str(a.dtype())));
+    if (a.ndim() != 2) throw InvalidInput("faces must have shape (m, k), not " + shapeText(a));
+    const auto rows = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t f = 0; f < rows.shape(0); ++f) {
+      for (py::ssize_t c = 0; c < rows.shape(1); ++c) add(rows.at(f, c));
+      close();
+    }
+    return polygons;
+  }
+  if (py::isinstance<py::str>(faces) || !py::isinstance<py::iterable>(faces))
+    throw InvalidInput("faces must be an (m, k) integer array or a sequence of polygons");
+  for (py::handle face : faces) {
+    if (py::isinstance<py::str>(face) || !py::isinstance<py::iterable>(face))
+      throw InvalidInput("face " + std::to_string(polygons.offsets.size() - 1) +
+                         " is not a sequence of vertex indices");
+    for (py::handle index : face) {
+      PyObject* integer = PyNumber_Index(index.ptr());
+      if (integer == nullptr) {
+        PyErr_Clear();
+        throw InvalidInput("face " + std::to_string(polygons.offsets.size() - 1) + ": index " +
+                           std::string(py::repr(index)) + " is not an integer");
+      }
+      add(py::reinterpret_steal<py::int_>(integer).cast<long long>());
+    }
+    close();
+  }
+  return polygons;
+}
+
 }  // namespace spacewarp::python

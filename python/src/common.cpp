@@ -3,6 +3,7 @@
 #include <atomic>
 #include <csignal>
 #include <exception>
+#include <thread>
 #include <utility>
 
 #include <spacewarp/core/errors.h>
@@ -76,15 +77,31 @@ void runCancellable(const py::object& progress,
   const SigintGuard guard;
   const bool watch = guard.active();
   const bool report = progress && !progress.is_none();
+  const std::thread::id mainThread = std::this_thread::get_id();
   std::optional<py::error_already_set> pythonError;
   const ProgressCallback callback = [&](std::string_view stage, double fraction) {
-    if (watch && gInterrupted.load(std::memory_order_relaxed)) return false;
-    if (!report) return true;
+    // Python runs signal handlers in the main thread only: a Ctrl-C waits for a report there.
+    const bool interrupted = watch && gInterrupted.load(std::memory_order_relaxed) &&
+                             std::this_thread::get_id() == mainThread;
+    if (!interrupted && !report) return true;
     const py::gil_scoped_acquire gil;
     if (pythonError) return false;
+    if (interrupted) {
+      gInterrupted.store(false, std::memory_order_relaxed);
+      // The SIGINT handler (KeyboardInterrupt by default) runs now; if it does not raise, the
+      // work goes on, as an interrupted Python loop would.
+      if (PyErr_CheckSignals() != 0) {
+        pythonError.emplace();
+        return false;
+      }
+    }
+    if (!report) return true;
     try {
       const py::object result = progress(py::str(stage.data(), stage.size()), fraction);
-      return !(result.is(py::bool_(false)));
+      if (result.is_none()) return true;
+      const int truth = PyObject_IsTrue(result.ptr());  // False (or np.False_, 0) stops
+      if (truth < 0) throw py::error_already_set();
+      return truth != 0;
     } catch (py::error_already_set& e) {
       pythonError.emplace(std::move(e));
       return false;
@@ -95,9 +112,6 @@ void runCancellable(const py::object& progress,
     work(watch || report ? callback : ProgressCallback{});
   } catch (const Cancelled&) {
     if (pythonError) throw std::move(*pythonError);
-    if (watch && gInterrupted.load(std::memory_order_relaxed) && PyErr_CheckSignals() != 0) {
-      throw py::error_already_set();
-    }
     throw;
   }
 }
@@ -126,8 +140,9 @@ void registerErrors(py::module_& m) {
       py::make_tuple(py::handle(gSolverError), py::handle(PyExc_MemoryError));
   gOutOfMemory =
       make("OutOfMemory", memoryBases.ptr(),
-           "A job that does not fit in the memory available (refused by its estimate "
-           "before it starts, or TetGen/CHOLMOD ran out). A SolverError and a MemoryError.");
+           "Memory that ran out inside TetGen or CHOLMOD (which report it by a status code). "
+           "A SolverError and a MemoryError. (A job that its memory estimate refuses before "
+           "it starts is InvalidInput, naming what to make smaller.)");
   gIoError = make("IoError", PyExc_OSError,
                   "A file that could not be read or written, or whose content is malformed; the "
                   "message names the file. An OSError.");

@@ -48,6 +48,17 @@ DoubleArray copyPoints(std::span<const Vec3> points);
 /// A 3-vector from a sequence of three numbers (`name` in the error).
 Vec3 toVec3(py::handle object, const char* name);
 
+/// Polygons as a soup stores them: polygon p is indices[offsets[p] .. offsets[p + 1]).
+struct Polygons {
+  std::vector<std::uint32_t> offsets{0};
+  std::vector<std::uint32_t> indices;
+};
+
+/// The polygons `faces` over `vertexCount` vertices: an (m, k) integer array, or a sequence of
+/// index sequences (polygons of any size). Throws InvalidInput naming the face for an index
+/// that is not an integer or not a vertex.
+Polygons toPolygons(py::handle faces, std::size_t vertexCount);
+
 /// Runs library work with the GIL released. While it runs, a Ctrl-C (SIGINT) in the main
 /// thread sets a flag that the progress callback handed to `work` turns into a cancel, and
 /// `progress` (a Python callable(stage, fraction), or None) is called with the GIL held; a

@@ -31,38 +31,13 @@ namespace {
 using namespace pybind11::literals;
 using CoordinatesPtr = std::shared_ptr<Coordinates>;
 
-/// A soup with the polygons `faces`: an (m, k) integer array, or a sequence of index sequences
-/// (polygons of any size).
-void addFaces(PolygonSoup& soup, py::handle faces) {
-  const auto indexOf = [&](py::handle value) {
-    const long long i = value.cast<long long>();
-    if (i < 0 || i > std::numeric_limits<std::uint32_t>::max() - 1)
-      throw InvalidInput("face index " + std::to_string(i) + " is out of range");
-    return static_cast<std::uint32_t>(i);
-  };
-  if (py::isinstance<py::array>(faces)) {
-    const auto a = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(faces);
-    if (!a || a.ndim() != 2)
-      throw InvalidInput("faces must be an (m, k) integer array or a list of polygons");
-    std::vector<std::uint32_t> polygon(static_cast<std::size_t>(a.shape(1)));
-    for (py::ssize_t f = 0; f < a.shape(0); ++f) {
-      for (py::ssize_t c = 0; c < a.shape(1); ++c) polygon[c] = indexOf(py::cast(a.at(f, c)));
-      soup.addPolygon(polygon);
-    }
-    return;
-  }
-  for (py::handle face : faces) {
-    std::vector<std::uint32_t> polygon;
-    for (py::handle index : face) polygon.push_back(indexOf(index));
-    soup.addPolygon(polygon);
-  }
-}
-
 std::shared_ptr<Cage> makeCage(py::handle vertices, py::handle faces, const std::string& name) {
   const Points v = toPoints(vertices, "vertices", false);
   PolygonSoup soup;
   soup.positions.assign(v.span.begin(), v.span.end());
-  addFaces(soup, faces);
+  Polygons polygons = toPolygons(faces, soup.size());
+  soup.faceOffsets = std::move(polygons.offsets);
+  soup.faceIndices = std::move(polygons.indices);
   return std::make_shared<Cage>(soup, name);
 }
 

@@ -29,28 +29,19 @@ std::vector<Vec3> pointVector(py::handle points, const char* name) {
   return {p.span.begin(), p.span.end()};
 }
 
+/// Sets the polygons of `soup` (none for None). Per-face and per-corner data (face attributes,
+/// corner normals, texture coordinates, OBJ groups) describe the old polygons: they are kept
+/// when the polygon sizes are the same, dropped otherwise. Nothing changes on an error.
 void setFaces(PolygonSoup& soup, py::handle faces) {
-  soup.faceOffsets.assign(1, 0);
-  soup.faceIndices.clear();
-  if (faces.is_none()) return;
-  const auto add = [&](py::handle polygon) {
-    for (py::handle index : polygon) {
-      const long long i = index.cast<long long>();
-      if (i < 0 || i >= static_cast<long long>(soup.size()))
-        throw InvalidInput("face " + std::to_string(soup.polygonCount()) + " refers to vertex " +
-                           std::to_string(i) + " of " + std::to_string(soup.size()));
-      soup.faceIndices.push_back(static_cast<std::uint32_t>(i));
-    }
-    soup.faceOffsets.push_back(static_cast<std::uint32_t>(soup.faceIndices.size()));
-  };
-  if (py::isinstance<py::array>(faces)) {
-    const py::array a = py::array::ensure(faces);
-    if (a.ndim() != 2)
-      throw InvalidInput("faces must be an (m, k) integer array or a list of polygons");
-    for (py::handle row : a.attr("tolist")()) add(row);
-  } else {
-    for (py::handle polygon : faces) add(polygon);
+  Polygons polygons = faces.is_none() ? Polygons{} : toPolygons(faces, soup.size());
+  if (polygons.offsets != soup.faceOffsets) {
+    soup.faceAttributes.clear();
+    soup.cornerNormals = {};
+    soup.texcoords = {};
+    soup.objStatements.clear();
   }
+  soup.faceOffsets = std::move(polygons.offsets);
+  soup.faceIndices = std::move(polygons.indices);
 }
 
 /// The polygons as an (m, k) array when all have k vertices, else a list of (k_i,) arrays.
@@ -152,7 +143,9 @@ properties return copies; assign to change them.)")
           "(n, 3) unit normals per vertex, or None.")
       .def_property(
           "faces", &facesOf, [](PolygonSoup& s, py::handle f) { setFaces(s, f); },
-          "The polygons: (m, k) uint32 when all have k vertices, else a list of index arrays.")
+          "The polygons: (m, k) uint32 when all have k vertices, else a list of index arrays. "
+          "Assigning "
+          "polygons of other sizes drops the per-face and per-corner data.")
       .def_property_readonly(
           "vertex_attributes", [](const PolygonSoup& s) { return attributesOf(s.attributes); },
           "dict of name -> (n,) float64 per-vertex values (copies).")

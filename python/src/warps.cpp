@@ -56,11 +56,27 @@ std::size_t firstNonFinite(std::span<const Vec3> points) {
       points.begin());
 }
 
+/// Whether two spans share memory without being the same span.
+bool overlapsOtherwise(std::span<const Vec3> a, std::span<const Vec3> b) {
+  if (a.data() == b.data() || a.empty() || b.empty()) return false;
+  const auto lo = [](std::span<const Vec3> s) {
+    return reinterpret_cast<std::uintptr_t>(s.data());
+  };
+  const auto hi = [&](std::span<const Vec3> s) { return lo(s) + s.size_bytes(); };
+  return lo(a) < hi(b) && lo(b) < hi(a);
+}
+
 DoubleArray applyWarp(const Warp& warp, py::handle points, const std::optional<py::array>& out,
                       const py::object& progress) {
-  const Points in = toPoints(points);
+  Points in = toPoints(points);
   DoubleArray result = outputPoints(in.size(), out, in.single);
   const std::span<Vec3> moved = pointsOf(result);
+  if (overlapsOtherwise(in.span, moved)) {
+    // `out` overlaps `points` but is not `points` itself: blocks would read what earlier blocks
+    // wrote, so the input is read from a copy (out=points exactly is done in place).
+    in.array = copyPoints(in.span);
+    in.span = {reinterpret_cast<const Vec3*>(in.array.data()), in.span.size()};
+  }
   runCancellable(progress, [&](const ProgressCallback& callback) {
     // The blocks of deform() (core/deform.cpp) with a display; each block's results are checked
     // while they are in cache (a NaN input, or a warp that overflows, is an error as in deform()).
@@ -257,11 +273,19 @@ clamped to [lo, hi]; rate in 1 / world units).)")
       m, "Compose", "The warps applied one after the other: Compose(a, b)(x) = b(a(x)).")
       .def(py::init([](const py::args& warps) {
         if (warps.size() < 1) throw InvalidInput("Compose needs at least one warp");
-        std::shared_ptr<const Warp> chain = warps[0].cast<WarpPtr>();
-        if (warps.size() == 1)
+        std::vector<WarpPtr> stages;
+        for (std::size_t i = 0; i < warps.size(); ++i) {
+          if (!py::isinstance<Warp>(warps[i]))
+            throw py::type_error("Compose: argument " + std::to_string(i) + " is a " +
+                                 std::string(py::str(py::type::of(warps[i]).attr("__name__"))) +
+                                 ", not a spacewarp.Warp");
+          stages.push_back(warps[i].cast<WarpPtr>());
+        }
+        std::shared_ptr<const Warp> chain = stages[0];
+        if (stages.size() == 1)
           chain = std::make_shared<ComposedWarp>(chain, std::make_shared<IdentityWarp>());
-        for (std::size_t i = 1; i < warps.size(); ++i)
-          chain = std::make_shared<ComposedWarp>(chain, warps[i].cast<WarpPtr>());
+        for (std::size_t i = 1; i < stages.size(); ++i)
+          chain = std::make_shared<ComposedWarp>(chain, stages[i]);
         return std::const_pointer_cast<ComposedWarp>(
             std::static_pointer_cast<const ComposedWarp>(chain));
       }));

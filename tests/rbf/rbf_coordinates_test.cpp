@@ -224,5 +224,23 @@ TEST(RbfCoordinates, MakeWarpGivesTheRbfWarpOfThePose) {
   }
 }
 
+// The progress callback belongs to the fit it is given to: neither object keeps it, so warps made
+// later (makeWarp fits an RbfWarp) never call a callback whose caller has returned.
+TEST(RbfCoordinates, KeepsNoProgressCallbackAfterTheFit) {
+  std::mt19937 rng(5);
+  const std::vector<Vec3> centers = test::randomPoints(rng, 20, -1.0, 1.0);
+  auto calls = std::make_shared<int>(0);
+  RbfOptions options;
+  options.progress = [calls](std::string_view, double) { return ++*calls, true; };
+  auto coords = std::make_shared<const RbfCoordinates>(centers, options);
+  const RbfWarp direct(centers, centers, options);
+  const int afterFits = *calls;
+  EXPECT_GT(afterFits, 0);
+  EXPECT_FALSE(coords->options().progress);
+  EXPECT_FALSE(direct.options().progress);
+  const std::shared_ptr<const Warp> made = makeWarp(coords, centers);
+  EXPECT_EQ(*calls, afterFits);
+}
+
 }  // namespace
 }  // namespace spacewarp
