@@ -56,7 +56,9 @@ struct TetMesh {
 /// Throws InvalidInput for out-of-range options, for a self-intersecting cage (naming two of
 /// the intersecting triangles; checked first, since TetGen cannot mesh such input) and for
 /// any other input TetGen rejects, with TetGen's reason; SolverError if TetGen fails
-/// internally, OutOfMemory (a SolverError) if it runs out of memory.
+/// internally or dies (it runs in a child process, so that a failed assertion of Debian's
+/// TetGen, which aborts, names the cage and TetGen's message instead of ending the caller),
+/// OutOfMemory (a SolverError) if it runs out of memory.
 TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options = {},
                            const ProgressCallback& progress = {});
 
