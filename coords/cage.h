@@ -66,6 +66,8 @@ class Cage {
   /// The enclosed volume (positive: triangles face outward).
   double volume() const { return volume_; }
 
+  /// The name given at construction (usually the file), which prefixes its messages.
+  const std::string& name() const { return name_; }
   /// The cage-relative frame (bounding-box center, power-of-two scale).
   const CageFrame& frame() const { return frame_; }
 

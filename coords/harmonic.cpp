@@ -324,9 +324,11 @@ Laplacian assembleLaplacian(const Cage& cage, const TetMesh& mesh, const std::ve
   Laplacian system{SparseMatrix(nI, nI), Eigen::MatrixXd::Zero(nI, static_cast<Eigen::Index>(k))};
   const std::vector<Vec3>& p = mesh.localVertices;
   for (const auto& tet : mesh.tets) {
+    // A flat tet adds nothing: its cotangents would be round-off (and the locator never finds
+    // it).
+    if (isFlatTet(p[tet[0]], p[tet[1]], p[tet[2]], p[tet[3]])) continue;
     const Mat3 d(p[tet[1]] - p[tet[0]], p[tet[2]] - p[tet[0]], p[tet[3]] - p[tet[0]]);
     const double det = glm::determinant(d);
-    if (!(det > 0.0)) continue;  // a flat tet adds nothing
     const Mat3 inv = glm::inverse(d);
     Vec3 g[4];
     for (int i = 0; i < 3; ++i) g[i + 1] = Vec3(inv[0][i], inv[1][i], inv[2][i]);

@@ -90,8 +90,9 @@ class HarmonicCoordinates final : public Coordinates {
   /// "solve"; a callback returning false throws Cancelled). Throws InvalidInput if `cage` is
   /// null, an option is out of range, TetGen rejects the cage (e.g. a self-intersecting
   /// one, with TetGen's reason) or the job needs more memory than is available (see
-  /// memoryEstimate()), SolverError if the factorisation fails and OutOfMemory (a SolverError)
-  /// if TetGen or CHOLMOD run out of memory.
+  /// memoryEstimate()), SolverError if TetGen dies (some tet counts of some cages fail one of
+  /// its assertions; another count may not) or the factorisation fails, and OutOfMemory (a
+  /// SolverError) if TetGen or CHOLMOD run out of memory.
   explicit HarmonicCoordinates(std::shared_ptr<const Cage> cage,
                                const HarmonicOptions& options = {},
                                const ProgressCallback& progress = {});

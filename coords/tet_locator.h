@@ -12,6 +12,13 @@
 
 namespace spacewarp {
 
+/// Whether the tet with corners p0..p3 is flat: its volume is not positive, or is within the
+/// round-off of its corners' coordinates (det[p1 − p0, p2 − p0, p3 − p0] ≤ 64 ε L² (L + c), L
+/// its longest edge, c its largest corner coordinate in magnitude). Its orientation and any
+/// barycentric coordinates in it are then round-off. TetGen leaves such tets between Steiner
+/// points that it rounded off a slanted cage face; they have no volume to hold a point.
+bool isFlatTet(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
+
 /// Finds the tet that contains a point and the point's barycentric coordinates in it. Built
 /// once (O(tets)), then const and thread-safe. Results do not depend on the thread count.
 class TetLocator {
@@ -26,7 +33,7 @@ class TetLocator {
 
   /// `vertices` (any length unit; HarmonicCoordinates passes its cage's frame so that the
   /// round-off does not depend on where the mesh is) and positively oriented `tets` are copied
-  /// where needed; a tet of zero volume is never found. `tolerance` is how far (in barycentric
+  /// where needed; a flat tet (isFlatTet) is never found. `tolerance` is how far (in barycentric
   /// units, relative to the tet's size) a point may lie outside its nearest tet and still be found
   /// in it, with its barycentric coordinates clamped to ≥ 0 and renormalised: it catches points on
   /// the mesh boundary up to round-off. `slack` (in the vertices' unit, ≥ 0) widens that by an

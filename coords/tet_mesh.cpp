@@ -5,14 +5,24 @@
 // 10 input error) and prints nothing with the Q switch. Its PLC mesher does not always detect
 // a self-intersecting input (it can crash on one), so the input is first checked with the d
 // switch, which returns the intersecting input faces.
+//
+// Debian's TetGen 1.5.0 is built with its assertions on, and some inputs fail one (tetgen.cxx:
+// 11026 in locate(), while refining a box with a pinched waist at 10k to 30k tets): that would
+// abort the whole process. So TetGen runs in a forked child that sends its output back through
+// a pipe, and a child that dies becomes a SolverError with TetGen's message.
 
+#include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
-#include <mutex>
 #include <string>
 #include <vector>
+
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <tetgen.h>
 
@@ -73,21 +83,171 @@ void fillInput(const Cage& cage, tetgenio& in) {
   }
 }
 
-// TetGen's exact-arithmetic predicates keep their constants in globals that every call
-// re-initialises: calls are serialised.
-std::mutex tetgenMutex;
+// ---- TetGen in a child process ----
 
-// Runs TetGen, mapping its error codes to exceptions.
-void run(const std::string& switches, tetgenio& in, tetgenio& out) {
+// Writes all of `data` to fd (the child's side); false on a failed write.
+bool writeAll(int fd, const void* data, std::size_t size) {
+  const char* p = static_cast<const char*>(data);
+  while (size > 0) {
+    const ssize_t n = ::write(fd, p, size);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+// Reads both pipes to their ends (the parent's side), whichever has data, so that neither
+// side can block the other: the child's output and what it wrote to stderr.
+void readBoth(int data, int errors, std::string& output, std::string& message) {
+  pollfd fds[2] = {{data, POLLIN, 0}, {errors, POLLIN, 0}};
+  std::string* into[2] = {&output, &message};
+  char buffer[1 << 16];
+  int open = 2;
+  while (open > 0) {
+    if (::poll(fds, 2, -1) < 0) {
+      if (errno == EINTR) continue;
+      return;
+    }
+    for (int i = 0; i < 2; ++i) {
+      if (fds[i].fd < 0 || fds[i].revents == 0) continue;
+      const ssize_t n = ::read(fds[i].fd, buffer, sizeof buffer);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) {
+        fds[i].fd = -1;  // poll ignores it from now on
+        --open;
+        continue;
+      }
+      into[i]->append(buffer, static_cast<std::size_t>(n));
+    }
+  }
+}
+
+// What the callers read of TetGen's output, as the child sends it: the error code (0: none),
+// then counts and arrays of points, tets and boundary faces.
+struct Counts {
+  int code = 0, points = 0, tets = 0, corners = 0, faces = 0, markers = 0;
+};
+
+// The child: runs TetGen and writes its output to fd; never returns.
+[[noreturn]] void runChild(char* switches, tetgenio& in, int fd) {
+  tetgenio out;
+  Counts counts;
+  try {
+    tetrahedralize(switches, &in, &out);
+  } catch (int code) {
+    counts.code = code;
+  } catch (...) {
+    counts.code = 1;  // std::bad_alloc
+  }
+  if (counts.code == 0) {
+    counts.points = std::max(out.numberofpoints, 0);
+    counts.tets = out.tetrahedronlist ? std::max(out.numberoftetrahedra, 0) : 0;
+    counts.corners = out.numberofcorners;
+    counts.faces = out.trifacelist ? std::max(out.numberoftrifaces, 0) : 0;
+    counts.markers = out.trifacemarkerlist ? counts.faces : 0;
+  }
+  const auto n = [](int count, std::size_t each) { return static_cast<std::size_t>(count) * each; };
+  const bool ok =
+      writeAll(fd, &counts, sizeof counts) &&
+      writeAll(fd, out.pointlist, n(counts.points, 3 * sizeof(REAL))) &&
+      writeAll(fd, out.tetrahedronlist,
+               n(counts.tets, static_cast<std::size_t>(counts.corners) * sizeof(int))) &&
+      writeAll(fd, out.trifacelist, n(counts.faces, 3 * sizeof(int))) &&
+      writeAll(fd, out.trifacemarkerlist, n(counts.markers, sizeof(int)));
+  ::_exit(ok ? 0 : 1);  // no atexit handlers or stdio flushes of the parent's state
+}
+
+// Fills `out` from what the child sent; false if it is truncated or inconsistent.
+template <typename T>
+bool take(const std::string& data, std::size_t& at, int count, std::size_t each, T*& list) {
+  if (count < 0) return false;
+  const std::size_t bytes = static_cast<std::size_t>(count) * each * sizeof(T);
+  if (data.size() - at < bytes) return false;
+  list = nullptr;
+  if (count > 0) {
+    list = new T[static_cast<std::size_t>(count) * each];  // tetgenio deletes them with delete[]
+    std::memcpy(list, data.data() + at, bytes);
+  }
+  at += bytes;
+  return true;
+}
+
+bool readOutput(const std::string& data, Counts& counts, tetgenio& out) {
+  if (data.size() < sizeof counts) return false;
+  std::memcpy(&counts, data.data(), sizeof counts);
+  if (counts.code != 0) return data.size() == sizeof counts;
+  if (counts.corners < 0 || counts.markers > counts.faces) return false;
+  std::size_t at = sizeof counts;
+  out.firstnumber = 0;
+  out.numberofpoints = counts.points;
+  out.numberoftetrahedra = counts.tets;
+  out.numberofcorners = counts.corners;
+  out.numberoftrifaces = counts.faces;
+  return take(data, at, counts.points, 3, out.pointlist) &&
+         take(data, at, counts.tets, static_cast<std::size_t>(counts.corners),
+              out.tetrahedronlist) &&
+         take(data, at, counts.faces, 3, out.trifacelist) &&
+         take(data, at, counts.markers, 1, out.trifacemarkerlist) && at == data.size();
+}
+
+// The first line of what the child wrote to stderr (TetGen's assertion), trimmed.
+std::string firstLine(const std::string& text) {
+  std::string line = text.substr(0, text.find('\n'));
+  if (line.size() > 300) line.resize(300);
+  return line;
+}
+
+// Runs TetGen in a child process (each has its own copy of TetGen's global predicate
+// constants, so calls need no lock), mapping its error codes and its death to exceptions.
+// `cageName` names the cage in the message of a death.
+void run(const std::string& switches, tetgenio& in, tetgenio& out, const std::string& cageName) {
   std::vector<char> buffer(switches.begin(), switches.end());
   buffer.push_back('\0');
-  const std::lock_guard lock(tetgenMutex);
-  try {
-    tetrahedralize(buffer.data(), &in, &out);
-  } catch (int code) {
-    const std::string what = "tetrahedralising the cage: TetGen failed: " + reasonOf(code);
-    if (code == 1) throw OutOfMemory(what);
-    if (code == 2) throw SolverError(what);
+  int data[2], errors[2];
+  if (::pipe(data) != 0) throw SolverError("tetrahedralising the cage: cannot create a pipe");
+  if (::pipe(errors) != 0) {
+    ::close(data[0]);
+    ::close(data[1]);
+    throw SolverError("tetrahedralising the cage: cannot create a pipe");
+  }
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::close(data[0]);
+    ::close(errors[0]);
+    ::dup2(errors[1], STDERR_FILENO);
+    runChild(buffer.data(), in, data[1]);
+  }
+  ::close(data[1]);
+  ::close(errors[1]);
+  if (child < 0) {
+    ::close(data[0]);
+    ::close(errors[0]);
+    throw SolverError("tetrahedralising the cage: cannot start TetGen's process");
+  }
+  std::string output, message;
+  readBoth(data[0], errors[0], output, message);
+  ::close(data[0]);
+  ::close(errors[0]);
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
+  }
+  Counts counts;
+  if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0 && readOutput(output, counts, out))) {
+    // Appended piece by piece (GCC 12's false -Wrestrict on "literal" + std::string).
+    std::string what = cageName;
+    what += ": tetrahedralising the cage: TetGen ";
+    what += WIFSIGNALED(status) ? "died (signal " + std::to_string(WTERMSIG(status)) + ")"
+                                : std::string("failed to return its mesh");
+    if (!message.empty()) what += ": " + firstLine(message);
+    what += "; another tet count (targetTetCount or maxTetVolumeFraction) may avoid it";
+    throw SolverError(what);
+  }
+  if (counts.code != 0) {
+    const std::string what = "tetrahedralising the cage: TetGen failed: " + reasonOf(counts.code);
+    if (counts.code == 1) throw OutOfMemory(what);
+    if (counts.code == 2) throw SolverError(what);
     throw InvalidInput(what);
   }
 }
@@ -125,7 +285,7 @@ void checkOptions(const TetMeshOptions& options) {
 void requireNoSelfIntersection(const Cage& cage) {
   tetgenio in, out;
   fillInput(cage, in);
-  run("pzQd", in, out);
+  run("pzQd", in, out, cage.name());
   if (out.numberoftrifaces <= 0) return;
   std::string example;
   if (out.trifacemarkerlist != nullptr) {
@@ -218,7 +378,7 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
     switches += 'a';
     switches += number(options.maxTetVolume / (frame.scale * frame.scale * frame.scale));
   }
-  run(switches, in, out);
+  run(switches, in, out, cage.name());
   tracker.check();
 
   const std::size_t nV = cage.vertexCount();

@@ -41,7 +41,9 @@ struct TetMesh {
   /// cage.vertexCount() are the cage vertices, bit-identical).
   std::vector<Vec3> vertices;
   /// Corner indices of every tet, positively oriented (det(p1 − p0, p2 − p0, p3 − p0) > 0 in
-  /// localVertices).
+  /// localVertices). Some may be flat (isFlatTet, coords/tet_locator.h): TetGen rounds the
+  /// Steiner points of a slanted cage face off its plane and fills the round-off gaps; such tets
+  /// hold no point (TetLocator) and no stiffness (the harmonic assembly).
   std::vector<std::array<std::uint32_t, 4>> tets;
   /// Per vertex: the cage triangle it lies on (the lowest index when it is on several), or −1
   /// for an interior vertex. Cage vertices lie on their triangles too.
@@ -54,7 +56,9 @@ struct TetMesh {
 /// Throws InvalidInput for out-of-range options, for a self-intersecting cage (naming two of
 /// the intersecting triangles; checked first, since TetGen cannot mesh such input) and for
 /// any other input TetGen rejects, with TetGen's reason; SolverError if TetGen fails
-/// internally, OutOfMemory (a SolverError) if it runs out of memory.
+/// internally or dies (it runs in a child process, so that a failed assertion of Debian's
+/// TetGen, which aborts, names the cage and TetGen's message instead of ending the caller),
+/// OutOfMemory (a SolverError) if it runs out of memory.
 TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options = {},
                            const ProgressCallback& progress = {});
 

@@ -1,6 +1,6 @@
 #pragma once
-// Procedural test cages: a tetrahedron, an L-shaped (concave) prism, a star-shaped polyhedron
-// and an icosphere, each a closed, outward-oriented soup.
+// Procedural test cages: a tetrahedron, an L-shaped (concave) prism, a star-shaped polyhedron,
+// a box with a pinched waist and an icosphere, each a closed, outward-oriented soup.
 
 #include <algorithm>
 #include <cmath>
@@ -54,6 +54,27 @@ inline PolygonSoup star() {
     s.addPolygon({f[0], f[1], tip});
     s.addPolygon({f[1], f[2], tip});
     s.addPolygon({f[2], f[0], tip});
+  }
+  return s;
+}
+
+/// The box [−1, 1]³ with its middle ring of vertices (z = 0) scaled by `waist` towards the z
+/// axis: concave for waist < 1, 12 vertices, 10 quads (its slanted sides are planar trapezoids).
+/// Vertices 0–3 are the bottom ring, 4–7 the waist, 8–11 the top.
+inline PolygonSoup pinchedBox(double waist) {
+  PolygonSoup s;
+  const double ring[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+  for (const double z : {-1.0, 0.0, 1.0}) {
+    const double scale = z == 0.0 ? waist : 1.0;
+    for (const auto& p : ring) s.positions.push_back(Vec3(scale * p[0], scale * p[1], z));
+  }
+  s.addPolygon({3, 2, 1, 0});
+  s.addPolygon({8, 9, 10, 11});
+  for (std::uint32_t r = 0; r < 2; ++r) {
+    for (std::uint32_t i = 0; i < 4; ++i) {
+      const std::uint32_t j = (i + 1) % 4;
+      s.addPolygon({4 * r + i, 4 * r + j, 4 * r + 4 + j, 4 * r + 4 + i});
+    }
   }
   return s;
 }
