@@ -16,11 +16,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include <poll.h>
+#include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -99,16 +101,20 @@ bool writeAll(int fd, const void* data, std::size_t size) {
 }
 
 // Reads both pipes to their ends (the parent's side), whichever has data, so that neither
-// side can block the other: the child's output and what it wrote to stderr.
-void readBoth(int data, int errors, std::string& output, std::string& message) {
+// side can block the other: the child's output and what it wrote to stderr. Calls `tick` every
+// tenth of a second of waiting (a cancel it throws ends the read).
+void readBoth(int data, int errors, std::string& output, std::string& message,
+              const std::function<void()>& tick) {
   pollfd fds[2] = {{data, POLLIN, 0}, {errors, POLLIN, 0}};
   std::string* into[2] = {&output, &message};
   char buffer[1 << 16];
   int open = 2;
   while (open > 0) {
-    if (::poll(fds, 2, -1) < 0) {
-      if (errno == EINTR) continue;
-      return;
+    const int ready = ::poll(fds, 2, 100);
+    if (ready < 0 && errno != EINTR) return;
+    if (ready <= 0) {
+      tick();
+      continue;
     }
     for (int i = 0; i < 2; ++i) {
       if (fds[i].fd < 0 || fds[i].revents == 0) continue;
@@ -201,8 +207,10 @@ std::string firstLine(const std::string& text) {
 
 // Runs TetGen in a child process (each has its own copy of TetGen's global predicate
 // constants, so calls need no lock), mapping its error codes and its death to exceptions.
-// `cageName` names the cage in the message of a death.
-void run(const std::string& switches, tetgenio& in, tetgenio& out, const std::string& cageName) {
+// `cageName` names the cage in the message of a death. A cancel (`tracker`, polled while TetGen
+// runs) kills the child.
+void run(const std::string& switches, tetgenio& in, tetgenio& out, const std::string& cageName,
+         ProgressTracker& tracker) {
   std::vector<char> buffer(switches.begin(), switches.end());
   buffer.push_back('\0');
   int data[2], errors[2];
@@ -227,12 +235,22 @@ void run(const std::string& switches, tetgenio& in, tetgenio& out, const std::st
     throw SolverError("tetrahedralising the cage: cannot start TetGen's process");
   }
   std::string output, message;
-  readBoth(data[0], errors[0], output, message);
-  ::close(data[0]);
-  ::close(errors[0]);
-  int status = 0;
-  while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
+  const auto reap = [&] {
+    ::close(data[0]);
+    ::close(errors[0]);
+    int status = 0;
+    while (::waitpid(child, &status, 0) < 0 && errno == EINTR) {
+    }
+    return status;
+  };
+  try {
+    readBoth(data[0], errors[0], output, message, [&] { tracker.poll(); });
+  } catch (...) {
+    ::kill(child, SIGKILL);
+    reap();
+    throw;
   }
+  const int status = reap();
   Counts counts;
   if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0 && readOutput(output, counts, out))) {
     // Appended piece by piece (GCC 12's false -Wrestrict on "literal" + std::string).
@@ -282,10 +300,10 @@ void checkOptions(const TetMeshOptions& options) {
 }
 
 // Self-intersection check first: TetGen's PLC mesher may crash on such input.
-void requireNoSelfIntersection(const Cage& cage) {
+void requireNoSelfIntersection(const Cage& cage, ProgressTracker& tracker) {
   tetgenio in, out;
   fillInput(cage, in);
-  run("pzQd", in, out, cage.name());
+  run("pzQd", in, out, cage.name(), tracker);
   if (out.numberoftrifaces <= 0) return;
   std::string example;
   if (out.trifacemarkerlist != nullptr) {
@@ -366,7 +384,7 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
   checkOptions(options);
   ProgressTracker tracker(progress, "tetrahedralise", 1);
   tracker.check();
-  requireNoSelfIntersection(cage);
+  requireNoSelfIntersection(cage, tracker);
 
   tetgenio in, out;
   fillInput(cage, in);
@@ -378,7 +396,7 @@ TetMesh tetrahedraliseCage(const Cage& cage, const TetMeshOptions& options,
     switches += 'a';
     switches += number(options.maxTetVolume / (frame.scale * frame.scale * frame.scale));
   }
-  run(switches, in, out, cage.name());
+  run(switches, in, out, cage.name(), tracker);
   tracker.check();
 
   const std::size_t nV = cage.vertexCount();

@@ -60,6 +60,14 @@ class ProgressTracker {
     if (cancelled_.load(std::memory_order_relaxed)) throw Cancelled(stage_);
   }
 
+  /// Reports the fraction done so far once more, for work that runs long between units (a
+  /// display stays alive, a cancel is seen), then throws Cancelled if the callback asks to stop.
+  void poll() {
+    const std::size_t done = done_.load(std::memory_order_relaxed);
+    report(total_ ? std::min(1.0, static_cast<double>(done) / static_cast<double>(total_)) : 0.0);
+    check();
+  }
+
   /// Throws Cancelled if the callback has asked to stop.
   void check() const {
     if (cancelled_.load(std::memory_order_relaxed)) throw Cancelled(stage_);
