@@ -644,8 +644,10 @@ void greenAtan2(std::span<const double> y, std::span<const double> x, std::span<
 GreenCoordinates::GreenCoordinates(std::shared_ptr<const Cage> cage, GreenOptions options)
     : cage_(std::move(cage)), options_(options) {
   if (!cage_) throw InvalidInput("GreenCoordinates: the cage is null");
-  if (!std::isfinite(options_.surfaceTolerance) || options_.surfaceTolerance < 0.0) {
-    throw InvalidInput("GreenCoordinates: surfaceTolerance must be finite and non-negative, not " +
+  // Bounded as MeanValueOptions::snapTolerance: a point a sizeable fraction of the cage away
+  // from its surface is not on it (at 1, the cage's center was).
+  if (!(options_.surfaceTolerance >= 0.0 && options_.surfaceTolerance <= 1e-3)) {
+    throw InvalidInput("GreenCoordinates: surfaceTolerance must be in [0, 1e-3], not " +
                        std::to_string(options_.surfaceTolerance));
   }
   auto impl = std::make_unique<Impl>();

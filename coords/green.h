@@ -77,7 +77,8 @@ struct GreenOptions {
   /// surface formula is needed only on an edge or at a vertex, where they are singular (points at
   /// distance exactly 0 always get it, even with a tolerance of 0). The tolerance catches points
   /// that are on the surface up to round-off; treating a point at distance δ as a surface point
-  /// changes its coordinates by O(δ log δ) relative. Must be finite and ≥ 0.
+  /// changes its coordinates by O(δ log δ) relative. Must be in [0, 1e-3] (as
+  /// MeanValueOptions::snapTolerance).
   double surfaceTolerance = 1e-14;
 };
 

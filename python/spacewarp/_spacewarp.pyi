@@ -446,6 +446,12 @@ class Geometry:
     def copy(self) -> Geometry:
         """A deep copy."""
 
+    def __copy__(self) -> Geometry:
+        """A deep copy (copy.copy): a Geometry shares no storage."""
+
+    def __deepcopy__(self, memo: dict[str, Any]) -> Geometry:
+        """A deep copy (copy.deepcopy)."""
+
     def __len__(self) -> int: ...
 
     def __repr__(self) -> str: ...

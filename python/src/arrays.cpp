@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <limits>
 #include <string>
 
 #include <spacewarp/core/errors.h>
@@ -22,7 +23,30 @@ std::string shapeText(const py::array& array) {
 
 }  // namespace
 
+std::size_t firstNonFinite(std::span<const Vec3> points) {
+  // One vectorisable pass: x - x is 0 for finite x and NaN otherwise, and NaN survives the sum.
+  double sum = 0.0;
+  for (const Vec3& p : points) sum += (p.x - p.x) + (p.y - p.y) + (p.z - p.z);
+  if (sum == 0.0) return points.size();
+  return static_cast<std::size_t>(
+      std::find_if(points.begin(), points.end(), [](const Vec3& p) { return !isFinite(p); }) -
+      points.begin());
+}
+
+void requireFinite(std::span<const Vec3> points, const char* name) {
+  if (const std::size_t i = firstNonFinite(points); i < points.size()) {
+    // "point 2 is not finite", as the library says it; "normals row 2 ..." for other arrays.
+    const std::string what = std::string_view(name) == "points" ? "point " + std::to_string(i)
+                             : points.size() > 1 ? std::string(name) + " row " + std::to_string(i)
+                                                 : std::string(name);
+    throw InvalidInput(what + " is not finite");
+  }
+}
+
 Points toPoints(py::handle object, const char* name, bool allowSingle) {
+  if (py::isinstance<py::array>(object) &&
+      py::reinterpret_borrow<py::array>(object).dtype().kind() == 'c')
+    throw InvalidInput(std::string(name) + " must be real numbers, not complex");
   Points points;
   points.array = DoubleArray::ensure(object);
   if (!points.array) {
@@ -98,9 +122,13 @@ Polygons toPolygons(py::handle faces, std::size_t vertexCount) {
     if (kind != 'i' && kind != 'u')
       throw InvalidInput("faces must be an integer array, not " + std::string(py::str(a.dtype())));
     if (a.ndim() != 2) throw InvalidInput("faces must have shape (m, k), not " + shapeText(a));
-    const auto rows = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(a);
-    for (py::ssize_t f = 0; f < rows.shape(0); ++f) {
-      for (py::ssize_t c = 0; c < rows.shape(1); ++c) add(rows.at(f, c));
+    // Unsigned indices past the range of long long are out of range, not negative.
+    const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t f = 0; f < values.shape(0); ++f) {
+      for (py::ssize_t c = 0; c < values.shape(1); ++c) {
+        const double v = values.at(f, c);
+        add(v >= 9.2e18 ? std::numeric_limits<long long>::max() : static_cast<long long>(v));
+      }
       close();
     }
     return polygons;

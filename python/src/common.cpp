@@ -4,6 +4,9 @@
 #include <csignal>
 #include <exception>
 #include <thread>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <utility>
 
 #include <spacewarp/core/errors.h>
@@ -38,12 +41,15 @@ extern "C" void onSigint(int signal, siginfo_t* info, void* context) {
 class SigintGuard {
  public:
   SigintGuard() {
-    if (depth_ > 0) {
-      ++depth_;
-      return;
-    }
+    // Only the main thread's calls: signal handlers run there, and a call in another thread
+    // must neither see nor clear an interrupt meant for the main thread's call.
     const py::module_ threading = py::module_::import("threading");
     if (!threading.attr("current_thread")().is(threading.attr("main_thread")())) return;
+    if (depth_ > 0) {
+      ++depth_;
+      nested_ = true;
+      return;
+    }
     struct sigaction current {};
     if (sigaction(SIGINT, nullptr, &current) != 0) return;
     const bool handled = (current.sa_flags & SA_SIGINFO) ||
@@ -55,19 +61,23 @@ class SigintGuard {
     sigemptyset(&ours.sa_mask);
     gPreviousSigint = current;
     gInterrupted.store(false, std::memory_order_relaxed);
-    if (sigaction(SIGINT, &ours, nullptr) == 0) depth_ = 1;
+    if (sigaction(SIGINT, &ours, nullptr) == 0) {
+      depth_ = 1;
+      installed_ = true;
+    }
   }
   ~SigintGuard() {
-    if (depth_ == 0) return;
+    if (!nested_ && !installed_) return;
     if (--depth_ == 0) sigaction(SIGINT, &gPreviousSigint, nullptr);
   }
   SigintGuard(const SigintGuard&) = delete;
   SigintGuard& operator=(const SigintGuard&) = delete;
 
-  bool active() const { return depth_ > 0; }
+  bool active() const { return installed_ || nested_; }
 
  private:
-  static inline int depth_ = 0;  // touched with the GIL held only
+  bool installed_ = false, nested_ = false;
+  static inline int depth_ = 0;  // the main thread's, touched with the GIL held only
 };
 
 }  // namespace
@@ -114,6 +124,19 @@ void runCancellable(const py::object& progress,
     if (pythonError) throw std::move(*pythonError);
     throw;
   }
+}
+
+void forEachPointCancellable(std::size_t n, const char* stage,
+                             const std::function<void(std::size_t)>& f) {
+  runCancellable(py::none(), [&](const ProgressCallback& callback) {
+    ProgressTracker tracker(callback, stage, n);
+    forEachBlock(n, std::size_t{1} << 14, tracker, [&](std::size_t begin, std::size_t count) {
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, begin + count, 256),
+                        [&](const tbb::blocked_range<std::size_t>& r) {
+                          for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
+                        });
+    });
+  });
 }
 
 void warnAll(const std::vector<std::string>& messages) {

@@ -35,6 +35,12 @@ struct Points {
 /// ("points must have shape (n, 3), not (4, 2)"); NaN is left for the library to name.
 Points toPoints(py::handle object, const char* name = "points", bool allowSingle = true);
 
+/// The index of the first point that is not finite, or points.size().
+std::size_t firstNonFinite(std::span<const Vec3> points);
+
+/// Throws InvalidInput naming the first point of `points` (called `name`) that is not finite.
+void requireFinite(std::span<const Vec3> points, const char* name = "points");
+
 /// A new (n, 3) float64 array, or `out` checked to be one (float64, C-contiguous, writable,
 /// (n, 3)): the array results are written to. `single` gives shape (3,).
 DoubleArray outputPoints(std::size_t n, const std::optional<py::array>& out, bool single = false);
@@ -67,6 +73,11 @@ Polygons toPolygons(py::handle faces, std::size_t vertexCount);
 /// spacewarp.Cancelled when the callable returned False.
 void runCancellable(const py::object& progress,
                     const std::function<void(const ProgressCallback&)>& work);
+
+/// f(i) for every i in [0, n), in parallel, in blocks between which a Ctrl-C (and only that:
+/// there is no progress callable) cancels; `stage` names the work in a Cancelled.
+void forEachPointCancellable(std::size_t n, const char* stage,
+                             const std::function<void(std::size_t)>& f);
 
 /// Registers the exception types (spacewarp.InvalidInput, ...) and their translation.
 void registerErrors(py::module_& m);

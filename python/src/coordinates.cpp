@@ -45,6 +45,7 @@ std::shared_ptr<Cage> makeCage(py::handle vertices, py::handle faces, const std:
 template <class F>
 py::array_t<double> perPoint(py::handle points, const F& f) {
   const Points in = toPoints(points, "points", false);
+  requireFinite(in.span);
   py::array_t<double> out(static_cast<py::ssize_t>(in.size()));
   double* o = out.mutable_data();
   const py::gil_scoped_release release;
@@ -135,18 +136,10 @@ py::object sparseWeightsOf(const Coordinates& c, py::handle points) {
   const std::size_t k = c.maxNonZeros(), n = in.size();
   std::vector<SparseWeight> entries(n * k);
   std::vector<std::size_t> counts(n);
-  {
-    const py::gil_scoped_release release;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!isFinite(in.span[i]))
-        throw InvalidInput("point " + std::to_string(i) + " is not finite");
-    }
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, n, 256), [&](const tbb::blocked_range<std::size_t>& r) {
-          for (std::size_t i = r.begin(); i != r.end(); ++i)
-            counts[i] = c.sparseWeights(in.span[i], std::span(entries).subspan(i * k, k));
-        });
-  }
+  requireFinite(in.span);
+  forEachPointCancellable(n, "sparse weights", [&](std::size_t i) {
+    counts[i] = c.sparseWeights(in.span[i], std::span(entries).subspan(i * k, k));
+  });
   py::array_t<std::int64_t> indptr(static_cast<py::ssize_t>(n + 1));
   std::size_t total = 0;
   indptr.mutable_at(0) = 0;
@@ -467,7 +460,8 @@ void bindProperties(py::module_& m) {
          std::optional<double> diagonal) {
         const Points s = toPoints(samples, "samples", false);
         if (!cage && !diagonal)
-          throw InvalidInput("give a cage, or the diagonal lengths are relative to");
+          throw InvalidInput(
+              "coordinate_properties needs the cage, or the diagonal that lengths are relative to");
         PropertyReport report;
         {
           const py::gil_scoped_release release;

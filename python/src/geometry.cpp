@@ -4,6 +4,7 @@
 #include <pybind11/stl/filesystem.h>
 
 #include <algorithm>
+#include <unordered_map>
 
 #include <spacewarp/core/deform.h>
 #include <spacewarp/core/errors.h>
@@ -17,6 +18,36 @@ namespace {
 
 using namespace pybind11::literals;
 using GeometryPtr = std::shared_ptr<PolygonSoup>;
+
+/// The geometries that a call is reading or changing with the GIL released (write, deform):
+/// touched with the GIL held only. Changing one of them from another thread meanwhile would
+/// reallocate what the call reads, so the setters refuse.
+std::unordered_map<const PolygonSoup*, int>& busyGeometries() {
+  static std::unordered_map<const PolygonSoup*, int> busy;
+  return busy;
+}
+
+/// Marks a geometry busy for the life of a call.
+class InUse {
+ public:
+  explicit InUse(const PolygonSoup& soup) : soup_(&soup) { ++busyGeometries()[soup_]; }
+  ~InUse() {
+    auto& busy = busyGeometries();
+    if (--busy[soup_] == 0) busy.erase(soup_);
+  }
+  InUse(const InUse&) = delete;
+  InUse& operator=(const InUse&) = delete;
+
+ private:
+  const PolygonSoup* soup_;
+};
+
+/// Throws unless no call is using `soup` (see busyGeometries()).
+void requireIdle(const PolygonSoup& soup) {
+  if (busyGeometries().count(&soup))
+    throw py::value_error(
+        "this Geometry is being read or changed by spacewarp in another thread (write, deform)");
+}
 
 std::string joined(const std::string& head, const std::vector<std::string>& parts) {
   std::string line = head;
@@ -33,6 +64,7 @@ std::vector<Vec3> pointVector(py::handle points, const char* name) {
 /// corner normals, texture coordinates, OBJ groups) describe the old polygons: they are kept
 /// when the polygon sizes are the same, dropped otherwise. Nothing changes on an error.
 void setFaces(PolygonSoup& soup, py::handle faces) {
+  requireIdle(soup);
   Polygons polygons = faces.is_none() ? Polygons{} : toPolygons(faces, soup.size());
   if (polygons.offsets != soup.faceOffsets) {
     soup.faceAttributes.clear();
@@ -121,6 +153,7 @@ properties return copies; assign to change them.)")
       .def_property(
           "positions", [](const PolygonSoup& s) { return copyPoints(s.positions); },
           [](PolygonSoup& s, py::handle p) {
+            requireIdle(s);
             std::vector<Vec3> v = pointVector(p, "positions");
             if (v.size() != s.size())
               throw InvalidInput("positions must keep the vertex count " +
@@ -135,6 +168,7 @@ properties return copies; assign to change them.)")
             return copyPoints(s.normals);
           },
           [](PolygonSoup& s, py::handle n) {
+            requireIdle(s);
             std::vector<Vec3> v = n.is_none() ? std::vector<Vec3>{} : pointVector(n, "normals");
             if (!v.empty() && v.size() != s.size())
               throw InvalidInput("normals must have one row per vertex");
@@ -155,6 +189,7 @@ properties return copies; assign to change them.)")
       .def(
           "set_vertex_attribute",
           [](PolygonSoup& s, const std::string& name, py::handle values, const std::string& dtype) {
+            requireIdle(s);
             setAttribute(s.attributes, s.size(), "vertex", name, values, dtype);
           },
           "name"_a, "values"_a, py::kw_only(), "dtype"_a = "float64",
@@ -162,6 +197,7 @@ properties return copies; assign to change them.)")
       .def(
           "set_face_attribute",
           [](PolygonSoup& s, const std::string& name, py::handle values, const std::string& dtype) {
+            requireIdle(s);
             setAttribute(s.faceAttributes, s.polygonCount(), "face", name, values, dtype);
           },
           "name"_a, "values"_a, py::kw_only(), "dtype"_a = "float64",
@@ -172,6 +208,13 @@ properties return copies; assign to change them.)")
       .def(
           "copy", [](const PolygonSoup& s) { return std::make_shared<PolygonSoup>(s); },
           "A deep copy.")
+      .def(
+          "__copy__", [](const PolygonSoup& s) { return std::make_shared<PolygonSoup>(s); },
+          "A deep copy (copy.copy): a Geometry shares no storage.")
+      .def(
+          "__deepcopy__",
+          [](const PolygonSoup& s, const py::dict&) { return std::make_shared<PolygonSoup>(s); },
+          "memo"_a, "A deep copy (copy.deepcopy).")
       .def("__len__", &PolygonSoup::size)
       .def("__repr__", [](const PolygonSoup& s) {
         return "<spacewarp.Geometry: " + std::to_string(s.size()) + " points, " +

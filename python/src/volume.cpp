@@ -124,10 +124,22 @@ py::tuple warpDenseAs(const Warp& warp, const py::array& values, double voxelSiz
                       WarpVolumeOptions options, const py::object& progress) {
   using ValueT = typename GridT::ValueType;
   const auto in = py::array_t<ValueT, py::array::c_style | py::array::forcecast>::ensure(values);
-  if (!in || in.ndim() != 3)
-    throw InvalidInput("values must be a 3-dimensional array (nx, ny, nz)");
-  if (!(voxelSize > 0.0) || !std::isfinite(voxelSize))
-    throw InvalidInput("voxel_size must be positive and finite");
+  if (!in || in.ndim() != 3 || in.size() == 0)
+    throw InvalidInput("values must be a non-empty 3-dimensional array (nx, ny, nz)");
+  // OpenVDB's transforms need scales well inside the range of double.
+  if (!(voxelSize >= 1e-100 && voxelSize <= 1e100))
+    throw InvalidInput("voxel_size must be in [1e-100, 1e100] world units, not " +
+                       std::to_string(voxelSize));
+  if (!isFinite(origin)) throw InvalidInput("origin is not finite");
+  if (!std::isfinite(background)) throw InvalidInput("background is not finite");
+  for (py::ssize_t i = 0; i < in.size(); ++i) {
+    if (!std::isfinite(double(in.data()[i]))) {
+      const py::ssize_t nz = in.shape(2), ny = in.shape(1);
+      throw InvalidInput("values[" + std::to_string(i / (ny * nz)) + ", " +
+                         std::to_string(i / nz % ny) + ", " + std::to_string(i % nz) +
+                         "] is not finite");
+    }
+  }
   py::array_t<ValueT> out;
   Vec3 outOrigin(0.0);
   runCancellable(progress, [&](const ProgressCallback& callback) {
@@ -152,7 +164,12 @@ py::tuple warpDenseAs(const Warp& warp, const py::array& values, double voxelSiz
         if (std::abs(double(*voxel)) >= std::abs(background)) voxel.setValueOff();
       openvdb::tools::pruneLevelSet(grid->tree());
     }
-    const auto warped = warpVolume(warp, *grid, options).grid;
+    typename GridT::Ptr warped;
+    try {
+      warped = warpVolume(warp, *grid, options).grid;
+    } catch (const openvdb::Exception& e) {
+      throw InvalidInput(std::string("warp_dense: ") + e.what());
+    }
     const openvdb::CoordBBox active = warped->evalActiveVoxelBoundingBox();
     const openvdb::Coord size = active.empty() ? openvdb::Coord(0) : active.dim();
     {

@@ -36,26 +36,6 @@ WarpPtr held(std::shared_ptr<const Warp> warp) {
   return std::const_pointer_cast<Warp>(std::move(warp));
 }
 
-/// f(i) for every i in [0, n), in parallel.
-template <class F>
-void forEachPoint(std::size_t n, const F& f) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
-                    });
-}
-
-/// The index of the first point of `points` that is not finite, or points.size(). One
-/// vectorisable pass: x - x is 0 for finite x and NaN otherwise, and NaN survives the sum.
-std::size_t firstNonFinite(std::span<const Vec3> points) {
-  double sum = 0.0;
-  for (const Vec3& p : points) sum += (p.x - p.x) + (p.y - p.y) + (p.z - p.z);
-  if (sum == 0.0) return points.size();
-  return static_cast<std::size_t>(
-      std::find_if(points.begin(), points.end(), [](const Vec3& p) { return !isFinite(p); }) -
-      points.begin());
-}
-
 /// Whether two spans share memory without being the same span.
 bool overlapsOtherwise(std::span<const Vec3> a, std::span<const Vec3> b) {
   if (a.data() == b.data() || a.empty() || b.empty()) return false;
@@ -101,35 +81,33 @@ DoubleArray applyWarp(const Warp& warp, py::handle points, const std::optional<p
 
 DoubleArray jacobians(const Warp& warp, py::handle points) {
   const Points in = toPoints(points);
+  requireFinite(in.span);
   std::vector<py::ssize_t> shape{static_cast<py::ssize_t>(in.size()), 3, 3};
   if (in.single) shape.erase(shape.begin());
   DoubleArray result(shape);
   double* out = result.mutable_data();
-  {
-    const py::gil_scoped_release release;
-    forEachPoint(in.size(), [&](std::size_t i) {
-      const Mat3 j = warp.jacobian(in.span[i]);
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) out[9 * i + 3 * r + c] = j[c][r];
-    });
-  }
+  forEachPointCancellable(in.size(), "jacobian", [&](std::size_t i) {
+    const Mat3 j = warp.jacobian(in.span[i]);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) out[9 * i + 3 * r + c] = j[c][r];
+  });
   return result;
 }
 
 DoubleArray normals(const Warp& warp, py::handle points, py::handle normalsIn) {
   const Points in = toPoints(points);
   const Points n = toPoints(normalsIn, "normals");
+  requireFinite(in.span);
+  requireFinite(n.span, "normals");
   if (n.size() != in.size() || n.single != in.single) {
     throw InvalidInput("normals must have the shape of points (" + std::to_string(in.size()) +
                        " points, " + std::to_string(n.size()) + " normals)");
   }
   DoubleArray result = outputPoints(in.size(), std::nullopt, in.single);
   const std::span<Vec3> out = pointsOf(result);
-  {
-    const py::gil_scoped_release release;
-    forEachPoint(in.size(),
-                 [&](std::size_t i) { out[i] = transformNormal(warp, in.span[i], n.span[i]); });
-  }
+  forEachPointCancellable(in.size(), "transform normals", [&](std::size_t i) {
+    out[i] = transformNormal(warp, in.span[i], n.span[i]);
+  });
   return result;
 }
 
@@ -137,6 +115,12 @@ py::tuple inverseOf(const Warp& warp, py::handle points, double tolerance, int m
                     double lengthScale, bool continuation, bool closedForm,
                     const py::object& progress) {
   const Points in = toPoints(points);
+  if (maxIterations < 0)
+    throw InvalidInput("max_iterations must be >= 0, not " + std::to_string(maxIterations));
+  if (!(tolerance >= 0.0 && std::isfinite(tolerance)))
+    throw InvalidInput("tolerance must be finite and >= 0, not " + std::to_string(tolerance));
+  if (!(lengthScale >= 0.0 && std::isfinite(lengthScale)))
+    throw InvalidInput("length_scale must be finite and >= 0, not " + std::to_string(lengthScale));
   const InverseOptions options{.maxIterations = maxIterations,
                                .tolerance = tolerance,
                                .lengthScale = lengthScale,
@@ -193,7 +177,9 @@ did not converge: check `converged`. Parallel; results do not depend on the thre
       .def(
           "exact_inverse",
           [](const Warp& w, py::handle y) -> py::object {
-            const std::optional<Vec3> x = w.exactInverse(toVec3(y, "point"));
+            const Vec3 point = toVec3(y, "point");
+            requireFinite(std::span<const Vec3>(&point, 1), "point");
+            const std::optional<Vec3> x = w.exactInverse(point);
             if (!x) return py::none();
             return copyPoints(std::span<const Vec3>(&*x, 1)).attr("reshape")(3);
           },

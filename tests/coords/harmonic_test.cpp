@@ -470,6 +470,18 @@ TEST(HarmonicCoordinates, ReportsProgressAndCancels) {
   }
 }
 
+// A cancel while TetGen meshes (in its own process) is seen by the parent's polls: the child is
+// killed, not waited for. The mesh asked for here (about 5M tets) would take a minute or more;
+// the cancel comes at the fourth report of the meshing stage, i.e. within its first second.
+TEST(TetMesh, CancelStopsTetGenWhileItMeshes) {
+  const CagePtr cage = makeCage(test::star(), "star");
+  int reports = 0;
+  EXPECT_THROW(tetrahedraliseCage(*cage, {2.0, cage->volume() / 5e6},
+                                  [&](std::string_view, double) { return ++reports < 4; }),
+               Cancelled);
+  EXPECT_EQ(reports, 4);
+}
+
 TEST(TetLocator, FindsTheContainingTetOrNone) {
   const std::vector<Vec3> vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1),
                                       Vec3(1, 1, 1)};
