@@ -4,6 +4,7 @@
 #include <pybind11/stl/filesystem.h>
 
 #include <algorithm>
+#include <atomic>
 #include <limits>
 #include <mutex>
 
@@ -57,25 +58,38 @@ DoubleArray applyWarp(const Warp& warp, py::handle points, const std::optional<p
     in.array = copyPoints(in.span);
     in.span = {reinterpret_cast<const Vec3*>(in.array.data()), in.span.size()};
   }
+  // Blocks of 2^16 points, each warped and checked while in cache (a NaN input, or a warp that
+  // overflows, is an error as in deform()); the blocks run in parallel, so that a busy core
+  // delays no other, and each one reports (a Ctrl-C or a progress callable can stop the work).
+  constexpr std::size_t kBlock = std::size_t{1} << 16;
+  const std::size_t blocks = (in.size() + kBlock - 1) / kBlock;
+  std::atomic<std::size_t> firstBad{in.size()};
   runCancellable(progress, [&](const ProgressCallback& callback) {
-    // The blocks of deform() (core/deform.cpp) with a display; each block's results are checked
-    // while they are in cache (a NaN input, or a warp that overflows, is an error as in deform()).
     ProgressTracker tracker(callback, "warp", in.size());
-    forEachBlock(in.size(), std::size_t{1} << 16, tracker,
-                 [&](std::size_t begin, std::size_t count) {
-                   const auto block = moved.subspan(begin, count);
-                   warp.applyBatch(in.span.subspan(begin, count), block);
-                   if (const std::size_t bad = firstNonFinite(block); bad < count) {
-                     const std::size_t i = begin + bad;
-                     const std::string point = "point " + std::to_string(i);
-                     if (in.span.data() == moved.data())  // in place: the input is gone
-                       throw InvalidInput(point + ": the warped position is not finite");
-                     throw InvalidInput(isFinite(in.span[i])
-                                            ? "the warp sent " + point + " to a non-finite position"
-                                            : point + " is not finite");
-                   }
-                 });
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, blocks, 1),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          for (std::size_t b = r.begin(); b != r.end(); ++b) {
+            const std::size_t begin = b * kBlock, count = std::min(kBlock, in.size() - begin);
+            const auto block = moved.subspan(begin, count);
+            warp.applyBatch(in.span.subspan(begin, count), block);
+            if (const std::size_t bad = firstNonFinite(block); bad < count) {
+              std::size_t seen = firstBad.load();
+              while (begin + bad < seen && !firstBad.compare_exchange_weak(seen, begin + bad)) {
+              }
+            }
+            tracker.advance(count);
+          }
+        });
+    tracker.finish();
   });
+  if (const std::size_t i = firstBad.load(); i < in.size()) {
+    const std::string point = "point " + std::to_string(i);
+    if (in.span.data() == moved.data())  // in place: the input is gone
+      throw InvalidInput(point + ": the warped position is not finite");
+    throw InvalidInput(isFinite(in.span[i]) ? "the warp sent " + point + " to a non-finite position"
+                                            : point + " is not finite");
+  }
   return result;
 }
 
