@@ -522,7 +522,8 @@ class Harmonic(Coordinates):
     ) -> None: ...
 
     @property
-    def tet_count(self) -> int: ...
+    def tet_count(self) -> int:
+        """Tetrahedra of the mesh solved on."""
 
     def save(self, path: _Path) -> None:
         """Writes the solve to a file (atomically)."""
@@ -579,7 +580,8 @@ class Lattice(Coordinates):
         """
 
     @property
-    def resolution(self) -> list[int]: ...
+    def resolution(self) -> list[int]:
+        """Control points per axis (l, m, n)."""
 
 
 class MeanValue(Coordinates):

@@ -315,8 +315,9 @@ tets, else solved and saved there. outside: "raise" or "nearest" for points outs
            }),
            "cage"_a, py::kw_only(), "tets"_a = 0, "cache"_a = py::none(), "outside"_a = "raise",
            "progress"_a = py::none())
-      .def_property_readonly("tet_count",
-                             [](const HarmonicCoordinates& c) { return c.mesh().tets.size(); })
+      .def_property_readonly(
+          "tet_count", [](const HarmonicCoordinates& c) { return c.mesh().tets.size(); },
+          "Tetrahedra of the mesh solved on.")
       .def("save", &HarmonicCoordinates::save, "path"_a,
            "Writes the solve to a file (atomically).");
   m.def(
@@ -403,8 +404,9 @@ basis "trilinear", "bernstein" or "bspline"; points outside: "identity", "clamp"
           R"(Direct manipulation (Hsu et al. 1992): the posed control points (V, 3) that carry
 `from_points` (k, 3) to `to_points` (k, 3) in least squares with a smoothness regulariser.
 Returns (posed, rms_residual, max_residual), world units.)")
-      .def_property_readonly("resolution",
-                             [](const LatticeCoordinates& c) { return c.lattice().resolution(); });
+      .def_property_readonly(
+          "resolution", [](const LatticeCoordinates& c) { return c.lattice().resolution(); },
+          "Control points per axis (l, m, n).");
 }
 
 void bindHandleCoordinates(py::module_& m) {
@@ -479,7 +481,12 @@ spacewarp.testing.)");
   m.def(
       "interior_samples",
       [](const Cage& cage, std::size_t count, std::uint64_t seed) {
-        return copyPoints(interiorSamples(cage, count, seed));
+        std::vector<Vec3> samples;
+        {
+          const py::gil_scoped_release release;
+          samples = interiorSamples(cage, count, seed);
+        }
+        return copyPoints(samples);
       },
       "cage"_a, "count"_a, py::kw_only(), "seed"_a = 1,
       "`count` points (count, 3) uniformly inside the cage, deterministic for a seed.");

@@ -403,6 +403,8 @@ check `converged`.)")
       .def(
           "reset",
           [](Graph& g) {
+            // A solve holds the lock while its progress callable needs the GIL: lock without it.
+            const py::gil_scoped_release release;
             const std::lock_guard lock(g.mutex);
             g.graph.reset();
           },
@@ -410,6 +412,7 @@ check `converged`.)")
       .def(
           "warp",
           [](Graph& g) {
+            const py::gil_scoped_release release;
             const std::lock_guard lock(g.mutex);
             return std::make_shared<DeformationGraphWarp>(g.graph.warp());
           },
