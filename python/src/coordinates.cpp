@@ -24,6 +24,7 @@
 #include <spacewarp/rig/cage_rig.h>
 
 #include "common.h"
+#include "rbf_options.h"
 
 namespace spacewarp::python {
 namespace {
@@ -423,12 +424,7 @@ that moves the centers to `posed`.)")
              if (fixed && !fixed->is_none()) f = toPoints(*fixed, "fixed", false);
              std::shared_ptr<RbfCoordinates> result;
              runCancellable(progress, [&](const ProgressCallback& callback) {
-               RbfOptions options;
-               options.kernel = rbfKernelFromName(kernel);
-               options.scale = scale;
-               options.radius = radius;
-               options.smoothing = smoothing;
-               options.progress = callback;
+               const RbfOptions options = rbfOptions(kernel, scale, radius, smoothing, callback);
                result = std::make_shared<RbfCoordinates>(
                    c.span, f ? f->span : std::span<const Vec3>{}, options);
              });

@@ -24,6 +24,7 @@
 #include <spacewarp/rig/rig.h>
 
 #include "common.h"
+#include "rbf_options.h"
 
 namespace spacewarp::python {
 namespace {
@@ -436,12 +437,7 @@ Wendland; smoothing >= 0 turns interpolation into approximation.)")
              if (fixed && !fixed->is_none()) f = toPoints(*fixed, "fixed", false);
              std::shared_ptr<RbfWarp> warp;
              runCancellable(progress, [&](const ProgressCallback& callback) {
-               RbfOptions options;
-               options.kernel = rbfKernelFromName(kernel);
-               options.scale = scale;
-               options.radius = radius;
-               options.smoothing = smoothing;
-               options.progress = callback;
+               const RbfOptions options = rbfOptions(kernel, scale, radius, smoothing, callback);
                warp = std::make_shared<RbfWarp>(c.span, t.span,
                                                 f ? f->span : std::span<const Vec3>{}, options);
              });

@@ -9,6 +9,7 @@ Nothing here depends on the current folder: every file goes to pytest's tmp_path
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import signal
@@ -156,21 +157,18 @@ def central_jacobian(f: Callable[[np.ndarray], np.ndarray], points: np.ndarray,
     return j
 
 
-# A child script's start: `warp`, a mean-value warp of a 98-vertex cage (the cube's faces cut
-# into 4 x 4 quads), and 2M `points` inside it: seconds of work to interrupt.
-CAGE_SCRIPT = """
-import sys, time
-import numpy as np
-import spacewarp
+def subdivided_cube(n: int) -> tuple[np.ndarray, list[list[int]]]:
+    """The cube [-1, 1]^3 with each face cut into n x n quads, oriented outward: (V, 3), faces."""
+    index: dict = {}
+    vertices: list = []
+    faces: list = []
 
-def subdivided_cube(n):
-    # the cube [-1, 1]^3, each face cut into n x n quads, oriented outward
-    index, vertices, faces = {}, [], []
     def vid(key):
         if key not in index:
             index[key] = len(vertices)
             vertices.append([c / n for c in key])
         return index[key]
+
     for axis in range(3):
         u, v = [a for a in range(3) if a != axis]
         for sign in (-1, 1):
@@ -189,11 +187,16 @@ def subdivided_cube(n):
                     faces.append(quad)
     return np.array(vertices, float), faces
 
+
+# A child script's start: `warp`, a mean-value warp of a 98-vertex cage (subdivided_cube(4), its
+# source copied in), and 2M `points` inside it: seconds of work to interrupt.
+CAGE_SCRIPT = ("from __future__ import annotations\nimport sys, time\nimport numpy as np\n"
+               "import spacewarp\n\n" + inspect.getsource(subdivided_cube) + """
 vertices, faces = subdivided_cube(4)
 cage = spacewarp.Cage(vertices, faces)
 warp = spacewarp.MeanValue(cage).warp(vertices * 1.1)
 points = np.random.default_rng(0).uniform(-0.9, 0.9, size=(2_000_000, 3))
-"""
+""")
 
 
 def _read_line(stream, timeout: float) -> str | None:

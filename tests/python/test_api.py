@@ -15,7 +15,7 @@ import pytest
 
 spacewarp = pytest.importorskip("spacewarp")
 
-# Members that have no docstring in this build (see test_known_undocumented_members).
+from conftest import subdivided_cube  # noqa: E402
 
 CONSTANTS = {"__version__", "has_volumes"}
 
@@ -105,40 +105,9 @@ def test_version_without_the_cli():
 # The GIL
 
 
-def _subdivided_cube(n: int):
-    """The cube [-1, 1]^3 with each face cut into n x n outward quads (shared vertices)."""
-    index: dict = {}
-    vertices: list = []
-    faces = []
-
-    def vid(key):
-        if key not in index:
-            index[key] = len(vertices)
-            vertices.append([c / n for c in key])
-        return index[key]
-
-    for axis in range(3):
-        u, v = [a for a in range(3) if a != axis]
-        for sign in (-1, 1):
-            for i in range(n):
-                for j in range(n):
-                    quad = []
-                    for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1)):
-                        key = [0, 0, 0]
-                        key[axis] = sign * n
-                        key[u] = 2 * (i + di) - n
-                        key[v] = 2 * (j + dj) - n
-                        quad.append(vid(tuple(key)))
-                    a, b, c = (np.array(vertices[q]) for q in quad[:3])
-                    if np.cross(b - a, c - a)[axis] * sign < 0:
-                        quad.reverse()
-                    faces.append(quad)
-    return np.array(vertices, float), faces
-
-
 @pytest.fixture(scope="module")
 def big_cage():
-    vertices, faces = _subdivided_cube(6)
+    vertices, faces = subdivided_cube(6)
     cage = spacewarp.Cage(vertices, faces)
     assert cage.volume == pytest.approx(8.0) and cage.reoriented_count == 0
     return cage
