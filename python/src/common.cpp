@@ -118,8 +118,7 @@ void runCancellable(const py::object& progress,
     }
   };
   try {
-    const py::gil_scoped_release release;
-    work(watch || report ? callback : ProgressCallback{});
+    withoutGil([&] { work(watch || report ? callback : ProgressCallback{}); });
   } catch (const Cancelled&) {
     if (pythonError) throw std::move(*pythonError);
     throw;

@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 
 #include <cstddef>
+#include <exception>
 #include <functional>
 #include <optional>
 #include <span>
@@ -64,6 +65,24 @@ struct Polygons {
 /// index sequences (polygons of any size). Throws InvalidInput naming the face for an index
 /// that is not an integer or not a vertex.
 Polygons toPolygons(py::handle faces, std::size_t vertexCount);
+
+/// Runs f() with the GIL released and returns what it returns (or rethrows what it throws).
+/// Not RAII on purpose: when the interpreter exits while a daemon thread is in here, Python ends
+/// that thread as it takes the GIL back (pthread_exit, a forced unwind), and from a destructor
+/// such as gil_scoped_release's, which is noexcept, that aborts the process. Taken back here, in
+/// plain code, the thread unwinds and ends quietly.
+template <class F>
+void withoutGil(F&& f) {
+  PyThreadState* const state = PyEval_SaveThread();
+  std::exception_ptr error;
+  try {
+    f();
+  } catch (...) {
+    error = std::current_exception();
+  }
+  PyEval_RestoreThread(state);
+  if (error) std::rethrow_exception(error);
+}
 
 /// Runs library work with the GIL released. While it runs, a Ctrl-C (SIGINT) in the main
 /// thread sets a flag that the progress callback handed to `work` turns into a cancel, and

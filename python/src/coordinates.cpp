@@ -49,11 +49,12 @@ py::array_t<double> perPoint(py::handle points, const F& f) {
   requireFinite(in.span);
   py::array_t<double> out(static_cast<py::ssize_t>(in.size()));
   double* o = out.mutable_data();
-  const py::gil_scoped_release release;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 256),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) o[i] = f(in.span[i]);
-                    });
+  withoutGil([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, in.size(), 256),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) o[i] = f(in.span[i]);
+                      });
+  });
   return out;
 }
 
@@ -177,8 +178,7 @@ suit; `weights` shows them without a copy.)")
             const Points p = toPoints(posed, "posed", false);
             DoubleArray result = outputPoints(b.pointCount(), out);
             const std::span<Vec3> o = pointsOf(result);
-            const py::gil_scoped_release release;
-            b.deform(p.span, o);
+            withoutGil([&] { b.deform(p.span, o); });
             return result;
           },
           "posed"_a, py::kw_only(), "out"_a = py::none(),
@@ -461,11 +461,10 @@ void bindProperties(py::module_& m) {
           throw InvalidInput(
               "coordinate_properties needs the cage, or the diagonal that lengths are relative to");
         PropertyReport report;
-        {
-          const py::gil_scoped_release release;
+        withoutGil([&] {
           report =
               cage ? measureProperties(c, *cage, s.span) : measureProperties(c, s.span, *diagonal);
-        }
+        });
         return reportDict(report);
       },
       "coordinates"_a, "samples"_a, py::kw_only(), "cage"_a = nullptr, "diagonal"_a = py::none(),
@@ -478,10 +477,7 @@ spacewarp.testing.)");
       "interior_samples",
       [](const Cage& cage, std::size_t count, std::uint64_t seed) {
         std::vector<Vec3> samples;
-        {
-          const py::gil_scoped_release release;
-          samples = interiorSamples(cage, count, seed);
-        }
+        withoutGil([&] { samples = interiorSamples(cage, count, seed); });
         return copyPoints(samples);
       },
       "cage"_a, "count"_a, py::kw_only(), "seed"_a = 1,

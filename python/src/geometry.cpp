@@ -239,10 +239,7 @@ void bindFiles(py::module_& m) {
       "read",
       [](const std::filesystem::path& path) {
         GeometryPtr soup;
-        {
-          const py::gil_scoped_release release;
-          soup = std::make_shared<PolygonSoup>(readSoup(path));
-        }
+        withoutGil([&] { soup = std::make_shared<PolygonSoup>(readSoup(path)); });
         if (!soup->notKept.empty())
           warnAll({joined(path.string() + ": not kept: ", soup->notKept)});
         return soup;
@@ -257,8 +254,7 @@ spacewarp does not keep (OBJ line elements, PLY edges, ...) is a warning.)");
         WriteOptions options;
         if (ascii) options.plyEncoding = PlyEncoding::Ascii;
         {
-          const py::gil_scoped_release release;
-          writeSoup(geometry, path, options);
+          withoutGil([&] { writeSoup(geometry, path, options); });
         }
         const auto lost = unstoredContent(geometry, formatFromPath(path));
         if (!lost.empty()) warnAll({joined(path.string() + ": the format cannot store: ", lost)});

@@ -351,13 +351,14 @@ each point follows its k nearest nodes. solve() poses it; warp() is the posed Wa
              else if (sampling != "voxel")
                throw InvalidInput("sampling must be 'voxel' or 'poisson', not '" + sampling + "'");
              const DeformationGraphOptions options{spacing, k, s};
-             if (nodes && !nodes->is_none()) {
-               const Points n = toPoints(*nodes, "nodes", false);
-               const py::gil_scoped_release release;
-               return std::make_shared<Graph>(DeformationGraph(n.span, p.span, options));
-             }
-             const py::gil_scoped_release release;
-             return std::make_shared<Graph>(DeformationGraph(p.span, options));
+             std::optional<Points> n;
+             if (nodes && !nodes->is_none()) n = toPoints(*nodes, "nodes", false);
+             std::shared_ptr<Graph> graph;
+             withoutGil([&] {
+               graph = std::make_shared<Graph>(n ? DeformationGraph(n->span, p.span, options)
+                                                 : DeformationGraph(p.span, options));
+             });
+             return graph;
            }),
            "positions"_a, py::kw_only(), "spacing"_a = 0.0, "k"_a = 4, "sampling"_a = "voxel",
            "nodes"_a = py::none())
@@ -405,17 +406,21 @@ check `converged`.)")
           "reset",
           [](Graph& g) {
             // A solve holds the lock while its progress callable needs the GIL: lock without it.
-            const py::gil_scoped_release release;
-            const std::lock_guard lock(g.mutex);
-            g.graph.reset();
+            withoutGil([&] {
+              const std::lock_guard lock(g.mutex);
+              g.graph.reset();
+            });
           },
           "Back to the rest pose.")
       .def(
           "warp",
           [](Graph& g) {
-            const py::gil_scoped_release release;
-            const std::lock_guard lock(g.mutex);
-            return std::make_shared<DeformationGraphWarp>(g.graph.warp());
+            std::shared_ptr<DeformationGraphWarp> warp;
+            withoutGil([&] {
+              const std::lock_guard lock(g.mutex);
+              warp = std::make_shared<DeformationGraphWarp>(g.graph.warp());
+            });
+            return warp;
           },
           "The graph's current pose as a Warp (a snapshot: later solves do not change it).");
 }

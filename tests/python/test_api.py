@@ -333,3 +333,25 @@ def test_one_warp_called_from_several_threads_at_once(big_cage, kind):
         assert np.array_equal(jacobian, expected_jacobian)
         assert converged.all()
         np.testing.assert_allclose(back, points[:500], rtol=0, atol=1e-9)
+
+
+def test_a_daemon_thread_inside_a_call_does_not_abort_the_exit():
+    # Python ends daemon threads when they take the GIL back after the interpreter exited; from
+    # a destructor (pybind11's gil_scoped_release) that aborted the process.
+    import subprocess
+    import sys
+
+    script = ("import threading, time\nimport numpy as np\nimport spacewarp\n"
+              "points = np.random.default_rng(0).uniform(-1, 1, (300_000, 3))\n"
+              "twist = spacewarp.Twist(rate=1.0)\n"
+              "def forever():\n"
+              "    while True:\n"
+              "        twist(points)\n"
+              "threading.Thread(target=forever, daemon=True).start()\n"
+              "time.sleep(0.3)\n"
+              "print('main thread exits', flush=True)\n")
+    for _ in range(3):
+        result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                                timeout=60)
+        assert result.returncode == 0, (result.returncode, result.stderr[-500:])
+        assert "main thread exits" in result.stdout
