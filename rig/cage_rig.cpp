@@ -1,5 +1,7 @@
 #include <spacewarp/rig/cage_rig.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <functional>
 #include <map>
@@ -44,12 +46,27 @@ HarmonicOptions harmonicOptions(const CageMethodOptions& options) {
   return harmonic;
 }
 
+// Refuses, before a solve that the cache would then lose, a cache path that is a folder or whose
+// folder is missing or not writable.
+void checkCacheBeforeTheSolve(const std::filesystem::path& cache) {
+  if (cache.empty()) return;
+  std::error_code error;
+  if (std::filesystem::is_directory(cache, error))
+    throw IoError(cache.string() + ": is a folder, not a harmonic coordinate file");
+  if (std::filesystem::exists(cache, error)) return;  // read (or refused) as it is
+  const std::filesystem::path folder = cache.has_parent_path() ? cache.parent_path() : ".";
+  if (!std::filesystem::is_directory(folder, error) || ::access(folder.c_str(), W_OK | X_OK) != 0)
+    throw IoError(cache.string() + ": cannot be written (its folder is missing or not writable); " +
+                  "checked before the solve, which it would keep");
+}
+
 // Harmonic coordinates, through the cache file when one is given.
 std::shared_ptr<const Coordinates> harmonicCoordinates(std::shared_ptr<const Cage> cage,
                                                        const CageMethodOptions& options,
                                                        const ProgressCallback& progress) {
   const HarmonicOptions harmonic = harmonicOptions(options);
   const std::filesystem::path& cache = options.harmonicCache;
+  checkCacheBeforeTheSolve(cache);
   if (!cache.empty() && std::filesystem::exists(cache)) {
     // Not a coordinate file at all: an error (IoError), never overwritten.
     const HarmonicCoordinates::FileInfo info = HarmonicCoordinates::readFileInfo(cache);

@@ -632,3 +632,15 @@ def test_harmonic_on_the_readme_pinched_box_never_kills_the_interpreter():
     for line in lines:
         tets, outcome, good = line.split()
         assert good == "True", line
+
+
+def test_a_harmonic_cache_that_cannot_be_written_is_refused_before_the_solve(tmp_path):
+    cage = spacewarp.Cage(CUBE, CUBE_QUADS)
+    stages = []
+    record = lambda stage, fraction: stages.append(stage)  # noqa: E731
+    with pytest.raises(spacewarp.IoError, match="missing or not writable"):
+        spacewarp.Harmonic(cage, tets=2000, cache=tmp_path / "no" / "such" / "c.bin", progress=record)
+    (tmp_path / "folder").mkdir()
+    with pytest.raises(spacewarp.IoError, match="is a folder"):
+        spacewarp.Harmonic(cage, tets=2000, cache=tmp_path / "folder", progress=record)
+    assert stages == []  # refused before any meshing
