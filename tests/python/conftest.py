@@ -199,6 +199,18 @@ points = np.random.default_rng(0).uniform(-0.9, 0.9, size=(2_000_000, 3))
 """)
 
 
+# Child-script lines: a progress callable that prints "started" at its first call, which
+# interrupt_child waits for before it sends the signal.
+STARTED_PROGRESS = """
+started = []
+def progress(stage, fraction):
+    if not started:
+        started.append(1)
+        print("started", flush=True)
+    return True
+"""
+
+
 def _read_line(stream, timeout: float) -> str | None:
     """The next line of a pipe, or None after `timeout` seconds."""
     box: list[str] = []

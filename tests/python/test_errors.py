@@ -18,7 +18,8 @@ import pytest
 
 spacewarp = pytest.importorskip("spacewarp")
 
-from conftest import CAGE_SCRIPT, CUBE, CUBE_QUADS, interrupt_child, write_json  # noqa: E402
+from conftest import (CAGE_SCRIPT, CUBE, CUBE_QUADS, STARTED_PROGRESS, interrupt_child,  # noqa: E402
+                      write_json)
 
 # ----------------------------------------------------------------------------------------------
 # Exception types
@@ -265,13 +266,7 @@ def test_progress_from_another_thread():
 # ----------------------------------------------------------------------------------------------
 # Ctrl-C
 
-_WITH_PROGRESS = CAGE_SCRIPT + """
-started = []
-def progress(stage, fraction):
-    if not started:
-        started.append(1)
-        print("started", flush=True)
-    return True
+_WITH_PROGRESS = CAGE_SCRIPT + STARTED_PROGRESS + """
 try:
     warp(points, progress=progress)
     print("finished", flush=True)

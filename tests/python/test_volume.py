@@ -357,19 +357,14 @@ def test_dense_fog_mass(volumes):
 
 
 def test_sigint_during_warp_volume_leaves_no_file(volumes, demo, tmp_path):
-    from conftest import CAGE_SCRIPT, interrupt_child
+    from conftest import CAGE_SCRIPT, STARTED_PROGRESS, interrupt_child
 
     out = tmp_path / "out"
     out.mkdir()
     script = CAGE_SCRIPT.replace("size=(2_000_000, 3)", "size=(10, 3)") + f"""
 vertices, faces = subdivided_cube(8)  # a slower warp: seconds for the demo's 72k voxels
 warp = spacewarp.MeanValue(spacewarp.Cage(vertices, faces)).warp(vertices * 1.1)
-started = []
-def progress(stage, fraction):
-    if not started:
-        started.append(1)
-        print("started", flush=True)
-    return True
+""" + STARTED_PROGRESS + f"""
 try:
     spacewarp.warp_volume(warp, {str(demo / 'bar.vdb')!r}, {str(out / 'out.vdb')!r},
                           progress=progress)
