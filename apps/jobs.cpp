@@ -14,6 +14,7 @@
 #include <spacewarp/core/io/atomic_file.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include "apps/cli_context.h"
+#include "apps/file_kinds.h"
 
 namespace spacewarp::cli {
 
@@ -110,7 +111,7 @@ constexpr std::size_t kWeightsBlockBytes = std::size_t{64} << 20;
 
 void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::path& pointsPath,
                       const std::filesystem::path& output) {
-  const std::string extension = output.extension().string();
+  const std::string extension = lowerExtension(output);  // w.CSV as deform takes OUT.PLY
   if (extension != ".csv" && extension != ".npy")
     throw InvalidInput(output.string() + ": weights are written as .csv or .npy");
   formatFromPath(pointsPath);

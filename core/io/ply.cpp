@@ -435,6 +435,9 @@ Header parseHeader(Input& input, const std::string& name) {
         header.encoding = PlyEncoding::BinaryBigEndian;
       else
         fail("unknown format " + quote(tokens[1]));
+      // PLY has one version; a file that claims another may mean anything by its header.
+      if (tokens[2] != "1.0" && tokens[2] != "1")
+        fail("unsupported PLY version " + quote(tokens[2]) + " (only 1.0 exists)");
       haveFormat = true;
     } else if (keyword == "element") {
       if (tokens.size() != 3) fail("expected 'element <name> <count>'");

@@ -71,6 +71,9 @@ TEST_F(CommandsTest, WeightsNpyHoldsTheSameNumbersAsCsv) {
                              " -o ";
     ASSERT_EQ(run(base + (dir_ / "w.npy").string()).exitCode, 0);
     ASSERT_EQ(run(base + (dir_ / "w.csv").string()).exitCode, 0);
+    // Extensions in upper case are the same formats (as deform takes OUT.PLY).
+    ASSERT_EQ(run(base + (dir_ / "W.NPY").string()).exitCode, 0);
+    EXPECT_EQ(test::slurp(dir_ / "W.NPY"), test::slurp(dir_ / "w.npy"));
     const Npy npy = readNpy(dir_ / "w.npy");
     EXPECT_EQ(npy.rows, 57u);
     EXPECT_EQ(npy.columns, method == "mvc" ? 8u : 8u + 12u);  // Green: one column per face

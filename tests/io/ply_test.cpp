@@ -426,6 +426,8 @@ TEST(PlyTest, RejectsHeaderErrors) {
               HasSubstr("cloud.ply:1: not a PLY file"));
   EXPECT_THAT(errorOf("ply\nformat binary_middle_endian 1.0\nend_header\n"),
               HasSubstr("cloud.ply:2: unknown format 'binary_middle_endian'"));
+  EXPECT_THAT(errorOf("ply\nformat ascii 2.0\nelement vertex 1\nend_header\n"),
+              HasSubstr("cloud.ply:2: unsupported PLY version '2.0' (only 1.0 exists)"));
   EXPECT_THAT(errorOf("ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n"),
               HasSubstr("cloud.ply:4: unknown property type 'float128'"));
   EXPECT_THAT(
