@@ -24,16 +24,17 @@ struct CompareArgs {
   std::vector<double> point, normal;
 };
 
-// "z=0.25" → axis 2, 0.25; false if malformed.
-bool parseSlice(const std::string& text, int& axis, double& value) {
-  if (text.size() < 3 || text[1] != '=') return false;
+// "z=0.25" → axis 2, 0.25, and ""; otherwise what is wrong with `text`, the axis or the value.
+std::string parseSlice(const std::string& text, int& axis, double& value) {
   const std::string axes = "xyz";
-  const auto found = axes.find(text[0]);
-  if (found == std::string::npos) return false;
+  const auto found = text.size() < 2 || text[1] != '=' ? std::string::npos : axes.find(text[0]);
+  if (found == std::string::npos) return "expected AXIS=VALUE with AXIS x, y or z";
   axis = static_cast<int>(found);
   const char* end = text.data() + text.size();
   const auto result = std::from_chars(text.data() + 2, end, value);
-  return result.ec == std::errc() && result.ptr == end && std::isfinite(value);
+  if (result.ec != std::errc() || result.ptr != end || !std::isfinite(value))
+    return "the VALUE of AXIS=VALUE must be a finite number, not '" + text.substr(2) + "'";
+  return "";
 }
 
 std::vector<std::string> split(const std::string& list) {
@@ -69,7 +70,7 @@ void addPlaneOptions(CLI::App* cmd, CompareArgs& args) {
           ->check([](const std::string& text) -> std::string {
             int axis;
             double value;
-            return parseSlice(text, axis, value) ? "" : "expected AXIS=VALUE with AXIS x, y or z";
+            return parseSlice(text, axis, value);
           });
   auto* pointOption = cmd->add_option("--point", args.point, "a point of the plane: X,Y,Z")
                           ->delimiter(',')

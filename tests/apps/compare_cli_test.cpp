@@ -170,8 +170,9 @@ TEST_F(CompareTest, BadInputExitsWithAMessageAndWritesNothing) {
   const std::vector<Case> cases = {
       {"--slice z=0.5 --control 99", 3, "control 99"},
       {"--slice z=7", 3, "does not cut the cage"},
-      {"--slice w=1", 2, ""},
-      {"--slice z=abc", 2, ""},
+      {"--slice w=1", 2, "AXIS x, y or z"},
+      {"--slice z=abc", 2, "must be a finite number, not 'abc'"},
+      {"--slice z=nan", 2, "must be a finite number, not 'nan'"},
       {"--methods mvc,nope --slice z=0.5", 2, ""},
       {"--methods mvc,green,mvc --slice z=0.5", 2, "'mvc' is listed twice"},
       {"--methods mvc,,green --slice z=0.5", 2, "unknown method ''"},
