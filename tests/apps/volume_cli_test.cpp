@@ -205,6 +205,22 @@ TEST_F(VolumeCliTest, ConserveMassKeepsTheFogTotal) {
   EXPECT_NEAR(after / before, 1.0, 0.03);
 }
 
+// --conserve-mass on a file without a fog volume (a level set only) does nothing: a warning says
+// so.
+TEST_F(VolumeCliTest, ConserveMassWithoutAFogVolumeIsAWarning) {
+  writeInput();
+  openvdb::io::File((dir_ / "surface.vdb").string()).write({sphere_});
+  write("taper.json",
+        R"({"method": "taper", "origin": [0, 0, 0], "axis": [0, 0, 1], "rate": -0.5})");
+  const std::string rig = "--rig " + (dir_ / "taper.json").string() + " --conserve-mass";
+  const CliResult alone = deformVolume(rig, "surface.vdb");
+  ASSERT_EQ(alone.exitCode, 0) << alone.err;
+  EXPECT_THAT(alone.err, HasSubstr("surface.vdb: --conserve-mass: no grid is a fog volume"));
+  const CliResult withFog = deformVolume(rig);
+  ASSERT_EQ(withFog.exitCode, 0) << withFog.err;
+  EXPECT_THAT(withFog.err, ::testing::Not(HasSubstr("no grid is a fog volume")));
+}
+
 // -q silences the informational lines (one per grid, the summary), before or after the
 // subcommand, while warnings stay: here the unsupported grid's and --conserve-mass's.
 TEST_F(VolumeCliTest, QuietPrintsNoInformationForAVolume) {
