@@ -190,10 +190,7 @@ VolumeSummary deformVolumeFile(const Warp& warp, const std::filesystem::path& in
   warnAbout(input, messages, context);
   checkWarpableGrids(content.grids, input.string());
   const WarpVolumeOptions volumeOptions = warpVolumeOptions(options, context);
-  const auto isFog = [](const openvdb::GridBase::Ptr& g) {
-    return (g->isType<openvdb::FloatGrid>() || g->isType<openvdb::DoubleGrid>()) &&
-           g->getGridClass() != openvdb::GRID_LEVEL_SET;
-  };
+  const auto isFog = [](const openvdb::GridBase::Ptr& g) { return isFogVolume(*g); };
   if (options.conserveMass && std::none_of(content.grids.begin(), content.grids.end(), isFog)) {
     context.warn(input.string() + ": --conserve-mass: no grid is a fog volume (a float or double " +
                  "grid that is not a level set), so there is no mass to conserve");

@@ -19,6 +19,11 @@ bool isWarpableGrid(const openvdb::GridBase& grid) {
          grid.isType<openvdb::Vec3SGrid>() || grid.isType<openvdb::points::PointDataGrid>();
 }
 
+bool isFogVolume(const openvdb::GridBase& grid) {
+  return (grid.isType<openvdb::FloatGrid>() || grid.isType<openvdb::DoubleGrid>()) &&
+         grid.getGridClass() != openvdb::GRID_LEVEL_SET;
+}
+
 void checkWarpableGrids(const openvdb::GridPtrVec& grids, const std::string& where) {
   std::string found;
   std::size_t supported = 0;

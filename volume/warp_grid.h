@@ -15,6 +15,10 @@ namespace spacewarp {
 /// sets, fog volumes, fields) and point data grids.
 bool isWarpableGrid(const openvdb::GridBase& grid);
 
+/// True for the grids WarpVolumeOptions::conserveMass applies to: float and double grids that
+/// are not level sets.
+bool isFogVolume(const openvdb::GridBase& grid);
+
 /// Throws InvalidInput starting with `where` (the file) when none of `grids` is one that
 /// isWarpableGrid() accepts, listing the names and types of those there are.
 void checkWarpableGrids(const openvdb::GridPtrVec& grids, const std::string& where);

@@ -3,6 +3,8 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <algorithm>
+
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/warp.h>
 
@@ -94,6 +96,12 @@ py::list warpVolumeFile(const Warp& warp, const std::filesystem::path& input,
     options.progress = callback;
     const VdbFile content = readVdbFile(input);
     checkWarpableGrids(content.grids, input.string());
+    if (options.conserveMass &&
+        std::none_of(content.grids.begin(), content.grids.end(),
+                     [](const openvdb::GridBase::Ptr& g) { return isFogVolume(*g); }))
+      skipped.push_back(
+          input.string() +
+          ": conserve_mass: no grid is a fog volume, so there is no mass to conserve");
     openvdb::GridCPtrVec warped;
     for (const openvdb::GridBase::Ptr& grid : content.grids) {
       if (!isWarpableGrid(*grid)) {
