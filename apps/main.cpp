@@ -95,6 +95,23 @@ void addGlobalOptions(CLI::App& app, CliContext& context, int cores) {
                "no progress display, no informational output (warnings and errors remain)");
 }
 
+// The first word of the command line that is not an option (nor --threads' value) when it names
+// no command ("spacewarp frob"): CLI11 would only say that a subcommand is required. "" otherwise.
+std::string unknownCommand(int argc, char** argv, const std::vector<Command>& commands) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word == "--threads") {
+      ++i;
+      continue;
+    }
+    if (word.starts_with('-')) continue;
+    for (const Command& command : commands)
+      if (command.app->get_name() == word) return "";
+    return word;
+  }
+  return "";
+}
+
 // The subcommand being run, for the messages.
 std::string running = "spacewarp";
 
@@ -124,6 +141,14 @@ int run(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    if (const std::string word = unknownCommand(argc, argv, commands); !word.empty()) {
+      std::string names;
+      for (const Command& command : commands)
+        names += (names.empty() ? "" : ", ") + command.app->get_name();
+      std::cerr << "spacewarp: error: unknown command '" << printable(word) << "' (one of " << names
+                << "; see --help)\n";
+      return kUsage;
+    }
     const int code = app.exit(e);
     return code == 0 ? kOk : kUsage;
   }

@@ -99,7 +99,9 @@ TEST_F(CliTest, InfoPrintsCountsAndBox) {
 TEST_F(CliTest, UsageErrorsExitWith2) {
   EXPECT_EQ(run("").exitCode, 2);
   EXPECT_EQ(run("deform").exitCode, 2);
-  EXPECT_EQ(run("frobnicate").exitCode, 2);
+  const CliResult unknown = run("--threads 1 frobnicate");
+  EXPECT_EQ(unknown.exitCode, 2);
+  EXPECT_THAT(unknown.err, HasSubstr("unknown command 'frobnicate' (one of info, deform,"));
   EXPECT_EQ(run("deform --help").exitCode, 0);
 }
 
