@@ -4,49 +4,7 @@ the extension's API (_spacewarp.pyi) and the property kit spacewarp.testing (typ
 from . import testing as testing
 from ._spacewarp import *
 from ._spacewarp import __version__ as __version__
+from . import _spacewarp as _spacewarp
 
-__all__ = [
-    "Affine",
-    "Bend",
-    "Binding",
-    "Cage",
-    "Cancelled",
-    "Compose",
-    "Coordinates",
-    "DeformationGraph",
-    "DeformationGraphWarp",
-    "Geometry",
-    "GraphSolveReport",
-    "Green",
-    "Harmonic",
-    "Identity",
-    "InvalidInput",
-    "IoError",
-    "Lattice",
-    "MeanValue",
-    "Mls",
-    "MlsAffine",
-    "OutOfMemory",
-    "Rbf",
-    "RbfWarp",
-    "SolverError",
-    "Taper",
-    "Twist",
-    "Warp",
-    "cage_coordinates",
-    "cage_methods",
-    "coordinate_properties",
-    "deform",
-    "deform_inverse",
-    "has_volumes",
-    "interior_samples",
-    "load_rig",
-    "read",
-    "rig",
-    "rig_methods",
-    "warp_dense",
-    "warp_volume",
-    "write",
-    "__version__",
-    "testing",
-]
+__all__ = ["__version__", "testing"]
+__all__ += _spacewarp.__all__

@@ -372,8 +372,10 @@ def class_order(names: list[str]) -> list[str]:
 
 
 def generate_package() -> str:
-    names = sorted(n for n in dir(ext) if not n.startswith("_")) + ["__version__", "testing"]
-    return PACKAGE_HEADER + "\n__all__ = [\n" + "".join(f'    "{n}",\n' for n in names) + "]\n"
+    # The extension's names come from its own stub's __all__ (type checkers follow `+=` of a
+    # submodule's __all__), so the list is written once.
+    return (PACKAGE_HEADER + "from . import _spacewarp as _spacewarp\n\n"
+            + '__all__ = ["__version__", "testing"]\n__all__ += _spacewarp.__all__\n')
 
 
 def generate() -> str:

@@ -199,13 +199,20 @@ def _stub(name: str):
 
 
 def _stub_all(tree) -> set[str]:
+    """The names of a stub's __all__: its literal list, plus `__all__ += _spacewarp.__all__`."""
     import ast
 
+    names: set[str] | None = None
     for node in tree.body:
         if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__"
                                                 for t in node.targets):
-            return set(ast.literal_eval(node.value))
-    raise AssertionError("no __all__ in the stub")
+            names = set(ast.literal_eval(node.value))
+        elif (isinstance(node, ast.AugAssign) and getattr(node.target, "id", None) == "__all__"
+              and ast.unparse(node.value) == "_spacewarp.__all__" and names is not None):
+            names |= _stub_all(_stub("_spacewarp.pyi"))
+    if names is None:
+        raise AssertionError("no __all__ in the stub")
+    return names
 
 
 def test_stubs_list_the_packages_names():
