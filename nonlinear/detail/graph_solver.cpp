@@ -9,6 +9,7 @@
 #include <Eigen/LU>
 #include <Eigen/SVD>
 
+#include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/progress.h>
 #include <spacewarp/nonlinear/detail/graph_problem.h>
@@ -42,36 +43,6 @@ void validateSolve(std::span<const Vec3> handles, std::span<const Vec3> targets,
 }
 
 namespace {
-
-// The rigid motion x -> r x + shift that best maps the handles onto their targets in the
-// least-squares sense (Kabsch: the rotation from the SVD of the cross-covariance, a reflection
-// turned into a rotation). The identity for no handles; for collinear handles r is one of the
-// rotations that fit equally well.
-struct RigidFit {
-  Mat3 r{1.0};
-  Vec3 shift{0.0};
-};
-
-RigidFit rigidFit(std::span<const Vec3> handles, std::span<const Vec3> targets) {
-  RigidFit fit;
-  if (handles.empty()) return fit;
-  Vec3 ch(0.0), ct(0.0);
-  for (std::size_t l = 0; l < handles.size(); ++l) {
-    ch += handles[l];
-    ct += targets[l];
-  }
-  ch /= double(handles.size());
-  ct /= double(handles.size());
-  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
-  for (std::size_t l = 0; l < handles.size(); ++l)
-    h += toEigen(handles[l] - ch) * toEigen(targets[l] - ct).transpose();
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-  d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
-  fit.r = toMat3(svd.matrixV() * d * svd.matrixU().transpose());
-  fit.shift = ct - fit.r * ch;
-  return fit;
-}
 
 // Rounding level: the energy with every residual 1e-10 of its term's scale (the handles'
 // spread, the edges' lengths, a unit rotation residual). Nothing is left to solve below it.

@@ -1,0 +1,30 @@
+#pragma once
+// Rotations fitted to 3 × 3 matrices and point sets: the local steps of MLS, the deformation
+// graph and ARAP.
+
+#include <span>
+
+#include <spacewarp/core/math.h>
+
+namespace spacewarp::detail {
+
+/// Eigen-decomposition of the symmetric 3 × 3 matrix m by cyclic Jacobi: eigenvalues e (not
+/// sorted), eigenvectors as the columns of v. Deterministic.
+void symmetricEigen(const Mat3& m, double e[3], Mat3& v);
+
+/// The rotation R (det +1) maximising tr(Rᵀ b): the orthogonal polar factor of b when det b > 0,
+/// U diag(1, 1, −1) Vᵀ for the SVD b = U Σ Vᵀ when det b < 0 (reflections excluded), a
+/// deterministic choice among the optima when b has rank < 2. Accurate to rounding.
+Mat3 closestRotation(const Mat3& b);
+
+/// The rigid motion x -> r x + shift that best maps `points` onto `targets` in the
+/// least-squares sense (Kabsch: the rotation from the SVD of the cross-covariance, a reflection
+/// turned into a rotation). The identity for no points; for collinear points r is one of the
+/// rotations that fit equally well.
+struct RigidFit {
+  Mat3 r{1.0};
+  Vec3 shift{0.0};
+};
+RigidFit rigidFit(std::span<const Vec3> points, std::span<const Vec3> targets);
+
+}  // namespace spacewarp::detail

@@ -1,0 +1,204 @@
+#include <spacewarp/surface/arap.h>
+
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <spacewarp/core/detail/rotation.h>
+#include <spacewarp/core/detail/sparse_cholesky.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/surface/detail/edit_problem.h>
+#include <spacewarp/surface/detail/spokes.h>
+
+namespace spacewarp {
+
+namespace {
+
+// Ranges of this many vertices per task: fixed, so sums are formed in the same order whatever
+// the thread count.
+constexpr std::size_t kGrain = 256;
+
+template <class Fn>
+void forVertices(std::size_t n, Fn&& fn) {
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, kGrain),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) fn(i);
+      },
+      tbb::simple_partitioner());
+}
+
+}  // namespace
+
+struct ArapEditor::Impl {
+  detail::EditProblem problem;
+  detail::Spokes spokes;
+  Eigen::SparseMatrix<double> freeFixed;  // L_fc
+  detail::SparseCholesky factor{{"ArapEditor", "check the mesh for degenerate parts"}};
+  ArapOptions options;
+  std::vector<Mat3> rotations;       // of the last local step
+  std::vector<double> vertexEnergy;  // of the last local step
+
+  // Optimal rotations of x (all n vertices) and the energy they give.
+  double localStep(std::span<const Vec3> x) {
+    const auto& s = spokes;
+    forVertices(s.vertexCount(), [&](std::size_t i) {
+      Mat3 cov(0.0);  // Σ w e e̅ᵀ: tr(Rᵀ cov) = Σ w eᵀ R e̅
+      for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k)
+        cov += glm::outerProduct(s.weight[k] * (x[i] - x[s.neighbor[k]]), s.rest[k]);
+      const Mat3 r = detail::closestRotation(cov);
+      double e = 0.0;
+      for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k) {
+        const Vec3 d = (x[i] - x[s.neighbor[k]]) - r * s.rest[k];
+        e += s.weight[k] * glm::dot(d, d);
+      }
+      rotations[i] = r;
+      vertexEnergy[i] = e;
+    });
+    double total = 0.0;
+    for (double e : vertexEnergy) total += e;
+    return total;
+  }
+
+  // Positions minimising the energy for the current rotations, the fixed vertices at `fixed`.
+  std::vector<Vec3> globalStep(const Eigen::MatrixXd& fixed) {
+    const auto& p = problem;
+    const auto& s = spokes;
+    Eigen::MatrixXd rhs(static_cast<Eigen::Index>(p.freeVertices.size()), 3);
+    forVertices(p.freeVertices.size(), [&](std::size_t f) {
+      const std::uint32_t i = p.freeVertices[f];
+      Vec3 b(0.0);
+      for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k)
+        b += (0.5 * s.weight[k]) * ((rotations[i] + rotations[s.neighbor[k]]) * s.rest[k]);
+      rhs.row(static_cast<Eigen::Index>(f)) << b.x, b.y, b.z;
+    });
+    rhs -= freeFixed * fixed;
+    return p.assemble(factor.solve(rhs), fixed);
+  }
+};
+
+ArapEditor::ArapEditor(std::span<const Vec3> positions,
+                       std::span<const std::array<std::uint32_t, 3>> triangles,
+                       std::span<const std::uint32_t> constrained, const ArapOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  if (options.maxIterations < 0 || !(options.relativeTolerance >= 0.0) ||
+      !std::isfinite(options.relativeTolerance)) {
+    throw InvalidInput(
+        "ArapEditor: maxIterations must be >= 0 and relativeTolerance finite and >= 0");
+  }
+  auto& im = *impl_;
+  im.options = options;
+  im.problem = detail::makeEditProblem(positions, triangles, constrained, "ArapEditor");
+  im.spokes = detail::makeSpokes(im.problem.laplacian, positions);
+  im.freeFixed = im.problem.freeFixedBlock(im.problem.laplacian);
+  im.rotations.assign(positions.size(), Mat3(1.0));
+  im.vertexEnergy.assign(positions.size(), 0.0);
+  if (im.problem.freeVertices.empty()) return;
+  const Eigen::SparseMatrix<double> lower = im.problem.freeBlockLower(im.problem.laplacian);
+  im.factor.analyzePattern(lower);
+  if (!im.factor.factorize(lower)) {
+    throw SolverError(
+        "ArapEditor: the Laplacian is not positive definite on the free vertices (degenerate "
+        "triangles joining the free region?)");
+  }
+}
+
+ArapEditor::~ArapEditor() = default;
+ArapEditor::ArapEditor(ArapEditor&&) noexcept = default;
+ArapEditor& ArapEditor::operator=(ArapEditor&&) noexcept = default;
+
+ArapResult ArapEditor::solve(std::span<const Vec3> targets, const ProgressCallback& progress) {
+  auto& im = *impl_;
+  const auto& p = im.problem;
+  const Eigen::MatrixXd fixed = p.fixedPositions(targets, "ArapEditor::solve");
+  // Start 1: Laplacian editing (harmonic displacement) — the rotations all the identity.
+  std::fill(im.rotations.begin(), im.rotations.end(), Mat3(1.0));
+  std::vector<Vec3> laplacian =
+      p.freeVertices.empty() ? p.assemble(Eigen::MatrixXd(0, 3), fixed) : im.globalStep(fixed);
+  // Start 2: the handles' common rigid motion, exact when there is one.
+  const auto fit = detail::rigidFit(
+      [&] {
+        std::vector<Vec3> r;
+        for (std::uint32_t v : p.constrained) r.push_back(p.rest[v]);
+        return r;
+      }(),
+      targets);
+  std::vector<Vec3> rigid = p.rest;
+  for (std::uint32_t v : p.freeVertices) rigid[v] = fit.r * p.rest[v] + fit.shift;
+  for (std::size_t k = 0; k < p.constrained.size(); ++k) rigid[p.constrained[k]] = targets[k];
+  const double rigidEnergy = energy(rigid);
+  const bool startRigid = rigidEnergy < energy(laplacian);
+  ArapResult result = solveFrom(startRigid ? rigid : laplacian, targets, progress);
+  result.report.startedRigid = startRigid;
+  return result;
+}
+
+ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Vec3> targets,
+                                 const ProgressCallback& progress) {
+  auto& im = *impl_;
+  const auto& p = im.problem;
+  const Eigen::MatrixXd fixed = p.fixedPositions(targets, "ArapEditor::solveFrom");
+  if (start.size() != p.rest.size()) {
+    throw InvalidInput("ArapEditor::solveFrom: " + std::to_string(start.size()) +
+                       " start positions for " + std::to_string(p.rest.size()) + " vertices");
+  }
+  ArapResult result;
+  result.positions.assign(start.begin(), start.end());
+  for (std::size_t v = 0; v < start.size(); ++v) {
+    if (!isFinite(start[v])) {
+      throw InvalidInput("ArapEditor::solveFrom: start position " + std::to_string(v) +
+                         " is not finite");
+    }
+    const std::int64_t s = p.slot[v];
+    if (s < 0) result.positions[v] = Vec3(fixed(-s - 1, 0), fixed(-s - 1, 1), fixed(-s - 1, 2));
+  }
+  ArapReport& report = result.report;
+  double e = im.localStep(result.positions);
+  report.energies.push_back(e);
+  if (p.freeVertices.empty()) {
+    report.converged = true;
+    return result;
+  }
+  ProgressTracker tracker(progress, "arap", static_cast<std::size_t>(im.options.maxIterations));
+  // The energy is zero to rounding: nothing left to move. (Obtuse triangles' negative weights
+  // can make it slightly negative.)
+  const double floor = 1e-28 * p.diagonal * p.diagonal * double(im.spokes.weight.size());
+  std::vector<Mat3> keep;
+  while (report.iterations < im.options.maxIterations && !report.converged) {
+    if (std::abs(e) <= floor) {
+      report.converged = true;
+      break;
+    }
+    keep = im.rotations;
+    std::vector<Vec3> next = im.globalStep(fixed);
+    const double eNext = im.localStep(next);
+    if (eNext > e) {  // rounding: the exact steps cannot raise it; keep the better state
+      im.rotations = keep;
+      report.converged = true;
+      break;
+    }
+    ++report.iterations;
+    report.converged = e - eNext <= im.options.relativeTolerance * std::abs(e);
+    result.positions = std::move(next);
+    e = eNext;
+    report.energies.push_back(e);
+    tracker.advance();
+  }
+  if (!report.converged && std::abs(e) <= floor) report.converged = true;
+  return result;
+}
+
+double ArapEditor::energy(std::span<const Vec3> positions) const {
+  if (positions.size() != impl_->problem.rest.size()) {
+    throw InvalidInput("ArapEditor::energy: " + std::to_string(positions.size()) +
+                       " positions for " + std::to_string(impl_->problem.rest.size()) +
+                       " vertices");
+  }
+  // localStep writes scratch state only; the editor is documented as not thread-safe.
+  return impl_->localStep(positions);
+}
+
+std::span<const std::uint32_t> ArapEditor::heldVertices() const { return impl_->problem.held; }
+
+}  // namespace spacewarp

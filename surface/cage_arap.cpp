@@ -1,0 +1,295 @@
+#include <spacewarp/surface/cage_arap.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <tbb/parallel_for.h>
+#include <Eigen/Cholesky>
+
+#include <spacewarp/core/binding.h>
+#include <spacewarp/core/detail/rotation.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/surface/detail/edit_problem.h>
+#include <spacewarp/surface/detail/rotation_clusters.h>
+#include <spacewarp/surface/detail/spokes.h>
+
+namespace spacewarp {
+
+namespace {
+
+Eigen::Matrix3d transposeOf(const Mat3& m) { return toEigen(glm::transpose(m)); }
+
+}  // namespace
+
+// Notation of the header: ΔP = P − P̄ (m × 3), W the model's weights (vertex columns), and per
+// spoke s = (i → j) in cluster k the rest vector ē_s and weight w_s. Then
+//   cov_k = S̄_k + (Q_kᵀ ΔP)ᵀ             with S̄_k = Σ_s w_s ē_s ē_sᵀ,
+//   Q_kᵀ = Σ_s w_s ē_s (W_i − W_j)        (3 × m, the rows 3k..3k+2 of qt),
+//   E_arap = 2 c̄ + 2 tr(ΔPᵀ C̄) + tr(ΔPᵀ K ΔP) − 2 Σ_k tr(R_kᵀ cov_k),
+//   with c̄ = Σ w |ē|², C̄ = Σ_k Q_k, K = Σ_s w_s (W_i − W_j)ᵀ(W_i − W_j) = 2 Wᵀ L W;
+// the global step solves (K + λ H + μ I) ΔP = Σ_k Q_k (R_kᵀ − I) + λ W_hᵀ (t − x̄_h) + μ ΔP_prev.
+struct CageArapEditor::Impl {
+  CageArapOptions options;
+  std::size_t m = 0;  // control points
+  std::size_t clusters = 0;
+  std::vector<Vec3> restControls;
+  std::vector<Vec3> restModel;
+  Eigen::MatrixXd weights;  // n × m (dense; the subspace's basis)
+  std::vector<std::uint32_t> constrained;
+  Eigen::MatrixXd qt;             // 3K × m
+  std::vector<Mat3> restCov;      // S̄_k
+  Eigen::MatrixXd restCross;      // C̄ (m × 3)
+  double restSquared = 0.0;       // c̄
+  Eigen::MatrixXd stiffness;      // K
+  Eigen::MatrixXd handleGram;     // H = W_hᵀ W_h
+  Eigen::MatrixXd handleWeights;  // W_h (h × m)
+  Eigen::MatrixXd handleRest;     // x̄_h (h × 3)
+  double lambda = 0.0, mu = 0.0;
+  Eigen::LLT<Eigen::MatrixXd> system;
+  double diagonal = 0.0;
+
+  // Per-iteration state.
+  std::vector<Mat3> rotations;
+
+  double localStep(const Eigen::MatrixXd& dp, const Eigen::MatrixXd& targets) {
+    const Eigen::MatrixXd mk = qt * dp;  // 3K × 3
+    std::vector<double> gain(clusters);
+    tbb::parallel_for(std::size_t{0}, clusters, [&](std::size_t k) {
+      Mat3 cov = restCov[k];
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) cov[c][r] += mk(3 * Eigen::Index(k) + c, r);
+      const Mat3 rot = detail::closestRotation(cov);
+      rotations[k] = rot;
+      gain[k] = glm::dot(rot[0], cov[0]) + glm::dot(rot[1], cov[1]) + glm::dot(rot[2], cov[2]);
+    });
+    double trace = 0.0;
+    for (double g : gain) trace += g;
+    const Eigen::MatrixXd handleResidual = handleRest + handleWeights * dp - targets;
+    return 2.0 * restSquared + 2.0 * (dp.cwiseProduct(restCross)).sum() +
+           (dp.cwiseProduct(stiffness * dp)).sum() - 2.0 * trace +
+           lambda * handleResidual.squaredNorm();
+  }
+
+  // The minimiser for the current rotations, with a proximal term μ |ΔP − current|² (see the
+  // constructor): its fixed points are the energy's, and it lowers the energy as the exact step.
+  Eigen::MatrixXd globalStep(const Eigen::MatrixXd& targets, const Eigen::MatrixXd& current) const {
+    Eigen::MatrixXd z(3 * Eigen::Index(clusters), 3);
+    for (std::size_t k = 0; k < clusters; ++k)
+      z.block<3, 3>(3 * Eigen::Index(k), 0) =
+          transposeOf(rotations[k]) - Eigen::Matrix3d::Identity();
+    const Eigen::MatrixXd rhs = qt.transpose() * z +
+                                lambda * handleWeights.transpose() * (targets - handleRest) +
+                                mu * current;
+    return system.solve(rhs);
+  }
+};
+
+CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
+                               std::span<const std::array<std::uint32_t, 3>> triangles,
+                               std::shared_ptr<const Coordinates> coordinates,
+                               std::span<const std::uint32_t> constrained,
+                               const CageArapOptions& options, const ProgressCallback& progress)
+    : impl_(std::make_unique<Impl>()) {
+  const std::string caller = "CageArapEditor";
+  if (!coordinates) throw InvalidInput(caller + ": no coordinates");
+  if (!(options.handleWeight > 0.0) || !std::isfinite(options.handleWeight) ||
+      options.maxIterations < 0 || !(options.relativeTolerance >= 0.0) ||
+      !std::isfinite(options.relativeTolerance) || !(options.reachTolerance >= 0.0) ||
+      !std::isfinite(options.reachTolerance)) {
+    throw InvalidInput(caller +
+                       ": handleWeight must be finite and > 0, maxIterations >= 0, the "
+                       "tolerances finite and >= 0");
+  }
+  auto& im = *impl_;
+  im.options = options;
+  const detail::EditProblem problem =
+      detail::makeEditProblem(positions, triangles, constrained, caller);
+  im.diagonal = problem.diagonal;
+  im.restModel.assign(positions.begin(), positions.end());
+  im.constrained.assign(constrained.begin(), constrained.end());
+  im.m = coordinates->controlPointCount();
+  const auto rest = coordinates->restControlPoints();
+  im.restControls.assign(rest.begin(), rest.end());
+  const auto n = static_cast<Eigen::Index>(positions.size());
+  const auto m = static_cast<Eigen::Index>(im.m);
+  {
+    const Binding binding(coordinates, positions, progress);
+    im.weights = binding.isSparse() ? Eigen::MatrixXd(binding.sparse()).leftCols(m)
+                                    : Eigen::MatrixXd(binding.dense().leftCols(m));
+  }
+  ProgressTracker tracker(progress, "subspace", 3);
+  const detail::Spokes spokes = detail::makeSpokes(problem.laplacian, positions);
+  std::size_t k = options.rotationClusters;
+  if (k == 0) k = std::max<std::size_t>(64, 4 * im.m);
+  k = std::min<std::size_t>(k, positions.size());
+  const auto cluster = detail::rotationClusters(spokes, k);
+  im.clusters = 0;
+  for (std::uint32_t c : cluster) im.clusters = std::max<std::size_t>(im.clusters, c + 1);
+  im.rotations.assign(im.clusters, Mat3(1.0));
+  tracker.advance();
+
+  // qt = G W with G (3K × n): rows 3k..3k+2 hold +w ē at column i and −w ē at column j.
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(spokes.weight.size() * 6);
+  im.restCov.assign(im.clusters, Mat3(0.0));
+  double totalWeight = 0.0;
+  for (std::size_t i = 0; i < spokes.vertexCount(); ++i) {
+    const auto c = static_cast<int>(cluster[i]);
+    for (std::size_t s = spokes.offsets[i]; s < spokes.offsets[i + 1]; ++s) {
+      const Vec3 we = spokes.weight[s] * spokes.rest[s];
+      for (int a = 0; a < 3; ++a) {
+        entries.emplace_back(3 * c + a, static_cast<int>(i), we[a]);
+        entries.emplace_back(3 * c + a, static_cast<int>(spokes.neighbor[s]), -we[a]);
+      }
+      im.restCov[cluster[i]] += glm::outerProduct(we, spokes.rest[s]);
+      im.restSquared += glm::dot(we, spokes.rest[s]);
+      totalWeight += spokes.weight[s];
+    }
+  }
+  Eigen::SparseMatrix<double, Eigen::RowMajor> g(3 * Eigen::Index(im.clusters), n);
+  g.setFromTriplets(entries.begin(), entries.end());
+  im.qt = g * im.weights;
+  im.restCross = Eigen::MatrixXd::Zero(m, 3);
+  for (std::size_t c = 0; c < im.clusters; ++c)
+    im.restCross += im.qt.middleRows(3 * Eigen::Index(c), 3).transpose();
+  tracker.advance();
+
+  im.stiffness = 2.0 * im.weights.transpose() * (problem.laplacian * im.weights);
+  const auto h = static_cast<Eigen::Index>(constrained.size());
+  im.handleWeights.resize(h, m);
+  im.handleRest.resize(h, 3);
+  for (Eigen::Index r = 0; r < h; ++r) {
+    const std::uint32_t v = constrained[static_cast<std::size_t>(r)];
+    im.handleWeights.row(r) = im.weights.row(v);
+    im.handleRest.row(r) << positions[v].x, positions[v].y, positions[v].z;
+  }
+  im.handleGram = im.handleWeights.transpose() * im.handleWeights;
+  im.lambda = options.handleWeight * std::max(totalWeight, 1e-300) / double(h);
+  Eigen::MatrixXd a = im.stiffness + im.lambda * im.handleGram;
+  // A tiny proximal ridge (towards the previous iterate) keeps control points the model does not
+  // feel (a lattice point outside its reach) where they are instead of making the system
+  // singular, without moving the minimiser.
+  im.mu = 1e-9 * a.trace() / double(m);
+  a.diagonal().array() += im.mu;
+  im.system.compute(a);
+  if (im.system.info() != Eigen::Success) {
+    throw SolverError(caller + ": the subspace system is not positive definite");
+  }
+  tracker.finish();
+}
+
+CageArapEditor::~CageArapEditor() = default;
+CageArapEditor::CageArapEditor(CageArapEditor&&) noexcept = default;
+CageArapEditor& CageArapEditor::operator=(CageArapEditor&&) noexcept = default;
+
+std::size_t CageArapEditor::clusterCount() const { return impl_->clusters; }
+
+namespace {
+
+Eigen::MatrixXd targetMatrix(std::span<const Vec3> targets, std::size_t expected,
+                             const std::string& caller) {
+  if (targets.size() != expected) {
+    throw InvalidInput(caller + ": " + std::to_string(targets.size()) + " targets for " +
+                       std::to_string(expected) + " constrained vertices");
+  }
+  for (std::size_t k = 0; k < targets.size(); ++k)
+    if (!isFinite(targets[k])) {
+      throw InvalidInput(caller + ": target " + std::to_string(k) + " is not finite");
+    }
+  return detail::toMatrix(targets);
+}
+
+}  // namespace
+
+CageArapResult CageArapEditor::solve(std::span<const Vec3> targets,
+                                     const ProgressCallback& progress) {
+  auto& im = *impl_;
+  const Eigen::MatrixXd t = targetMatrix(targets, im.constrained.size(), "CageArapEditor::solve");
+  // Start 1: the rotation-free (linear) solution.
+  std::fill(im.rotations.begin(), im.rotations.end(), Mat3(1.0));
+  const Eigen::MatrixXd linear = im.globalStep(t, Eigen::MatrixXd::Zero(Eigen::Index(im.m), 3));
+  // Start 2: the handles' common rigid motion applied to the cage.
+  std::vector<Vec3> handleRest;
+  for (std::uint32_t v : im.constrained) handleRest.push_back(im.restModel[v]);
+  const auto fit = detail::rigidFit(handleRest, targets);
+  std::vector<Vec3> rigid(im.m);
+  for (std::size_t c = 0; c < im.m; ++c) rigid[c] = fit.r * im.restControls[c] + fit.shift;
+  const Eigen::MatrixXd rigidDp = detail::toMatrix(rigid) - detail::toMatrix(im.restControls);
+  const bool startRigid = im.localStep(rigidDp, t) < im.localStep(linear, t);
+  std::vector<Vec3> start(im.m);
+  for (std::size_t c = 0; c < im.m; ++c) {
+    const auto row = (startRigid ? rigidDp : linear).row(static_cast<Eigen::Index>(c));
+    start[c] = im.restControls[c] + Vec3(row(0), row(1), row(2));
+  }
+  CageArapResult result = solveFrom(start, targets, progress);
+  result.report.startedRigid = startRigid;
+  return result;
+}
+
+CageArapResult CageArapEditor::solveFrom(std::span<const Vec3> startControlPoints,
+                                         std::span<const Vec3> targets,
+                                         const ProgressCallback& progress) {
+  auto& im = *impl_;
+  const std::string caller = "CageArapEditor::solveFrom";
+  const Eigen::MatrixXd t = targetMatrix(targets, im.constrained.size(), caller);
+  if (startControlPoints.size() != im.m) {
+    throw InvalidInput(caller + ": " + std::to_string(startControlPoints.size()) +
+                       " control points for " + std::to_string(im.m));
+  }
+  for (std::size_t c = 0; c < im.m; ++c)
+    if (!isFinite(startControlPoints[c])) {
+      throw InvalidInput(caller + ": control point " + std::to_string(c) + " is not finite");
+    }
+  Eigen::MatrixXd dp = detail::toMatrix(startControlPoints) - detail::toMatrix(im.restControls);
+  CageArapResult result;
+  CageArapReport& report = result.report;
+  double e = im.localStep(dp, t);
+  report.energies.push_back(e);
+  // Rounding level of the expanded energy: a few ulps of its largest terms.
+  const double scale = 2.0 * im.restSquared + im.lambda * (im.handleRest - t).squaredNorm();
+  const double floor = 1e-13 * scale;
+  ProgressTracker tracker(progress, "cage-arap",
+                          static_cast<std::size_t>(im.options.maxIterations));
+  std::vector<Mat3> keep;
+  while (report.iterations < im.options.maxIterations && !report.converged) {
+    if (std::abs(e) <= floor) {
+      report.converged = true;
+      break;
+    }
+    keep = im.rotations;
+    Eigen::MatrixXd next = im.globalStep(t, dp);
+    const double eNext = im.localStep(next, t);
+    if (eNext > e) {  // rounding: the exact steps cannot raise it
+      im.rotations = keep;
+      report.converged = true;
+      break;
+    }
+    ++report.iterations;
+    report.converged = e - eNext <= im.options.relativeTolerance * std::abs(e) + floor;
+    dp = std::move(next);
+    e = eNext;
+    report.energies.push_back(e);
+    tracker.advance();
+  }
+  const Eigen::MatrixXd x = detail::toMatrix(im.restModel) + im.weights * dp;
+  result.positions.resize(im.restModel.size());
+  for (std::size_t v = 0; v < result.positions.size(); ++v) {
+    const auto r = static_cast<Eigen::Index>(v);
+    result.positions[v] = Vec3(x(r, 0), x(r, 1), x(r, 2));
+  }
+  result.controlPoints.resize(im.m);
+  for (std::size_t c = 0; c < im.m; ++c) {
+    const auto r = static_cast<Eigen::Index>(c);
+    result.controlPoints[c] = im.restControls[c] + Vec3(dp(r, 0), dp(r, 1), dp(r, 2));
+  }
+  const double reach = im.options.reachTolerance * im.diagonal;
+  for (std::size_t k = 0; k < im.constrained.size(); ++k) {
+    const double d = glm::length(result.positions[im.constrained[k]] - targets[k]);
+    report.handleResiduals.push_back(d);
+    report.maxResidual = std::max(report.maxResidual, d);
+    if (d > reach) report.unreached.push_back(im.constrained[k]);
+  }
+  return result;
+}
+
+}  // namespace spacewarp
