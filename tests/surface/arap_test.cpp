@@ -1,0 +1,131 @@
+#include <spacewarp/surface/arap.h>
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <spacewarp/core/errors.h>
+#include <spacewarp/surface/laplacian_editing.h>
+
+#include "surface/surface_test_shapes.h"
+
+namespace spacewarp {
+namespace {
+
+bool nonIncreasing(const std::vector<double>& e) {
+  for (std::size_t k = 1; k < e.size(); ++k)
+    if (e[k] > e[k - 1]) return false;
+  return true;
+}
+
+TEST(ArapEditor, ReproducesACommonTranslation) {
+  const SurfaceMesh mesh = test::bar();
+  const auto handles = test::bentBar(mesh).constrained;
+  ArapEditor editor(mesh.positions, mesh.triangles, handles);
+  const Vec3 t(5, 6, -7);
+  const auto result =
+      editor.solve(test::applied([&](const Vec3& x) { return x + t; }, mesh.positions, handles));
+  for (std::size_t v = 0; v < result.positions.size(); ++v)
+    ASSERT_LT(glm::length(result.positions[v] - (mesh.positions[v] + t)), 1e-12);
+  EXPECT_TRUE(result.report.converged);
+}
+
+TEST(ArapEditor, ReproducesACommonRigidMotionExactlyFarFromTheOrigin) {
+  for (double offset : {0.0, 1e6}) {
+    const SurfaceMesh mesh = test::bar();
+    const auto handles = test::bentBar(mesh).constrained;
+    std::vector<Vec3> moved = mesh.positions;
+    for (Vec3& x : moved) x += Vec3(offset);
+    ArapEditor editor(moved, mesh.triangles, handles);
+    const test::Rigid motion{test::rotationAbout(Vec3(1, 2, 3), 2.0), Vec3(0.5, offset, 3)};
+    const auto result = editor.solve(test::applied(motion, moved, handles));
+    const double tolerance = 1e-12 * (4.0 + offset);
+    for (std::size_t v = 0; v < moved.size(); ++v)
+      ASSERT_LT(glm::length(result.positions[v] - motion(moved[v])), tolerance) << v;
+    EXPECT_TRUE(result.report.startedRigid);
+    EXPECT_TRUE(result.report.converged);
+  }
+}
+
+// A 90° bend: ARAP keeps the edges' lengths within a few percent, Laplacian editing shrinks and
+// shears them; ARAP's energy never rises and ends below the Laplacian solution's.
+TEST(ArapEditor, BendsABarKeepingItsEdgesWhereLaplacianEditingShrinksThem) {
+  // Thin (1/40 of its length), so that bending itself strains the faces by about 1%.
+  const SurfaceMesh mesh = test::thinBar(0.1, 40);
+  const test::BentBar bent = test::bentBar(mesh, 0.1);
+  ArapEditor arap(mesh.positions, mesh.triangles, bent.constrained, {.maxIterations = 100});
+  const ArapResult result = arap.solve(bent.targets);
+  LinearEditor laplacian(mesh.positions, mesh.triangles, bent.constrained);
+  const auto linear = laplacian.solve(bent.targets);
+
+  EXPECT_FALSE(result.report.startedRigid);
+  ASSERT_EQ(result.report.energies.size(), std::size_t(result.report.iterations) + 1);
+  EXPECT_TRUE(nonIncreasing(result.report.energies));
+  EXPECT_NEAR(result.report.energies.front(), arap.energy(linear), 1e-9 * arap.energy(linear));
+  EXPECT_LT(result.report.energies.back(), 0.2 * arap.energy(linear));
+  EXPECT_DOUBLE_EQ(result.report.energies.back(), arap.energy(result.positions));
+  const double arapChange = test::meanEdgeLengthChange(mesh, result.positions);
+  const double linearChange = test::meanEdgeLengthChange(mesh, linear);
+  EXPECT_LT(arapChange, 0.05);
+  EXPECT_GT(linearChange, 2.0 * arapChange);
+  RecordProperty("arap_mean_edge_change", std::to_string(arapChange));
+  RecordProperty("arap_iterations", result.report.iterations);
+  RecordProperty("laplacian_mean_edge_change", std::to_string(linearChange));
+  // The handles are where they were sent.
+  for (std::size_t k = 0; k < bent.constrained.size(); ++k)
+    EXPECT_EQ(result.positions[bent.constrained[k]], bent.targets[k]);
+}
+
+TEST(ArapEditor, ContinuesFromAPreviousResultAndStopsOnTolerance) {
+  const SurfaceMesh mesh = test::bar();
+  const test::BentBar bent = test::bentBar(mesh);
+  ArapEditor few(mesh.positions, mesh.triangles, bent.constrained,
+                 {.maxIterations = 3, .relativeTolerance = 0.0});
+  const ArapResult first = few.solve(bent.targets);
+  EXPECT_EQ(first.report.iterations, 3);
+  EXPECT_FALSE(first.report.converged);
+  const ArapResult second = few.solveFrom(first.positions, bent.targets);
+  EXPECT_DOUBLE_EQ(second.report.energies.front(), first.report.energies.back());
+  EXPECT_LT(second.report.energies.back(), first.report.energies.back());
+}
+
+TEST(ArapEditor, GivesBitIdenticalResultsForAnyThreadCount) {
+  const SurfaceMesh mesh = test::bar();
+  const test::BentBar bent = test::bentBar(mesh);
+  auto run = [&] {
+    ArapEditor editor(mesh.positions, mesh.triangles, bent.constrained, {.maxIterations = 5});
+    return editor.solve(bent.targets).positions;
+  };
+  const auto many = run();
+  const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  const auto single = run();
+  for (std::size_t v = 0; v < many.size(); ++v) ASSERT_EQ(many[v], single[v]) << v;
+}
+
+TEST(ArapEditor, ReportsCancellation) {
+  const SurfaceMesh mesh = test::bar();
+  const test::BentBar bent = test::bentBar(mesh);
+  ArapEditor editor(mesh.positions, mesh.triangles, bent.constrained,
+                    {.maxIterations = 50, .relativeTolerance = 0.0});
+  int calls = 0;
+  const ProgressCallback stop = [&](std::string_view stage, double) {
+    EXPECT_EQ(stage, "arap");
+    return ++calls < 3;
+  };
+  EXPECT_THROW(editor.solve(bent.targets, stop), Cancelled);
+}
+
+TEST(ArapEditor, RefusesBadInput) {
+  const SurfaceMesh mesh = test::bar(1.0, 1);
+  const std::vector<std::uint32_t> handles = {0, 1};
+  EXPECT_THROW(ArapEditor(mesh.positions, mesh.triangles, handles, {.maxIterations = -1}),
+               InvalidInput);
+  EXPECT_THROW(ArapEditor(mesh.positions, mesh.triangles, handles, {.relativeTolerance = NAN}),
+               InvalidInput);
+  ArapEditor editor(mesh.positions, mesh.triangles, handles);
+  EXPECT_THROW(editor.solve(std::vector<Vec3>{Vec3(0), Vec3(INFINITY)}), InvalidInput);
+  EXPECT_THROW(editor.solveFrom(std::vector<Vec3>(3), std::vector<Vec3>(2)), InvalidInput);
+  EXPECT_THROW(editor.energy(std::vector<Vec3>(3)), InvalidInput);
+}
+
+}  // namespace
+}  // namespace spacewarp
