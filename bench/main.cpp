@@ -10,6 +10,8 @@
 void printVolumeSummary();
 #endif
 
+void registerSurfaceBenchmarks();  // surface_bench.cpp
+
 #ifdef SPACEWARP_HAVE_HARMONIC
 void registerHarmonicBenchmarks();  // harmonic_bench.cpp
 #endif
@@ -18,6 +20,7 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   registerCoordsBenchmarks();
+  registerSurfaceBenchmarks();
 #ifdef SPACEWARP_HAVE_HARMONIC
   registerHarmonicBenchmarks();
 #endif
