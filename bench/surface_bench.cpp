@@ -72,9 +72,9 @@ constexpr int kIterations = 10;
 // Wall time per iteration as a counter (the benchmark's own time covers kIterations of them,
 // plus the local step that evaluates the start).
 void reportIterations(benchmark::State& state) {
-  state.counters["per_iteration"] = benchmark::Counter(
-      double(state.iterations()) * kIterations,
-      benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["per_iteration"] =
+      benchmark::Counter(double(state.iterations()) * kIterations,
+                         benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
 }
 
 void BM_ArapFactorArmadillo(benchmark::State& state) {
@@ -101,8 +101,9 @@ void BM_ArapIterationsArmadillo(benchmark::State& state) {
 
 void BM_LaplacianResolveArmadillo(benchmark::State& state) {
   const Edit& e = armadilloEdit();
-  LinearEditor editor(e.mesh.positions, e.mesh.triangles, e.handles,
-                      {state.range(0) ? LinearEditMethod::BiLaplacian : LinearEditMethod::Laplacian});
+  LinearEditor editor(
+      e.mesh.positions, e.mesh.triangles, e.handles,
+      {state.range(0) ? LinearEditMethod::BiLaplacian : LinearEditMethod::Laplacian});
   for (auto _ : state) benchmark::DoNotOptimize(editor.solve(e.targets).data());
 }
 

@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 
 #include <spacewarp/core/binding.h>
+#include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/surface/detail/edit_problem.h>
@@ -112,6 +113,17 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
   im.restControls.assign(rest.begin(), rest.end());
   const auto n = static_cast<Eigen::Index>(positions.size());
   const auto m = static_cast<Eigen::Index>(im.m);
+  std::size_t k = options.rotationClusters;
+  if (k == 0) k = std::max<std::size_t>(64, 4 * im.m);
+  k = std::min<std::size_t>(k, positions.size());
+  // The binding and its vertex block (n × columns, n × m), qt (3K × m), the m × m matrices, the
+  // spoke matrix G (about 7 spokes per vertex, 6 entries each).
+  const double columns = double(coordinates->columnCount());
+  detail::checkMemory(8.0 * (double(n) * (columns + double(m)) + 3.0 * double(k) * double(m) +
+                             4.0 * double(m) * double(m)) +
+                          16.0 * 42.0 * double(n),
+                      caller + ": " + std::to_string(n) + " model vertices × " + std::to_string(m) +
+                          " control points (" + std::to_string(k) + " rotation clusters)");
   {
     const Binding binding(coordinates, positions, progress);
     im.weights = binding.isSparse() ? Eigen::MatrixXd(binding.sparse()).leftCols(m)
@@ -119,9 +131,6 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
   }
   ProgressTracker tracker(progress, "subspace", 3);
   const detail::Spokes spokes = detail::makeSpokes(problem.laplacian, positions);
-  std::size_t k = options.rotationClusters;
-  if (k == 0) k = std::max<std::size_t>(64, 4 * im.m);
-  k = std::min<std::size_t>(k, positions.size());
   const auto cluster = detail::rotationClusters(spokes, k);
   im.clusters = 0;
   for (std::uint32_t c : cluster) im.clusters = std::max<std::size_t>(im.clusters, c + 1);

@@ -76,8 +76,10 @@ class CageArapEditor {
   /// Coordinates (mean-value, harmonic, Green, a lattice, RBF handles) that weigh every model
   /// vertex; `constrained`: the handle vertices. Binds the model (reports stage "bind"), then
   /// builds the subspace matrices (stage "subspace"). Throws InvalidInput as LinearEditor does,
-  /// or if a model vertex has no weights or the options are out of range; SolverError if the
-  /// subspace system is singular (the handles do not pin the cage: add handles).
+  /// or if a model vertex has no weights, the options are out of range or the matrices would not
+  /// fit in memory; SolverError if the subspace system cannot be factorised. Control points that
+  /// no model vertex feels (weight 0 everywhere, e.g. far lattice points) are not determined by
+  /// the energy: a tiny proximal term keeps them where each solve starts.
   CageArapEditor(std::span<const Vec3> positions,
                  std::span<const std::array<std::uint32_t, 3>> triangles,
                  std::shared_ptr<const Coordinates> coordinates,
