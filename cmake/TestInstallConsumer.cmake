@@ -34,6 +34,14 @@ run_step("${WORK_DIR}/build/deform_soup" "${d}/cage.obj" "${d}/pose.obj" "${d}/q
          "${d}/mvc.obj")
 run_step("${WORK_DIR}/build/load_rig" "${d}/shift.json" "${d}/quad.obj" "${d}/rig.ply")
 run_step("${WORK_DIR}/build/consumer" "${d}/quad.obj" "${d}/mvc.obj" "${d}/rig.ply")
+# ARAP on the cage's box (a closed quad mesh): its top turns and rises, its bottom stays.
+run_step("${WORK_DIR}/build/edit_surface" "${d}/cage.obj" "${d}/edited.obj" 0.5)
+file(STRINGS "${d}/edited.obj" edited REGEX "^v ")
+list(GET edited 0 bottom)
+list(GET edited 6 top)
+if(NOT bottom STREQUAL "v -1 -1 -1" OR top MATCHES "^v [-0-9.e]+ 1 ")
+  message(FATAL_ERROR "edit_surface: bottom '${bottom}' should stay, top '${top}' should rise")
+endif()
 # A bad rig is a one-line error and exit 3.
 execute_process(COMMAND "${WORK_DIR}/build/load_rig" "${d}/quad.obj" "${d}/quad.obj" "${d}/x.obj"
                 RESULT_VARIABLE rc ERROR_VARIABLE err)
