@@ -114,6 +114,37 @@ TEST(ArapEditor, ReportsCancellation) {
   EXPECT_THROW(editor.solve(bent.targets, stop), Cancelled);
 }
 
+// An open sheet with a flap on one of its edges (three triangles on that edge): reported by
+// weldSoup, and still edited: a translation of the handles is reproduced, the energy never rises.
+TEST(ArapEditor, EditsOpenAndNonManifoldMeshes) {
+  PolygonSoup soup;
+  const int n = 6;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) soup.positions.push_back(Vec3(i, j, 0) / double(n));
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      const auto v = static_cast<std::uint32_t>(j * (n + 1) + i);
+      soup.addPolygon({v, v + 1, v + n + 2, v + n + 1});
+    }
+  soup.positions.push_back(Vec3(0.5, 0.5, 0.5));
+  soup.addPolygon({24, 25, static_cast<std::uint32_t>(soup.positions.size() - 1)});
+  const SurfaceMesh mesh = weldSoup(soup);
+  EXPECT_FALSE(mesh.report.isManifold());
+  EXPECT_GT(mesh.report.boundaryEdges, 0u);
+  const auto handles =
+      test::verticesWhere(mesh.positions, [](const Vec3& x) { return x.x == 0.0 || x.x == 1.0; });
+  ArapEditor editor(mesh.positions, mesh.triangles, handles);
+  const Vec3 t(0.1, 0.2, 0.3);
+  const auto moved =
+      editor.solve(test::applied([&](const Vec3& x) { return x + t; }, mesh.positions, handles));
+  for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
+    EXPECT_LT(glm::length(moved.positions[v] - (mesh.positions[v] + t)), 1e-12) << v;
+  const auto bent = editor.solve(test::applied(
+      [](const Vec3& x) { return x.x == 1.0 ? x + Vec3(0, 0, 0.5) : x; }, mesh.positions, handles));
+  EXPECT_TRUE(nonIncreasing(bent.report.energies));
+  for (const Vec3& x : bent.positions) EXPECT_TRUE(isFinite(x));
+}
+
 TEST(ArapEditor, RefusesBadInput) {
   const SurfaceMesh mesh = test::bar(1.0, 1);
   const std::vector<std::uint32_t> handles = {0, 1};
