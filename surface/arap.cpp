@@ -47,7 +47,7 @@ struct ArapEditor::Impl {
       Mat3 cov(0.0);  // Σ w e e̅ᵀ: tr(Rᵀ cov) = Σ w eᵀ R e̅
       for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k)
         cov += glm::outerProduct(s.weight[k] * (x[i] - x[s.neighbor[k]]), s.rest[k]);
-      const Mat3 r = detail::closestRotation(cov);
+      const Mat3 r = detail::closestRotationNear(cov, rotations[i]);
       double e = 0.0;
       for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k) {
         const Vec3 d = (x[i] - x[s.neighbor[k]]) - r * s.rest[k];

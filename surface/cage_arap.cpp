@@ -59,7 +59,7 @@ struct CageArapEditor::Impl {
       Mat3 cov = restCov[k];
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) cov[c][r] += mk(3 * Eigen::Index(k) + c, r);
-      const Mat3 rot = detail::closestRotation(cov);
+      const Mat3 rot = detail::closestRotationNear(cov, rotations[k]);
       rotations[k] = rot;
       gain[k] = glm::dot(rot[0], cov[0]) + glm::dot(rot[1], cov[1]) + glm::dot(rot[2], cov[2]);
     });

@@ -157,6 +157,49 @@ Mat3 closestRotation(const Mat3& b) {
   return rotationByEigen(b);
 }
 
+// Maximises f(R) = tr(Rᵀ b) over R = guess · exp([ω]×). With M = Rᵀ b and S its symmetric part,
+// f ≈ f(R) + g·ω − ½ ωᵀ H ω, g = (M₂₁ − M₁₂, M₀₂ − M₂₀, M₁₀ − M₀₁), H = tr(S) I − S, so the Newton
+// step is ω = H⁻¹ g (H positive definite near the maximum; every local maximum of f on SO(3) is
+// global). The step is applied as the rotation of the unit quaternion (1, ω/2)/|·|, a retraction
+// that keeps the quadratic convergence and needs no trigonometry.
+Mat3 closestRotationNear(const Mat3& b, const Mat3& guess) {
+  Mat3 r = guess;
+  for (int step = 0; step < 4; ++step) {
+    const Mat3 m = glm::transpose(r) * b;  // m[c][r] = M_rc
+    const Vec3 g(m[1][2] - m[2][1], m[2][0] - m[0][2], m[0][1] - m[1][0]);
+    const double trace = m[0][0] + m[1][1] + m[2][2];
+    const double h00 = trace - m[0][0], h11 = trace - m[1][1], h22 = trace - m[2][2];
+    const double h01 = -0.5 * (m[1][0] + m[0][1]), h02 = -0.5 * (m[2][0] + m[0][2]),
+                 h12 = -0.5 * (m[2][1] + m[1][2]);
+    const double c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22,
+                 c02 = h01 * h12 - h02 * h11;
+    const double det = h00 * c00 + h01 * c01 + h02 * c02;
+    // Sylvester's criterion, with a margin against a nearly singular H (rank-1 b).
+    if (!(h00 > 0.0) || !(h00 * h11 - h01 * h01 > 0.0) || !(det > 1e-12 * trace * trace * trace))
+      break;
+    const double c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12,
+                 c22 = h00 * h11 - h01 * h01;
+    const Vec3 w = Vec3(c00 * g.x + c01 * g.y + c02 * g.z, c01 * g.x + c11 * g.y + c12 * g.z,
+                        c02 * g.x + c12 * g.y + c22 * g.z) /
+                   det;
+    const double w2 = glm::dot(w, w);
+    // q = (1, w/2) / |.|: its rotation matrix, written out.
+    const double s = 1.0 / (1.0 + 0.25 * w2);
+    const double x = 0.5 * w.x, y = 0.5 * w.y, z = 0.5 * w.z;
+    const Mat3 q(
+        Vec3(1.0 - 2.0 * s * (y * y + z * z), 2.0 * s * (x * y + z), 2.0 * s * (x * z - y)),
+        Vec3(2.0 * s * (x * y - z), 1.0 - 2.0 * s * (x * x + z * z), 2.0 * s * (y * z + x)),
+        Vec3(2.0 * s * (x * z + y), 2.0 * s * (y * z - x), 1.0 - 2.0 * s * (x * x + y * y)));
+    r = r * q;
+    if (w2 <= 1e-16) {
+      // One Newton-Schulz step removes the drift from orthogonality that repeated refinement
+      // from earlier results would accumulate.
+      return r * (1.5 * Mat3(1.0) - 0.5 * (glm::transpose(r) * r));
+    }
+  }
+  return closestRotation(b);
+}
+
 RigidFit rigidFit(std::span<const Vec3> handles, std::span<const Vec3> targets) {
   RigidFit fit;
   if (handles.empty()) return fit;
