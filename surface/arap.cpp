@@ -8,8 +8,8 @@
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/surface/detail/arap_terms.h>
 #include <spacewarp/surface/detail/edit_problem.h>
-#include <spacewarp/surface/detail/spokes.h>
 
 namespace spacewarp {
 
@@ -33,28 +33,35 @@ void forVertices(std::size_t n, Fn&& fn) {
 
 struct ArapEditor::Impl {
   detail::EditProblem problem;
-  detail::Spokes spokes;
-  Eigen::SparseMatrix<double> freeFixed;  // L_fc
+  detail::ArapTerms terms;
+  Eigen::SparseMatrix<double> freeFixed;  // A_fc of terms.system
   detail::SparseCholesky factor{{"ArapEditor", "check the mesh for degenerate parts"}};
   ArapOptions options;
-  std::vector<Mat3> rotations;       // of the last local step
-  std::vector<double> vertexEnergy;  // of the last local step
+  std::vector<Mat3> rotations;          // of the last local step
+  std::vector<double> vertexEnergy;     // of the last local step
+  std::vector<Mat3> elementCovariance;  // scratch of the local step
 
   // Optimal rotations of x (all n vertices) and the energy they give.
   double localStep(std::span<const Vec3> x) {
-    const auto& s = spokes;
-    forVertices(s.vertexCount(), [&](std::size_t i) {
-      Mat3 cov(0.0);  // Σ w e e̅ᵀ: tr(Rᵀ cov) = Σ w eᵀ R e̅
-      for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k)
-        cov += glm::outerProduct(s.weight[k] * (x[i] - x[s.neighbor[k]]), s.rest[k]);
+    const auto& t = terms;
+    forVertices(t.elements.size(), [&](std::size_t e) {
+      elementCovariance[e] = detail::elementCovariance(t.elements[e], x);
+    });
+    forVertices(t.vertexCount(), [&](std::size_t i) {
+      Mat3 cov(0.0);  // Σ w e e̅ᵀ over T(i): tr(Rᵀ cov) = Σ w eᵀ R e̅
+      for (std::size_t k = t.vertexOffsets[i]; k < t.vertexOffsets[i + 1]; ++k)
+        cov += elementCovariance[t.vertexElements[k]];
       const Mat3 r = detail::closestRotationNear(cov, rotations[i]);
-      double e = 0.0;
-      for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k) {
-        const Vec3 d = (x[i] - x[s.neighbor[k]]) - r * s.rest[k];
-        e += s.weight[k] * glm::dot(d, d);
+      double energy = 0.0;
+      for (std::size_t k = t.vertexOffsets[i]; k < t.vertexOffsets[i + 1]; ++k) {
+        const detail::ArapElement& e = t.elements[t.vertexElements[k]];
+        for (int j = 0; j < e.count; ++j) {
+          const Vec3 d = (x[e.a[j]] - x[e.b[j]]) - r * e.rest[j];
+          energy += e.weight[j] * glm::dot(d, d);
+        }
       }
       rotations[i] = r;
-      vertexEnergy[i] = e;
+      vertexEnergy[i] = energy;
     });
     double total = 0.0;
     for (double e : vertexEnergy) total += e;
@@ -64,13 +71,20 @@ struct ArapEditor::Impl {
   // Positions minimising the energy for the current rotations, the fixed vertices at `fixed`.
   std::vector<Vec3> globalStep(const Eigen::MatrixXd& fixed) {
     const auto& p = problem;
-    const auto& s = spokes;
+    const auto& t = terms;
     Eigen::MatrixXd rhs(static_cast<Eigen::Index>(p.freeVertices.size()), 3);
     forVertices(p.freeVertices.size(), [&](std::size_t f) {
-      const std::uint32_t i = p.freeVertices[f];
-      Vec3 b(0.0);
-      for (std::size_t k = s.offsets[i]; k < s.offsets[i + 1]; ++k)
-        b += (0.5 * s.weight[k]) * ((rotations[i] + rotations[s.neighbor[k]]) * s.rest[k]);
+      const std::uint32_t v = p.freeVertices[f];
+      Vec3 b(0.0);  // Σ over v's elements and their edges at v of ±w (Σ_owners R) e̅
+      for (std::size_t k = t.vertexOffsets[v]; k < t.vertexOffsets[v + 1]; ++k) {
+        const detail::ArapElement& e = t.elements[t.vertexElements[k]];
+        Mat3 sum = rotations[e.owner[0]];
+        for (int o = 1; o < e.ownerCount; ++o) sum += rotations[e.owner[o]];
+        for (int j = 0; j < e.count; ++j) {
+          if (e.a[j] == v) b += e.weight[j] * (sum * e.rest[j]);
+          if (e.b[j] == v) b -= e.weight[j] * (sum * e.rest[j]);
+        }
+      }
       rhs.row(static_cast<Eigen::Index>(f)) << b.x, b.y, b.z;
     });
     rhs -= freeFixed * fixed;
@@ -90,12 +104,13 @@ ArapEditor::ArapEditor(std::span<const Vec3> positions,
   auto& im = *impl_;
   im.options = options;
   im.problem = detail::makeEditProblem(positions, triangles, constrained, "ArapEditor");
-  im.spokes = detail::makeSpokes(im.problem.laplacian, positions);
-  im.freeFixed = im.problem.freeFixedBlock(im.problem.laplacian);
+  im.terms = detail::makeArapTerms(options.energy, positions, triangles, im.problem.laplacian);
+  im.freeFixed = im.problem.freeFixedBlock(im.terms.system);
   im.rotations.assign(positions.size(), Mat3(1.0));
   im.vertexEnergy.assign(positions.size(), 0.0);
+  im.elementCovariance.resize(im.terms.elements.size());
   if (im.problem.freeVertices.empty()) return;
-  const Eigen::SparseMatrix<double> lower = im.problem.freeBlockLower(im.problem.laplacian);
+  const Eigen::SparseMatrix<double> lower = im.problem.freeBlockLower(im.terms.system);
   im.factor.analyzePattern(lower);
   if (!im.factor.factorize(lower)) {
     throw SolverError(
@@ -163,7 +178,7 @@ ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Ve
   ProgressTracker tracker(progress, "arap", static_cast<std::size_t>(im.options.maxIterations));
   // The energy is zero to rounding: nothing left to move. (Obtuse triangles' negative weights
   // can make it slightly negative.)
-  const double floor = 1e-28 * p.diagonal * p.diagonal * double(im.spokes.weight.size());
+  const double floor = 1e-28 * p.diagonal * p.diagonal * double(im.terms.elements.size());
   std::vector<Mat3> keep;
   while (report.iterations < im.options.maxIterations && !report.converged) {
     if (std::abs(e) <= floor) {

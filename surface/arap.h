@@ -1,8 +1,14 @@
 #pragma once
-// As-rigid-as-possible surface editing (Sorkine and Alexa 2007): one rotation per vertex over
-// its one-ring edges ("spokes"), cotangent weights, hard positional constraints.
+// As-rigid-as-possible surface editing (Sorkine and Alexa 2007): one rotation per vertex,
+// cotangent weights, hard positional constraints.
 //
-//   E(x, R) = Σ_i Σ_{j ∈ N(i)} w_ij ‖(x_i − x_j) − R_i (x̄_i − x̄_j)‖²
+//   E(x, R) = Σ_i Σ_{(a,b) ∈ T(i)} w_ab ‖(x_a − x_b) − R_i (x̄_a − x̄_b)‖²
+//
+// with T(i) the edges of the triangles around vertex i ("spokes and rims", Chao et al. 2010:
+// the default) or its one-ring edges only ("spokes", the paper's). With spokes, the negative
+// cotangent weights of obtuse triangles make the energy unbounded below: on real meshes
+// (the armadillo: 11% of its weights are negative) single edges then stretch by factors of
+// tens. With rims each triangle's terms are its Dirichlet energy, never negative.
 //
 // minimised by alternating the local step (each R_i the rotation of the polar decomposition
 // of its edge covariance, reflections excluded) and the global step (a Laplace solve with the
@@ -20,7 +26,15 @@
 
 namespace spacewarp {
 
+/// The edges each vertex's rotation acts on.
+enum class ArapEnergy {
+  SpokesAndRims,  ///< the edges of the triangles around the vertex (bounded below; default)
+  Spokes,         ///< the vertex's one-ring edges (Sorkine and Alexa 2007)
+};
+
 struct ArapOptions {
+  /// The energy's edge sets (default SpokesAndRims).
+  ArapEnergy energy = ArapEnergy::SpokesAndRims;
   /// At most this many local/global iterations per solve (default 20).
   int maxIterations = 20;
   /// Stop when an iteration lowers the energy by less than this fraction of it (default 1e-6);

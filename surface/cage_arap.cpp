@@ -10,9 +10,9 @@
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/surface/detail/arap_terms.h>
 #include <spacewarp/surface/detail/edit_problem.h>
 #include <spacewarp/surface/detail/rotation_clusters.h>
-#include <spacewarp/surface/detail/spokes.h>
 
 namespace spacewarp {
 
@@ -23,11 +23,12 @@ Eigen::Matrix3d transposeOf(const Mat3& m) { return toEigen(glm::transpose(m)); 
 }  // namespace
 
 // Notation of the header: ΔP = P − P̄ (m × 3), W the model's weights (vertex columns), and per
-// spoke s = (i → j) in cluster k the rest vector ē_s and weight w_s. Then
+// term s = (a, b) of a vertex in cluster k the rest vector ē_s = x̄_a − x̄_b and weight w_s. Then
 //   cov_k = S̄_k + (Q_kᵀ ΔP)ᵀ             with S̄_k = Σ_s w_s ē_s ē_sᵀ,
-//   Q_kᵀ = Σ_s w_s ē_s (W_i − W_j)        (3 × m, the rows 3k..3k+2 of qt),
+//   Q_kᵀ = Σ_s w_s ē_s (W_a − W_b)        (3 × m, the rows 3k..3k+2 of qt),
 //   E_arap = 2 c̄ + 2 tr(ΔPᵀ C̄) + tr(ΔPᵀ K ΔP) − 2 Σ_k tr(R_kᵀ cov_k),
-//   with c̄ = Σ w |ē|², C̄ = Σ_k Q_k, K = Σ_s w_s (W_i − W_j)ᵀ(W_i − W_j) = 2 Wᵀ L W;
+//   with c̄ = Σ w |ē|², C̄ = Σ_k Q_k, K = Σ_s w_s (W_a − W_b)ᵀ(W_a − W_b) = Wᵀ A W (A: the
+//   terms' system matrix);
 // the global step solves (K + λ H + μ I) ΔP = Σ_k Q_k (R_kᵀ − I) + λ W_hᵀ (t − x̄_h) + μ ΔP_prev.
 struct CageArapEditor::Impl {
   CageArapOptions options;
@@ -117,11 +118,11 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
   if (k == 0) k = std::max<std::size_t>(64, 4 * im.m);
   k = std::min<std::size_t>(k, positions.size());
   // The binding and its vertex block (n × columns, n × m), qt (3K × m), the m × m matrices, the
-  // spoke matrix G (about 7 spokes per vertex, 6 entries each).
+  // term matrix G (about 18 terms per vertex, 6 entries each).
   const double columns = double(coordinates->columnCount());
   detail::checkMemory(8.0 * (double(n) * (columns + double(m)) + 3.0 * double(k) * double(m) +
                              4.0 * double(m) * double(m)) +
-                          16.0 * 42.0 * double(n),
+                          16.0 * 108.0 * double(n),
                       caller + ": " + std::to_string(n) + " model vertices × " + std::to_string(m) +
                           " control points (" + std::to_string(k) + " rotation clusters)");
   {
@@ -130,31 +131,35 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
                                     : Eigen::MatrixXd(binding.dense().leftCols(m));
   }
   ProgressTracker tracker(progress, "subspace", 3);
-  const detail::Spokes spokes = detail::makeSpokes(problem.laplacian, positions);
-  const auto cluster = detail::rotationClusters(spokes, k);
+  const detail::ArapTerms terms =
+      detail::makeArapTerms(options.energy, positions, triangles, problem.laplacian);
+  const auto cluster = detail::rotationClusters(problem.laplacian, positions, k);
   im.clusters = 0;
   for (std::uint32_t c : cluster) im.clusters = std::max<std::size_t>(im.clusters, c + 1);
   im.rotations.assign(im.clusters, Mat3(1.0));
   tracker.advance();
 
-  // qt = G W with G (3K × n): rows 3k..3k+2 hold +w ē at column i and −w ē at column j.
+  // qt = G W with G (3K × n): rows 3k..3k+2 hold +w ē at column a and −w ē at column b of every
+  // term of a vertex in cluster k.
   std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(spokes.weight.size() * 6);
+  entries.reserve(terms.vertexElements.size() * 18);
   im.restCov.assign(im.clusters, Mat3(0.0));
-  double totalWeight = 0.0;
-  for (std::size_t i = 0; i < spokes.vertexCount(); ++i) {
+  for (std::size_t i = 0; i < terms.vertexCount(); ++i) {
     const auto c = static_cast<int>(cluster[i]);
-    for (std::size_t s = spokes.offsets[i]; s < spokes.offsets[i + 1]; ++s) {
-      const Vec3 we = spokes.weight[s] * spokes.rest[s];
-      for (int a = 0; a < 3; ++a) {
-        entries.emplace_back(3 * c + a, static_cast<int>(i), we[a]);
-        entries.emplace_back(3 * c + a, static_cast<int>(spokes.neighbor[s]), -we[a]);
+    for (std::size_t k = terms.vertexOffsets[i]; k < terms.vertexOffsets[i + 1]; ++k) {
+      const detail::ArapElement& e = terms.elements[terms.vertexElements[k]];
+      for (int j = 0; j < e.count; ++j) {
+        const Vec3 we = e.weight[j] * e.rest[j];
+        for (int a = 0; a < 3; ++a) {
+          entries.emplace_back(3 * c + a, static_cast<int>(e.a[j]), we[a]);
+          entries.emplace_back(3 * c + a, static_cast<int>(e.b[j]), -we[a]);
+        }
+        im.restCov[cluster[i]] += glm::outerProduct(we, e.rest[j]);
+        im.restSquared += glm::dot(we, e.rest[j]);
       }
-      im.restCov[cluster[i]] += glm::outerProduct(we, spokes.rest[s]);
-      im.restSquared += glm::dot(we, spokes.rest[s]);
-      totalWeight += spokes.weight[s];
     }
   }
+  const double totalWeight = terms.totalWeight;
   Eigen::SparseMatrix<double, Eigen::RowMajor> g(3 * Eigen::Index(im.clusters), n);
   g.setFromTriplets(entries.begin(), entries.end());
   im.qt = g * im.weights;
@@ -163,7 +168,7 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
     im.restCross += im.qt.middleRows(3 * Eigen::Index(c), 3).transpose();
   tracker.advance();
 
-  im.stiffness = 2.0 * im.weights.transpose() * (problem.laplacian * im.weights);
+  im.stiffness = im.weights.transpose() * (terms.system * im.weights);
   const auto h = static_cast<Eigen::Index>(constrained.size());
   im.handleWeights.resize(h, m);
   im.handleRest.resize(h, 3);

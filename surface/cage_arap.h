@@ -6,8 +6,10 @@
 //
 // and the energy is the model's ARAP energy plus soft handle constraints,
 //
-//   E(P, R) = Σ_k Σ_{(i,j) ∈ cluster k} w_ij ‖(x_i − x_j) − R_k (x̄_i − x̄_j)‖²
-//             + λ Σ_h ‖x_h(P) − t_h‖².
+//   E(P, R) = Σ_k Σ_{i ∈ cluster k} Σ_{(a,b) ∈ T(i)} w_ab ‖(x_a − x_b) − R_k (x̄_a − x̄_b)‖²
+//             + λ Σ_h ‖x_h(P) − t_h‖²
+//
+// with the edge sets T(i) of ArapEditor's energy (spokes and rims by default).
 //
 // One rotation per cluster of vertices (clusters grown over the surface from farthest-point
 // seeds): with as many clusters as vertices this is exactly the surface ARAP energy of
@@ -27,17 +29,20 @@
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/math.h>
 #include <spacewarp/core/progress.h>
+#include <spacewarp/surface/arap.h>
 
 namespace spacewarp {
 
 struct CageArapOptions {
+  /// The ARAP energy's edge sets (default SpokesAndRims, as ArapEditor's).
+  ArapEnergy energy = ArapEnergy::SpokesAndRims;
   /// Rotation clusters K. 0 (default): 4 per control point, at least 64, at most the vertex
   /// count; the vertex count gives exactly the surface ARAP energy.
   std::size_t rotationClusters = 0;
   /// λ relative to the ARAP stiffness: the handle term's weight is handleWeight × (the sum of
-  /// the cotangent weights) / (the number of handle vertices), so its meaning does not depend
-  /// on the mesh's size or resolution (default 100). Larger follows the handles more closely
-  /// at the cost of rigidity where the cage cannot do both.
+  /// the energy's edge weights, Σ_i Σ_{T(i)} w) / (the number of handle vertices), so its
+  /// meaning does not depend on the mesh's size or resolution (default 100). Larger follows the
+  /// handles more closely at the cost of rigidity where the cage cannot do both.
   double handleWeight = 100.0;
   /// At most this many iterations per solve (default 30).
   int maxIterations = 30;

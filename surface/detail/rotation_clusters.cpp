@@ -8,8 +8,9 @@
 
 namespace spacewarp::detail {
 
-std::vector<std::uint32_t> rotationClusters(const Spokes& spokes, std::size_t count) {
-  const std::size_t n = spokes.vertexCount();
+std::vector<std::uint32_t> rotationClusters(const Eigen::SparseMatrix<double>& laplacian,
+                                            std::span<const Vec3> rest, std::size_t count) {
+  const std::size_t n = rest.size();
   std::vector<std::uint32_t> cluster(n, 0);
   if (count >= n) {
     std::iota(cluster.begin(), cluster.end(), 0u);
@@ -18,7 +19,7 @@ std::vector<std::uint32_t> rotationClusters(const Spokes& spokes, std::size_t co
   constexpr double kInf = std::numeric_limits<double>::infinity();
   std::vector<double> distance(n, kInf);
   for (std::size_t i = 0; i < n; ++i)
-    if (spokes.offsets[i] == spokes.offsets[i + 1]) distance[i] = 0.0;  // no energy term
+    if (laplacian.col(static_cast<Eigen::Index>(i)).nonZeros() <= 1) distance[i] = 0.0;  // no edge
   using Entry = std::pair<double, std::uint32_t>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
   for (std::uint32_t c = 0; c < count; ++c) {
@@ -26,7 +27,7 @@ std::vector<std::uint32_t> rotationClusters(const Spokes& spokes, std::size_t co
     std::size_t seed = 0;
     for (std::size_t i = 1; i < n; ++i)
       if (distance[i] > distance[seed]) seed = i;
-    if (!(distance[seed] > 0.0)) break;  // every vertex with spokes is a seed already
+    if (!(distance[seed] > 0.0)) break;  // every vertex with edges is a seed already
     distance[seed] = 0.0;
     cluster[seed] = c;
     queue.push({0.0, static_cast<std::uint32_t>(seed)});
@@ -34,9 +35,10 @@ std::vector<std::uint32_t> rotationClusters(const Spokes& spokes, std::size_t co
       const auto [d, i] = queue.top();
       queue.pop();
       if (d > distance[i]) continue;
-      for (std::size_t k = spokes.offsets[i]; k < spokes.offsets[i + 1]; ++k) {
-        const std::uint32_t j = spokes.neighbor[k];
-        const double dj = d + glm::length(spokes.rest[k]);
+      for (Eigen::SparseMatrix<double>::InnerIterator it(laplacian, i); it; ++it) {
+        const auto j = static_cast<std::uint32_t>(it.row());
+        if (j == i) continue;
+        const double dj = d + glm::length(rest[i] - rest[j]);
         if (dj < distance[j]) {
           distance[j] = dj;
           cluster[j] = c;

@@ -126,8 +126,10 @@ TEST(CageArapEditor, WithOneClusterPerVertexHasTheSurfaceArapEnergy) {
     const Vec3 d = result.positions[handles[k]] - targets[k];
     handleTerm += glm::dot(d, d);
   }
-  // λ = handleWeight × Σ w over the spokes = handleWeight × trace(L), per handle vertex.
-  const double lambda = 1.0 * cotanLaplacian(mesh.positions, mesh.triangles).diagonal().sum() /
+  // λ = handleWeight × Σ w over the energy's terms, per handle vertex: 1.5 trace(L) with rims
+  // (every triangle's three edge weights, once for each of its vertices).
+  const double lambda = 1.0 * 1.5 *
+                        cotanLaplacian(mesh.positions, mesh.triangles).diagonal().sum() /
                         double(handles.size());
   EXPECT_NEAR(result.report.energies.back(), surface.energy(result.positions) + lambda * handleTerm,
               1e-9 * result.report.energies.front());
