@@ -154,6 +154,7 @@ SurfaceMesh weldSoup(const PolygonSoup& soup, const WeldOptions& options) {
   if (!(options.relativeTolerance >= 0.0) || !std::isfinite(options.relativeTolerance)) {
     throw InvalidInput("weldSoup: relativeTolerance must be finite and >= 0");
   }
+  detail::checkSurfaceScale(soup.positions, "weldSoup");
   SurfaceMesh mesh;
   const double tolerance = options.relativeTolerance * boundingBox(soup.positions).diagonal();
   mesh.soupToMesh = weldVertices(soup.positions, tolerance, mesh.positions);

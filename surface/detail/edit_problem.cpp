@@ -58,6 +58,17 @@ Eigen::MatrixXd toMatrix(std::span<const Vec3> points) {
   return m;
 }
 
+void checkSurfaceScale(std::span<const Vec3> positions, const std::string& caller) {
+  constexpr double kLimit = 1e100;
+  for (std::size_t v = 0; v < positions.size(); ++v)
+    if (!(maxAbs(positions[v]) < kLimit)) {
+      throw InvalidInput(caller + ": vertex " + std::to_string(v) +
+                         (isFinite(positions[v]) ? " is beyond 1e100 in magnitude (squared lengths "
+                                                   "would overflow)"
+                                                 : " is not finite"));
+    }
+}
+
 EditProblem makeEditProblem(std::span<const Vec3> positions,
                             std::span<const std::array<std::uint32_t, 3>> triangles,
                             std::span<const std::uint32_t> constrained, const std::string& caller) {
@@ -66,10 +77,7 @@ EditProblem makeEditProblem(std::span<const Vec3> positions,
   if (constrained.empty()) {
     throw InvalidInput(caller + ": no constrained vertex (give at least one handle region)");
   }
-  for (std::size_t v = 0; v < n; ++v)
-    if (!isFinite(positions[v])) {
-      throw InvalidInput(caller + ": vertex " + std::to_string(v) + " is not finite");
-    }
+  checkSurfaceScale(positions, caller);
   EditProblem p;
   p.rest.assign(positions.begin(), positions.end());
   p.triangles.assign(triangles.begin(), triangles.end());
@@ -94,6 +102,9 @@ EditProblem makeEditProblem(std::span<const Vec3> positions,
   // Components the energy cannot place (no constrained vertex) are held at rest.
   std::size_t count = 0;
   const auto component = vertexComponents(positions, triangles, count, true);
+  if (count == 0) {
+    throw InvalidInput(caller + ": every triangle of the mesh is degenerate (no area)");
+  }
   std::vector<bool> anchored(n, false);
   for (std::uint32_t v : constrained) anchored[component[v]] = true;
   for (std::uint32_t v = 0; v < n; ++v) {

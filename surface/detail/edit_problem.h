@@ -56,6 +56,10 @@ struct EditProblem {
                              const Eigen::MatrixXd& fixed) const;
 };
 
+/// Throws InvalidInput (naming `caller`) unless the box of `positions` spans less than 1e100 world
+/// units and every coordinate is below 1e100 in magnitude: the surface methods square lengths.
+void checkSurfaceScale(std::span<const Vec3> positions, const std::string& caller);
+
 /// Checks the mesh and the constrained vertices (InvalidInput naming `caller` and the index at
 /// fault), builds the Laplacian and the partition.
 EditProblem makeEditProblem(std::span<const Vec3> positions,

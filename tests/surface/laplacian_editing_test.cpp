@@ -121,6 +121,8 @@ TEST(LinearEditor, RefusesBadInput) {
   EXPECT_THROW(LinearEditor(nan, mesh.triangles, ok), InvalidInput);
   const std::vector<std::array<std::uint32_t, 3>> noTriangles;
   EXPECT_THROW(LinearEditor(mesh.positions, noTriangles, ok), InvalidInput);
+  const std::vector<Vec3> flat(mesh.positions.size(), Vec3(1.0));  // every triangle degenerate
+  EXPECT_THROW(LinearEditor(flat, mesh.triangles, ok), InvalidInput);
 }
 
 }  // namespace

@@ -119,6 +119,9 @@ TEST(WeldSoup, RefusesSoupsWithoutPolygonsOrWithBadData) {
   ok.positions = {Vec3(0), Vec3(1, 0, 0), Vec3(0, 1, 0)};
   ok.addPolygon({0, 1, 2});
   EXPECT_THROW(weldSoup(ok, {.relativeTolerance = -1.0}), InvalidInput);
+  PolygonSoup huge = ok;  // its squared lengths would overflow
+  huge.positions[1].x = 1e200;
+  EXPECT_THROW(weldSoup(huge), InvalidInput);
 }
 
 TEST(WeldSoup, SoupPositionsFollowTheirMeshVertex) {
