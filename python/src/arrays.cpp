@@ -153,4 +153,50 @@ Polygons toPolygons(py::handle faces, std::size_t vertexCount) {
   return polygons;
 }
 
+std::vector<std::uint32_t> toIndices(py::handle object, const std::string& name,
+                                     std::size_t count) {
+  const py::array a = py::array::ensure(object);
+  if (!a) {
+    PyErr_Clear();
+    throw InvalidInput(name + " must be a sequence of vertex indices, not " +
+                       std::string(py::str(py::type::of(object).attr("__name__"))));
+  }
+  if (a.ndim() != 1) throw InvalidInput(name + " must have shape (k,), not " + shapeText(a));
+  std::vector<std::uint32_t> indices;
+  if (a.size() == 0) return indices;  // [] is float64 to NumPy; the library names the emptiness
+  const char kind = a.dtype().kind();
+  if (kind != 'i' && kind != 'u')
+    throw InvalidInput(name + " must be integers, not " + std::string(py::str(a.dtype())));
+  // As in toPolygons: through double, so that unsigned values past 2^63 stay out of range.
+  const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  indices.reserve(static_cast<std::size_t>(a.size()));
+  for (py::ssize_t k = 0; k < values.shape(0); ++k) {
+    const double v = values.at(k);
+    if (v < 0.0 || v >= static_cast<double>(count)) {
+      throw InvalidInput(name + "[" + std::to_string(k) + "]: index " +
+                         std::to_string(static_cast<long long>(v)) +
+                         (v < 0.0 ? " is negative"
+                          : count == std::size_t{1} << 32
+                              ? " is too large"
+                              : " is out of range (" + std::to_string(count) + " vertices)"));
+    }
+    indices.push_back(static_cast<std::uint32_t>(v));
+  }
+  return indices;
+}
+
+std::vector<std::array<std::uint32_t, 3>> toTriangles(py::handle triangles,
+                                                      std::size_t vertexCount) {
+  const Polygons polygons = toPolygons(triangles, vertexCount);
+  const std::size_t m = polygons.offsets.size() - 1;
+  std::vector<std::array<std::uint32_t, 3>> out(m);
+  for (std::size_t t = 0; t < m; ++t) {
+    if (polygons.offsets[t + 1] - polygons.offsets[t] != 3)
+      throw InvalidInput("triangles must have 3 vertices each; triangle " + std::to_string(t) +
+                         " has " + std::to_string(polygons.offsets[t + 1] - polygons.offsets[t]));
+    std::copy_n(polygons.indices.begin() + polygons.offsets[t], 3, out[t].begin());
+  }
+  return out;
+}
+
 }  // namespace spacewarp::python

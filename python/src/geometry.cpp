@@ -27,21 +27,6 @@ std::unordered_map<const PolygonSoup*, int>& busyGeometries() {
   return busy;
 }
 
-/// Marks a geometry busy for the life of a call.
-class InUse {
- public:
-  explicit InUse(const PolygonSoup& soup) : soup_(&soup) { ++busyGeometries()[soup_]; }
-  ~InUse() {
-    auto& busy = busyGeometries();
-    if (--busy[soup_] == 0) busy.erase(soup_);
-  }
-  InUse(const InUse&) = delete;
-  InUse& operator=(const InUse&) = delete;
-
- private:
-  const PolygonSoup* soup_;
-};
-
 /// Throws unless no call is using `soup` (see busyGeometries()).
 void requireIdle(const PolygonSoup& soup) {
   if (busyGeometries().count(&soup))
@@ -301,6 +286,13 @@ raises SolverError naming the first vertex whose inverse did not converge.)");
 }
 
 }  // namespace
+
+InUse::InUse(const PolygonSoup& soup) : soup_(&soup) { ++busyGeometries()[soup_]; }
+
+InUse::~InUse() {
+  auto& busy = busyGeometries();
+  if (--busy[soup_] == 0) busy.erase(soup_);
+}
 
 void bindGeometry(py::module_& m) {
   bindGeometryClass(m);
