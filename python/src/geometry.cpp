@@ -239,6 +239,7 @@ spacewarp does not keep (OBJ line elements, PLY edges, ...) is a warning.)");
         WriteOptions options;
         if (ascii) options.plyEncoding = PlyEncoding::Ascii;
         {
+          const InUse busy(geometry);
           withoutGil([&] { writeSoup(geometry, path, options); });
         }
         const auto lost = unstoredContent(geometry, formatFromPath(path));
@@ -251,6 +252,7 @@ on any failure no partial file is left and an existing file is untouched.)");
       "deform",
       [](const Warp& warp, const GeometryPtr& geometry, bool inPlace, const py::object& progress) {
         const GeometryPtr out = target(geometry, inPlace);
+        const InUse busy(*out);
         DeformReport report;
         runCancellable(progress, [&](const ProgressCallback& callback) {
           report = deform(warp, *out, callback);
@@ -272,6 +274,7 @@ All or nothing: raises InvalidInput naming the first vertex that is not finite.)
         options.maxIterations = maxIterations;
         options.lengthScale = boundingBox(out->positions).diagonal();
         InverseDeformReport report;
+        const InUse busy(*out);
         runCancellable(progress, [&](const ProgressCallback& callback) {
           report = deformInverse(warp, *out, options, callback);
         });
