@@ -682,11 +682,11 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
   const EditMethod method = editMethod(name);
   checkApplicable(method, name, coordinates, o);
   const std::vector<HandleRegion> regions = toRegions(handles, "handles");
-  // The copy is made with the GIL held, so the input is not read while another thread may
-  // change it; the work below touches the copy only.
-  const auto out = std::make_shared<PolygonSoup>(geometry);
+  const auto out = std::make_shared<PolygonSoup>();
   std::vector<std::string> warnings;
+  const InUse busy(geometry);
   runCancellable(progress, [&](const ProgressCallback& callback) {
+    *out = geometry;
     const SurfaceMesh mesh = weldSoup(*out, WeldOptions{weldTolerance});
     const double diagonal = boundingBox(out->positions).diagonal();
     const VertexConstraints c =
