@@ -509,3 +509,62 @@ def test_edit_warns_when_arap_does_not_converge():
     regions = end_regions(soup, np.eye(4))[:1] + end_regions(soup, matrix)[1:]
     with pytest.warns(UserWarning, match="ARAP did not converge in 2 iterations"):
         spacewarp.edit(soup, regions, max_iterations=2)
+
+
+def corner_normals_of_obj(path) -> np.ndarray:
+    """The normal of each polygon corner of an OBJ file, in face order (c, 3)."""
+    normals, corners = [], []
+    for line in path.read_text().splitlines():
+        words = line.split()
+        if words and words[0] == "vn":
+            normals.append([float(w) for w in words[1:4]])
+        elif words and words[0] == "f":
+            corners += [int(w.split("/")[2]) - 1 for w in words[1:]]
+    return np.array(normals)[corners]
+
+
+def test_edit_turns_corner_normals_with_their_polygon(tmp_path):
+    # A bar whose OBJ gives each face its own normal on the shared vertices (f v//n).
+    vertices, quads = bar(2)
+    corners = vertices[np.array(quads)]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in vertices]
+    lines += [f"vn {x!r} {y!r} {z!r}" for x, y, z in normals]
+    lines += ["f " + " ".join(f"{v + 1}//{f + 1}" for v in quad) for f, quad in enumerate(quads)]
+    (tmp_path / "bar.obj").write_text("\n".join(lines) + "\n")
+    soup = spacewarp.read(tmp_path / "bar.obj")
+    assert soup.normals is None  # the normals are per corner
+    matrix = np.eye(4)
+    matrix[:3, :3] = rotation([1, -0.3, 0.7], 35)
+    matrix[:3, 3] = [0.5, 0, -2]
+    edited = spacewarp.edit(soup, end_regions(soup, matrix))
+    np.testing.assert_allclose(edited.positions, vertices @ matrix[:3, :3].T + matrix[:3, 3],
+                               atol=1e-9 * 7)
+    spacewarp.write(tmp_path / "edited.obj", edited)
+    np.testing.assert_allclose(corner_normals_of_obj(tmp_path / "edited.obj"),
+                               np.repeat(normals, 4, axis=0) @ matrix[:3, :3].T, atol=1e-9)
+
+
+def test_edit_warns_of_unreached_handles_and_of_parts_no_handle_reaches():
+    soup = flat_bar()
+    x = soup.positions[:, 0]
+    # The 8 corners of a box: a cage-subspace too small to bend the bar.
+    box = spacewarp.Cage(np.array([[i, j, k] for k in (-1, 1) for j in (-1, 1) for i in (-1, 1)],
+                                  float) * [3.5, 1.5, 1.5],
+                         [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2],
+                          [1, 3, 7, 5]])
+    bend = np.eye(4)
+    bend[:3, :3] = rotation([0, 0, 1], 90)
+    regions = [{"vertices": np.flatnonzero(x < -2.99), "matrix": np.eye(4)},
+               {"vertices": np.flatnonzero(x > 2.99), "matrix": bend}]
+    with pytest.warns(UserWarning, match="handle vertices are left farther than reach_tolerance"):
+        spacewarp.edit(soup, regions, method="cage-arap", coordinates=spacewarp.MeanValue(box))
+    # A second bar, apart, that no region touches.
+    apart = spacewarp.Geometry(np.vstack([soup.positions, soup.positions + [10.0, 0, 0]]),
+                               np.vstack([soup.faces, soup.faces + len(x)]))
+    held = len(bar(4)[0])  # the second bar's vertices, welded
+    with pytest.warns(UserWarning, match=f"^{held} mesh vertices are in parts no handle reaches"):
+        edited = spacewarp.edit(apart, regions[:1] + [{"vertices": regions[1]["vertices"],
+                                                       "matrix": np.eye(4)}], method="laplacian")
+    np.testing.assert_array_equal(edited.positions, apart.positions)
