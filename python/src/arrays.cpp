@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -155,31 +156,51 @@ Polygons toPolygons(py::handle faces, std::size_t vertexCount) {
 
 std::vector<std::uint32_t> toIndices(py::handle object, const std::string& name,
                                      std::size_t count) {
-  const py::array a = py::array::ensure(object);
-  if (!a) {
-    PyErr_Clear();
+  const auto fail = [&](std::size_t k, const std::string& value, bool negative) {
+    throw InvalidInput(name + "[" + std::to_string(k) + "]: index " + value +
+                       (negative ? " is negative"
+                        : count == std::size_t{1} << 32
+                            ? " is too large"
+                            : " is out of range (" + std::to_string(count) + " vertices)"));
+  };
+  std::vector<std::uint32_t> indices;
+  if (py::isinstance<py::array>(object)) {
+    const auto a = py::reinterpret_borrow<py::array>(object);
+    if (a.ndim() != 1) throw InvalidInput(name + " must have shape (k,), not " + shapeText(a));
+    if (a.size() == 0) return indices;
+    const char kind = a.dtype().kind();
+    if (kind != 'i' && kind != 'u')
+      throw InvalidInput(name + " must be integers, not " + std::string(py::str(a.dtype())));
+    // As in toPolygons: through double, so that unsigned values past 2^63 stay out of range.
+    const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t k = 0; k < values.shape(0); ++k) {
+      const double v = values.at(k);
+      if (v < 0.0 || v >= static_cast<double>(count)) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.0f", v);
+        fail(static_cast<std::size_t>(k), text, v < 0.0);
+      }
+      indices.push_back(static_cast<std::uint32_t>(v));
+    }
+    return indices;
+  }
+  if (py::isinstance<py::str>(object) || !py::isinstance<py::iterable>(object))
     throw InvalidInput(name + " must be a sequence of vertex indices, not " +
                        std::string(py::str(py::type::of(object).attr("__name__"))));
-  }
-  if (a.ndim() != 1) throw InvalidInput(name + " must have shape (k,), not " + shapeText(a));
-  std::vector<std::uint32_t> indices;
-  if (a.size() == 0) return indices;  // [] is float64 to NumPy; the library names the emptiness
-  const char kind = a.dtype().kind();
-  if (kind != 'i' && kind != 'u')
-    throw InvalidInput(name + " must be integers, not " + std::string(py::str(a.dtype())));
-  // As in toPolygons: through double, so that unsigned values past 2^63 stay out of range.
-  const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
-  indices.reserve(static_cast<std::size_t>(a.size()));
-  for (py::ssize_t k = 0; k < values.shape(0); ++k) {
-    const double v = values.at(k);
-    if (v < 0.0 || v >= static_cast<double>(count)) {
-      throw InvalidInput(name + "[" + std::to_string(k) + "]: index " +
-                         std::to_string(static_cast<long long>(v)) +
-                         (v < 0.0 ? " is negative"
-                          : count == std::size_t{1} << 32
-                              ? " is too large"
-                              : " is out of range (" + std::to_string(count) + " vertices)"));
+  for (py::handle item : object) {
+    const std::size_t k = indices.size();
+    PyObject* integer = PyNumber_Index(item.ptr());
+    if (integer == nullptr) {
+      PyErr_Clear();
+      throw InvalidInput(name + "[" + std::to_string(k) + "]: " + std::string(py::repr(item)) +
+                         " is not an integer");
     }
+    const auto owned = py::reinterpret_steal<py::int_>(integer);
+    int overflow = 0;
+    const long long v = PyLong_AsLongLongAndOverflow(integer, &overflow);
+    if (overflow < 0 || (overflow == 0 && v < 0)) fail(k, std::string(py::str(owned.ptr())), true);
+    if (overflow > 0 || static_cast<unsigned long long>(v) >= count)
+      fail(k, std::string(py::str(owned.ptr())), false);
     indices.push_back(static_cast<std::uint32_t>(v));
   }
   return indices;

@@ -292,6 +292,12 @@ std::vector<HandleRegion> toRegions(py::handle regions, const std::string& name)
 }
 
 void bindHandles(py::module_& m) {
+  // load_handles (spacewarp/_handles.py) checks a file's regions here, so that a file and a list
+  // of dicts given to edit() are read by the same code and named the same way.
+  m.def(
+      "_check_handle_regions",
+      [](py::handle regions, const std::string& name) { toRegions(regions, name); }, "regions"_a,
+      "name"_a, "Checks handle region dicts as edit() reads them; `name` starts the messages.");
   m.def(
       "resolve_handles",
       [](py::handle regions, py::handle rest) {

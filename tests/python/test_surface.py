@@ -181,7 +181,10 @@ def test_resolve_handles_applies_matrices_by_rows_and_sorts(mesh):
     ([{"matrix": np.eye(4)}], "no 'vertices'"),
     ([{"vertices": [0], "matrix": np.eye(3)}], r"regions\[0\].matrix must be 4 rows of 4"),
     ([{"vertices": [0, -1], "matrix": np.eye(4)}], r"regions\[0\].vertices\[1\]: index -1"),
-    ([{"vertices": [0.5], "matrix": np.eye(4)}], "must be integers"),
+    ([{"vertices": [0.5], "matrix": np.eye(4)}], r"vertices\[0\]: 0.5 is not an integer"),
+    ([{"vertices": np.array([0.0]), "matrix": np.eye(4)}], "must be integers, not float64"),
+    ([{"vertices": [2**70], "matrix": np.eye(4)}],
+     r"vertices\[0\]: index 1180591620717411303424 is too large"),
     ([{"vertices": [0], "matrix": np.eye(4)}, {"vertices": [0], "targets": [[5.0, 5, 5]]}],
      "conflicting targets"),
 ])
@@ -216,15 +219,16 @@ def test_load_handles_reads_the_cli_format(tmp_path, mesh):
 
 @pytest.mark.parametrize("content, error, match", [
     ('{"handles": [{"vertices": [0, 1, -2], "matrix": []}]}', spacewarp.InvalidInput,
-     r"h.json: handles\[0\].vertices\[2\]: -2 is not a vertex index"),
+     r"h.json: handles\[0\].vertices\[2\]: index -2 is negative"),
     ('{"handles": [{"vertices": [0], "targets": [[0, 0, 0]]}, {"vertices": [1, "a"], '
-     '"targets": []}]}', spacewarp.InvalidInput, r"handles\[1\].vertices\[1\]: must be an integer"),
+     '"targets": []}]}', spacewarp.InvalidInput,
+     r"handles\[1\].vertices\[1\]: 'a' is not an integer"),
     ('{"handles": [{"vertices": [0], "matrix": [[1, 0, 0, 0]], "targets": [[0, 0, 0]]}]}',
      spacewarp.InvalidInput, r"handles\[0\]: give 'matrix' or 'targets', not both"),
     ('{"handles": [{"vertices": [0], "matrix": [[1, 0, 0, 0]]}]}', spacewarp.InvalidInput,
-     r"handles\[0\].matrix: must have 4 rows, not 1"),
+     r"handles\[0\].matrix must be 4 rows of 4 numbers"),
     ('{"handles": [{"vertices": [0], "targets": [[0, 0]]}]}', spacewarp.InvalidInput,
-     r"handles\[0\].targets\[0\]: must be an array of 3 numbers"),
+     r"handles\[0\].targets must have shape \(n, 3\), not \(1, 2\)"),
     ('{"handles": []}', spacewarp.InvalidInput, "no handle region"),
     ('{"handle": []}', spacewarp.InvalidInput, "unknown key 'handle'"),
     ('{"handles": [{"vertices": [0], "targets": [[NaN, 0, 0]]}]}', spacewarp.IoError,
