@@ -369,7 +369,8 @@ class CageArapEditor:
     handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
     below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
     reported unreached. Building binds the model (stage "bind") and the subspace ("subspace");
-    raises SolverError when the handles do not pin the cage.
+    raises InvalidInput as LinearEditor does (and for options out of range, or matrices that would
+    not fit in memory), SolverError when the subspace system cannot be factorised.
     """
 
     def __init__(

@@ -525,7 +525,8 @@ point, at least 64, at most n) plus soft handle constraints on `constrained` (k,
 handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
 below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
 reported unreached. Building binds the model (stage "bind") and the subspace ("subspace");
-raises SolverError when the handles do not pin the cage.)")
+raises InvalidInput as LinearEditor does (and for options out of range, or matrices that would
+not fit in memory), SolverError when the subspace system cannot be factorised.)")
       .def(py::init([](py::handle positions, py::handle triangles, CoordinatesPtr coordinates,
                        py::handle constrained, std::size_t rotationClusters, double handleWeight,
                        int maxIterations, double relativeTolerance, double reachTolerance,
