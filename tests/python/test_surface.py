@@ -506,6 +506,17 @@ def test_edit_refuses_options_the_method_does_not_use(cage_coordinates):
         spacewarp.edit(soup, [regions[0], {"vertices": [-4], "matrix": np.eye(4)}])
 
 
+def test_edit_stops_when_its_progress_callable_returns_false():
+    soup = flat_bar()
+    matrix = np.eye(4)
+    matrix[:3, :3] = rotation([0, 0, 1], 60)
+    regions = end_regions(soup, np.eye(4))[:1] + end_regions(soup, matrix)[1:]
+    stages = []
+    with pytest.raises(spacewarp.Cancelled):
+        spacewarp.edit(soup, regions, progress=lambda stage, fraction: stages.append(stage) or False)
+    assert stages == ["arap"]
+
+
 def test_edit_warns_when_arap_does_not_converge():
     soup = flat_bar()
     matrix = np.eye(4)
