@@ -10,7 +10,10 @@ point sets. The computations run in C++ with the GIL released; Ctrl-C cancels lo
     twist = spacewarp.Twist(axis=(0, 0, 1), rate=0.5)
     moved = twist(np.random.rand(1000, 3))
 
-:mod:`spacewarp.testing` holds the property kit for any library's weights.
+Surface editing moves a mesh by handle regions (:func:`edit`, :class:`LinearEditor`,
+:class:`ArapEditor`, :class:`CageArapEditor` over a :func:`weld_soup` mesh; :func:`load_handles`
+reads the CLI's handles files). :mod:`spacewarp.testing` holds the property kit for any
+library's weights.
 """
 
 import sys as _sys
@@ -26,8 +29,10 @@ from ._spacewarp import *  # noqa: F401,F403,E402  (the bindings are the API)
 from ._spacewarp import __version__  # noqa: F401,E402
 
 from . import _spacewarp as _ext  # noqa: E402
+from ._handles import load_handles  # noqa: E402
 
-__all__ = [name for name in dir(_ext) if not name.startswith("_")] + ["__version__", "testing"]
+__all__ = [name for name in dir(_ext) if not name.startswith("_")] + ["__version__", "testing",
+                                                                      "load_handles"]
 
 
 def __getattr__(name: str):

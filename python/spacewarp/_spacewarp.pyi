@@ -25,9 +25,15 @@ _Dtype = Literal["int8", "uint8", "int16", "uint16", "int32", "uint32", "float32
 
 __all__ = [
     "Affine",
+    "ArapEditor",
+    "ArapReport",
+    "ArapResult",
     "Bend",
     "Binding",
     "Cage",
+    "CageArapEditor",
+    "CageArapReport",
+    "CageArapResult",
     "Cancelled",
     "Compose",
     "Coordinates",
@@ -41,29 +47,37 @@ __all__ = [
     "InvalidInput",
     "IoError",
     "Lattice",
+    "LinearEditor",
     "MeanValue",
+    "MeshReport",
     "Mls",
     "MlsAffine",
     "OutOfMemory",
     "Rbf",
     "RbfWarp",
     "SolverError",
+    "SurfaceMesh",
     "Taper",
     "Twist",
     "Warp",
     "cage_coordinates",
     "cage_methods",
     "coordinate_properties",
+    "cotan_laplacian",
     "deform",
     "deform_inverse",
+    "edit",
     "has_volumes",
     "interior_samples",
     "load_rig",
+    "mass_matrix_diagonal",
     "read",
+    "resolve_handles",
     "rig",
     "rig_methods",
     "warp_dense",
     "warp_volume",
+    "weld_soup",
     "write",
 ]
 
@@ -170,6 +184,83 @@ class Affine(Warp):
         """The (4, 4) homogeneous matrix."""
 
 
+class ArapEditor:
+    """Prefactorised as-rigid-as-possible surface editing (Sorkine and Alexa 2007) of the mesh
+    positions (n, 3), triangles (t, 3) with the vertices `constrained` (k,) as handles: one rotation
+    per vertex, cotangent weights; at most max_iterations local/global iterations per solve, stopping
+    when one lowers the energy by less than relative_tolerance of it (0: always max_iterations).
+    Components no handle reaches stay at rest (held_vertices).
+    """
+
+    def __init__(
+        self,
+        positions: _Points,
+        triangles: ArrayLike,
+        constrained: ArrayLike,
+        *,
+        max_iterations: int = 20,
+        relative_tolerance: float = 1e-06,
+    ) -> None: ...
+
+    def solve(self, targets: _Points, *, progress: _Progress = None) -> ArapResult:
+        """Solves for the constrained vertices at `targets` (k, 3), constructor order, world
+        units, starting from the Laplacian-editing solution or the handles' rigid motion (the lower
+        energy). Returns an ArapResult. Reports stage "arap".
+        """
+
+    def solve_from(
+        self,
+        start: _Points,
+        targets: _Points,
+        *,
+        progress: _Progress = None,
+    ) -> ArapResult:
+        """As solve(), continuing from `start` (n, 3), e.g. the previous frame's positions."""
+
+    def energy(self, positions: _Points) -> float:
+        """The ARAP energy of `positions` (n, 3) with its optimal rotations, world units squared."""
+
+    @property
+    def held_vertices(self) -> NDArray[np.uint32]:
+        """(h,) uint32: vertices kept at rest because no handle reaches their component."""
+
+
+class ArapReport:
+    """What one ArapEditor solve did."""
+
+    @property
+    def energies(self) -> _Float64Array:
+        """(iterations + 1,) float64: the energy at the start and after each iteration, non-
+        increasing, world units squared.
+        """
+
+    @property
+    def iterations(self) -> int:
+        """Local/global iterations run."""
+
+    @property
+    def converged(self) -> bool:
+        """Whether the relative decrease fell below relative_tolerance before max_iterations."""
+
+    @property
+    def started_rigid(self) -> bool:
+        """Whether the solve started from the handles' common rigid motion (then a rigid motion
+        of all handles is reproduced exactly).
+        """
+
+
+class ArapResult:
+    """The result of an ArapEditor solve."""
+
+    @property
+    def positions(self) -> _Float64Array:
+        """(n, 3) float64, all vertices, world units (read-only)."""
+
+    @property
+    def report(self) -> ArapReport:
+        """The ArapReport."""
+
+
 class Bend(Warp):
     """Bends the axis (through origin) into a circular arc towards `direction`: curvature
     `rate` (1 / world units), the bent part limited to lo <= y <= hi along the axis.
@@ -267,6 +358,108 @@ class Cage:
 
     def posed_vertices(self, path: _Path) -> _Float64Array:
         """The vertices (V, 3) of a posed cage file, checked against this cage."""
+
+
+class CageArapEditor:
+    """ARAP in a cage's subspace (Huang et al. 2006): the unknowns are the control points of
+    `coordinates` (MeanValue, Green, Harmonic, Lattice, Rbf, ... weighing every vertex of the mesh
+    positions (n, 3), triangles (t, 3)); the model follows through its binding, and the energy is
+    its ARAP energy with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
+    point, at least 64, at most n) plus soft handle constraints on `constrained` (k,) weighted by
+    handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
+    below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
+    reported unreached. Building binds the model (stage "bind") and the subspace ("subspace");
+    raises InvalidInput as LinearEditor does (and for options out of range, or matrices that would
+    not fit in memory), SolverError when the subspace system cannot be factorised.
+    """
+
+    def __init__(
+        self,
+        positions: _Points,
+        triangles: ArrayLike,
+        coordinates: Coordinates,
+        constrained: ArrayLike,
+        *,
+        rotation_clusters: int = 0,
+        handle_weight: float = 100.0,
+        max_iterations: int = 30,
+        relative_tolerance: float = 1e-07,
+        reach_tolerance: float = 0.001,
+        progress: _Progress = None,
+    ) -> None: ...
+
+    def solve(self, targets: _Points, *, progress: _Progress = None) -> CageArapResult:
+        """The cage pose that best moves the constrained vertices to `targets` (k, 3),
+        constructor order, world units, starting from the handles' rigid motion or the rotation-free
+        solution (the lower energy). Returns a CageArapResult. Reports stage "cage-arap".
+        """
+
+    def solve_from(
+        self,
+        start_control_points: _Points,
+        targets: _Points,
+        *,
+        progress: _Progress = None,
+    ) -> CageArapResult:
+        """As solve(), continuing from a cage pose `start_control_points` (m, 3)."""
+
+    @property
+    def cluster_count(self) -> int:
+        """Rotation clusters K (n gives exactly the surface ARAP energy)."""
+
+
+class CageArapReport:
+    """What one CageArapEditor solve did."""
+
+    @property
+    def energies(self) -> _Float64Array:
+        """(iterations + 1,) float64: total energy (ARAP + handle term) at the start and after
+        each iteration, non-increasing.
+        """
+
+    @property
+    def iterations(self) -> int:
+        """Iterations run."""
+
+    @property
+    def converged(self) -> bool:
+        """Whether the relative decrease fell below relative_tolerance before max_iterations."""
+
+    @property
+    def started_rigid(self) -> bool:
+        """Whether the solve started from the handles' common rigid motion."""
+
+    @property
+    def handle_residuals(self) -> _Float64Array:
+        """(k,) float64: distance of each constrained vertex from its target, world units."""
+
+    @property
+    def unreached(self) -> NDArray[np.uint32]:
+        """(u,) uint32: constrained vertices (mesh indices) left farther than reach_tolerance
+        from their targets: the cage cannot carry them there rigidly (or at all).
+        """
+
+    @property
+    def max_residual(self) -> float:
+        """The largest handle residual, world units."""
+
+
+class CageArapResult:
+    """The result of a CageArapEditor solve."""
+
+    @property
+    def control_points(self) -> _Float64Array:
+        """(m, 3) float64: the posed control points (cage vertices), world units (read-only);
+        coordinates.warp(control_points) carries any other geometry the same way.
+        """
+
+    @property
+    def positions(self) -> _Float64Array:
+        """(n, 3) float64: the model's vertices, world units (read-only)."""
+
+    @property
+    def report(self) -> CageArapReport:
+        """The CageArapReport."""
 
 
 class Compose(Warp):
@@ -584,6 +777,33 @@ class Lattice(Coordinates):
         """Control points per axis (l, m, n)."""
 
 
+class LinearEditor:
+    """Prefactorised linear surface editing of the mesh positions (n, 3), triangles (t, 3)
+    with the vertices `constrained` (k,) as handles: the free vertices' displacement is harmonic
+    (method "laplacian", Sorkine et al. 2004) or biharmonic ("bilaplacian", Botsch and Kobbelt
+    2004). Reproduces translations exactly but cannot follow rotations (use ArapEditor). Components
+    no handle reaches stay at rest (held_vertices).
+    """
+
+    def __init__(
+        self,
+        positions: _Points,
+        triangles: ArrayLike,
+        constrained: ArrayLike,
+        *,
+        method: Literal["laplacian", "bilaplacian"] = "laplacian",
+    ) -> None: ...
+
+    def solve(self, targets: _Points) -> _Float64Array:
+        """All n vertices (n, 3) for the constrained vertices at `targets` (k, 3), one per
+        constrained vertex in the constructor's order, world units (a back-substitution).
+        """
+
+    @property
+    def held_vertices(self) -> NDArray[np.uint32]:
+        """(h,) uint32: vertices kept at rest because no handle reaches their component."""
+
+
 class MeanValue(Coordinates):
     """Mean-value coordinates (Ju et al. 2005) of a Cage: (n, V) weights, everywhere in space."""
 
@@ -592,6 +812,44 @@ class MeanValue(Coordinates):
     @property
     def cage(self) -> Cage:
         """The Cage (a copy)."""
+
+
+class MeshReport:
+    """What weld_soup() found about a surface (mesh vertex and triangle
+    indices; polygon indices of the soup). Arrays are read-only views.
+    """
+
+    @property
+    def boundary_edges(self) -> int:
+        """Edges with one triangle (holes, open sheets: fine for every method)."""
+
+    @property
+    def non_manifold_edges(self) -> NDArray[np.uint32]:
+        """(k, 2) uint32: edges shared by more than two triangles, smaller vertex first."""
+
+    @property
+    def non_manifold_vertices(self) -> NDArray[np.uint32]:
+        """(k,) uint32: vertices whose triangles do not form one fan."""
+
+    @property
+    def dropped_polygons(self) -> NDArray[np.uint32]:
+        """(k,) uint32: soup polygons that welding collapsed or that have no area (not in the
+        mesh).
+        """
+
+    @property
+    def isolated_vertices(self) -> NDArray[np.uint32]:
+        """(k,) uint32: mesh vertices no triangle uses."""
+
+    @property
+    def component_count(self) -> int:
+        """Connected components of the triangles (isolated vertices not counted)."""
+
+    @property
+    def is_manifold(self) -> bool:
+        """Whether every edge has at most two triangles and every vertex one fan."""
+
+    def __repr__(self) -> str: ...
 
 
 class Mls(Warp):
@@ -657,6 +915,53 @@ class RbfWarp(Warp):
     ) -> None: ...
 
 
+class SurfaceMesh:
+    """A triangle mesh welded from a Geometry (weld_soup): positions (n, 3) world units,
+    triangles (t, 3), and the maps back to the soup. Arrays are read-only views (no copy); the
+    editors take mesh.positions and mesh.triangles.
+    """
+
+    @property
+    def positions(self) -> _Float64Array:
+        """(n, 3) float64 mesh vertices, world units."""
+
+    @property
+    def triangles(self) -> NDArray[np.uint32]:
+        """(t, 3) uint32 vertex indices, oriented as the soup's polygons."""
+
+    @property
+    def soup_to_mesh(self) -> NDArray[np.uint32]:
+        """(soup n,) uint32: the mesh vertex of each soup vertex."""
+
+    @property
+    def triangle_to_polygon(self) -> NDArray[np.uint32]:
+        """(t,) uint32: the soup polygon each triangle was cut from."""
+
+    @property
+    def vertex_component(self) -> NDArray[np.uint32]:
+        """(n,) uint32: the component of each vertex, 0 .. component_count - 1; isolated vertices
+        get component_count and up, one each.
+        """
+
+    @property
+    def report(self) -> MeshReport:
+        """The MeshReport of the weld."""
+
+    @property
+    def vertex_count(self) -> int:
+        """Mesh vertices (n)."""
+
+    def to_soup_positions(self, mesh_positions: _Points) -> _Float64Array:
+        """The soup's vertices (soup n, 3) moved as the mesh vertices (n, 3) they were welded
+        into: out[v] = mesh_positions[soup_to_mesh[v]]. Raises InvalidInput for a wrong count.
+        """
+
+    def to_soup(self) -> Geometry:
+        """A Geometry of the mesh's triangles (no attributes), e.g. to write it."""
+
+    def __repr__(self) -> str: ...
+
+
 class Taper(Warp):
     """Scales the cross-sections of an axis by 1 + rate * s (s along the axis from origin,
     clamped to [lo, hi]; rate in 1 / world units).
@@ -720,6 +1025,15 @@ def coordinate_properties(
     """
 
 
+def cotan_laplacian(positions: _Points, triangles: ArrayLike) -> Any:
+    """The cotangent stiffness matrix L (n, n) of the mesh positions (n, 3), triangles (t, 3):
+    a scipy.sparse.csc_matrix, symmetric positive semi-definite, rows summing to 0,
+    L_ij = -(cot a_ij + cot b_ij) / 2 over the angles opposite edge ij, dimensionless; x^T L x is the
+    Dirichlet energy of the piecewise-linear function x (needs SciPy). Triangles below 1e-12 of
+    their longest edge squared in area contribute nothing.
+    """
+
+
 def deform(
     warp: Warp,
     geometry: Geometry,
@@ -748,6 +1062,32 @@ def deform_inverse(
     """
 
 
+def edit(
+    geometry: Geometry,
+    handles: Sequence[dict[str, Any]],
+    *,
+    method: Literal["laplacian", "bilaplacian", "arap", "cage-arap"] = "arap",
+    coordinates: Optional[Coordinates] = None,
+    weld_tolerance: float = 1e-09,
+    max_iterations: Optional[int] = None,
+    relative_tolerance: Optional[float] = None,
+    rotation_clusters: Optional[int] = None,
+    handle_weight: Optional[float] = None,
+    reach_tolerance: Optional[float] = None,
+    progress: _Progress = None,
+) -> Geometry:
+    """The Geometry edited by its surface, as `spacewarp edit` does: welded (weld_soup with
+    weld_tolerance), the handle regions resolved (resolve_handles; vertex indices are the geometry's,
+    as in the CLI's handles file) and carried to the mesh, solved by method "laplacian",
+    "bilaplacian", "arap" or "cage-arap" (which needs `coordinates`, e.g. MeanValue(cage)), and
+    returned as a new Geometry with the polygons, attributes and groups of the input. Per-vertex
+    normals are recomputed from the edited polygons (area-weighted, on the side the input's pointed
+    to); per-corner normals turn with their polygon. Options left None take the editor's defaults
+    (ArapEditor, CageArapEditor); an option the method does not use raises InvalidInput. A solve
+    that did not converge, handles left unreached and parts no handle reaches are UserWarnings.
+    """
+
+
 def interior_samples(cage: Cage, count: int, *, seed: int = 1) -> _Float64Array:
     """`count` points (count, 3) uniformly inside the cage, deterministic for a seed."""
 
@@ -759,10 +1099,30 @@ def load_rig(path: _Path, *, progress: _Progress = None) -> Warp:
     """
 
 
+def mass_matrix_diagonal(positions: _Points, triangles: ArrayLike) -> _Float64Array:
+    """The lumped mass (n,) of the mesh positions (n, 3), triangles (t, 3): the mixed Voronoi
+    area of each vertex (Meyer et al. 2003), world units squared, summing to the surface area;
+    vertices without area get the smallest positive mass.
+    """
+
+
 def read(path: _Path) -> Geometry:
     """Reads a soup or point cloud from an OBJ, OFF or PLY file (format by extension) as a
     Geometry. Raises IoError naming the file and line or element at fault. What the file holds but
     spacewarp does not keep (OBJ line elements, PLY edges, ...) is a warning.
+    """
+
+
+def resolve_handles(
+    regions: Sequence[dict[str, Any]],
+    rest: _Points,
+) -> tuple[NDArray[np.uint32], _Float64Array]:
+    """The constraints of handle regions on the vertices `rest` (n, 3), world units: returns
+    (vertices, targets), (k,) uint32 in increasing order and (k, 3) float64. Each region is a dict
+    as in the CLI's handles file: {"vertices": [i, ...], "matrix": 4 rows of 4} (the vertices move
+    by that affine map; the identity pins them) or {"vertices": [i, ...], "targets": (k, 3)}. A
+    vertex in several regions must get the same target from each. Raises InvalidInput naming the
+    region and entry at fault (TypeError for a region that is not a dict).
     """
 
 
@@ -822,6 +1182,15 @@ def warp_volume(
     "none"; seed_spacing: seeding cells in voxels; cache_spacing: a displacement cache lattice in
     voxels (0: the exact warp). Returns one dict per grid written (active voxels, inverse failures,
     mass, ...). Voxels lost are warnings; on any error nothing is written.
+    """
+
+
+def weld_soup(geometry: Geometry, *, relative_tolerance: float = 1e-09) -> SurfaceMesh:
+    """The SurfaceMesh of a Geometry: vertices closer than relative_tolerance x the bounding-box
+    diagonal welded into one (the default welds copies of the same point only; 0: exactly equal
+    positions), polygons fanned into triangles, boundaries, non-manifold parts, dropped polygons and
+    components reported (mesh.report), never refused. Raises InvalidInput for a geometry without
+    polygons.
     """
 
 

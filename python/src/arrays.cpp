@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -151,6 +152,72 @@ Polygons toPolygons(py::handle faces, std::size_t vertexCount) {
     close();
   }
   return polygons;
+}
+
+std::vector<std::uint32_t> toIndices(py::handle object, const std::string& name,
+                                     std::size_t count) {
+  const auto fail = [&](std::size_t k, const std::string& value, bool negative) {
+    throw InvalidInput(name + "[" + std::to_string(k) + "]: index " + value +
+                       (negative ? " is negative"
+                        : count == std::size_t{1} << 32
+                            ? " is too large"
+                            : " is out of range (" + std::to_string(count) + " vertices)"));
+  };
+  std::vector<std::uint32_t> indices;
+  if (py::isinstance<py::array>(object)) {
+    const auto a = py::reinterpret_borrow<py::array>(object);
+    if (a.ndim() != 1) throw InvalidInput(name + " must have shape (k,), not " + shapeText(a));
+    if (a.size() == 0) return indices;
+    const char kind = a.dtype().kind();
+    if (kind != 'i' && kind != 'u')
+      throw InvalidInput(name + " must be integers, not " + std::string(py::str(a.dtype())));
+    // As in toPolygons: through double, so that unsigned values past 2^63 stay out of range.
+    const auto values = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+    for (py::ssize_t k = 0; k < values.shape(0); ++k) {
+      const double v = values.at(k);
+      if (v < 0.0 || v >= static_cast<double>(count)) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%.0f", v);
+        fail(static_cast<std::size_t>(k), text, v < 0.0);
+      }
+      indices.push_back(static_cast<std::uint32_t>(v));
+    }
+    return indices;
+  }
+  if (py::isinstance<py::str>(object) || !py::isinstance<py::iterable>(object))
+    throw InvalidInput(name + " must be a sequence of vertex indices, not " +
+                       std::string(py::str(py::type::of(object).attr("__name__"))));
+  for (py::handle item : object) {
+    const std::size_t k = indices.size();
+    PyObject* integer = PyNumber_Index(item.ptr());
+    if (integer == nullptr) {
+      PyErr_Clear();
+      throw InvalidInput(name + "[" + std::to_string(k) + "]: " + std::string(py::repr(item)) +
+                         " is not an integer");
+    }
+    const auto owned = py::reinterpret_steal<py::int_>(integer);
+    int overflow = 0;
+    const long long v = PyLong_AsLongLongAndOverflow(integer, &overflow);
+    if (overflow < 0 || (overflow == 0 && v < 0)) fail(k, std::string(py::str(owned.ptr())), true);
+    if (overflow > 0 || static_cast<unsigned long long>(v) >= count)
+      fail(k, std::string(py::str(owned.ptr())), false);
+    indices.push_back(static_cast<std::uint32_t>(v));
+  }
+  return indices;
+}
+
+std::vector<std::array<std::uint32_t, 3>> toTriangles(py::handle triangles,
+                                                      std::size_t vertexCount) {
+  const Polygons polygons = toPolygons(triangles, vertexCount);
+  const std::size_t m = polygons.offsets.size() - 1;
+  std::vector<std::array<std::uint32_t, 3>> out(m);
+  for (std::size_t t = 0; t < m; ++t) {
+    if (polygons.offsets[t + 1] - polygons.offsets[t] != 3)
+      throw InvalidInput("triangles must have 3 vertices each; triangle " + std::to_string(t) +
+                         " has " + std::to_string(polygons.offsets[t + 1] - polygons.offsets[t]));
+    std::copy_n(polygons.indices.begin() + polygons.offsets[t], 3, out[t].begin());
+  }
+  return out;
 }
 
 }  // namespace spacewarp::python

@@ -5,15 +5,23 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
 #include <exception>
 #include <functional>
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <spacewarp/core/math.h>
 #include <spacewarp/core/progress.h>
+
+namespace spacewarp {
+struct PolygonSoup;
+}
 
 namespace spacewarp::python {
 
@@ -51,6 +59,25 @@ std::span<Vec3> pointsOf(DoubleArray& array);
 
 /// An (n, 3) float64 array copied from `points`.
 DoubleArray copyPoints(std::span<const Vec3> points);
+
+/// A read-only NumPy view of `data` (shape `shape`) kept alive by `owner`: no copy.
+template <class T>
+py::array_t<T> readOnlyView(const T* data, std::vector<py::ssize_t> shape, py::handle owner) {
+  py::array_t<T> view(std::move(shape), {}, data, owner);
+  view.attr("setflags")(py::arg("write") = false);
+  return view;
+}
+
+/// Vertex indices given as a 1-D array-like of integers (`name` in errors, with the entry at
+/// fault: "constrained[3]"). Throws InvalidInput for another shape, a non-integer dtype, or an
+/// index that is negative or not below `count`.
+std::vector<std::uint32_t> toIndices(py::handle object, const std::string& name,
+                                     std::size_t count = std::size_t{1} << 32);
+
+/// Triangles as an (m, 3) integer array (or a sequence of index triples) over `vertexCount`
+/// vertices. Throws InvalidInput naming the triangle at fault.
+std::vector<std::array<std::uint32_t, 3>> toTriangles(py::handle triangles,
+                                                      std::size_t vertexCount);
 
 /// A 3-vector from a sequence of three numbers (`name` in the error).
 Vec3 toVec3(py::handle object, const char* name);
@@ -101,6 +128,20 @@ void forEachPointCancellable(std::size_t n, const char* stage,
 /// Registers the exception types (spacewarp.InvalidInput, ...) and their translation.
 void registerErrors(py::module_& m);
 
+/// Marks a Geometry as read or changed by a call that runs with the GIL released, for the life
+/// of the object: the Geometry's setters refuse meanwhile (they would reallocate what the call
+/// reads). Create and destroy with the GIL held.
+class InUse {
+ public:
+  explicit InUse(const PolygonSoup& soup);
+  ~InUse();
+  InUse(const InUse&) = delete;
+  InUse& operator=(const InUse&) = delete;
+
+ private:
+  const PolygonSoup* soup_;
+};
+
 /// Emits a Python warning (category UserWarning) for each message, with the GIL held.
 void warnAll(const std::vector<std::string>& messages);
 
@@ -108,6 +149,7 @@ void bindWarps(py::module_& m);
 void bindCoordinates(py::module_& m);
 void bindGeometry(py::module_& m);
 void bindVolume(py::module_& m);
+void bindSurface(py::module_& m);
 void bindBenchHooks(py::module_& m);
 
 }  // namespace spacewarp::python

@@ -159,13 +159,6 @@ py::object sparseWeightsOf(const Coordinates& c, py::handle points) {
                                    "shape"_a = py::make_tuple(n, c.columnCount()));
 }
 
-/// A read-only NumPy view of `data` kept alive by `owner`.
-py::array readOnlyView(const double* data, std::vector<py::ssize_t> shape, py::handle owner) {
-  py::array view(py::dtype::of<double>(), std::move(shape), {}, data, owner);
-  view.attr("setflags")("write"_a = false);
-  return view;
-}
-
 void bindBinding(py::module_& m) {
   py::class_<Binding, std::shared_ptr<Binding>>(
       m, "Binding",

@@ -27,21 +27,6 @@ std::unordered_map<const PolygonSoup*, int>& busyGeometries() {
   return busy;
 }
 
-/// Marks a geometry busy for the life of a call.
-class InUse {
- public:
-  explicit InUse(const PolygonSoup& soup) : soup_(&soup) { ++busyGeometries()[soup_]; }
-  ~InUse() {
-    auto& busy = busyGeometries();
-    if (--busy[soup_] == 0) busy.erase(soup_);
-  }
-  InUse(const InUse&) = delete;
-  InUse& operator=(const InUse&) = delete;
-
- private:
-  const PolygonSoup* soup_;
-};
-
 /// Throws unless no call is using `soup` (see busyGeometries()).
 void requireIdle(const PolygonSoup& soup) {
   if (busyGeometries().count(&soup))
@@ -254,6 +239,7 @@ spacewarp does not keep (OBJ line elements, PLY edges, ...) is a warning.)");
         WriteOptions options;
         if (ascii) options.plyEncoding = PlyEncoding::Ascii;
         {
+          const InUse busy(geometry);
           withoutGil([&] { writeSoup(geometry, path, options); });
         }
         const auto lost = unstoredContent(geometry, formatFromPath(path));
@@ -266,6 +252,7 @@ on any failure no partial file is left and an existing file is untouched.)");
       "deform",
       [](const Warp& warp, const GeometryPtr& geometry, bool inPlace, const py::object& progress) {
         const GeometryPtr out = target(geometry, inPlace);
+        const InUse busy(*out);
         DeformReport report;
         runCancellable(progress, [&](const ProgressCallback& callback) {
           report = deform(warp, *out, callback);
@@ -287,6 +274,7 @@ All or nothing: raises InvalidInput naming the first vertex that is not finite.)
         options.maxIterations = maxIterations;
         options.lengthScale = boundingBox(out->positions).diagonal();
         InverseDeformReport report;
+        const InUse busy(*out);
         runCancellable(progress, [&](const ProgressCallback& callback) {
           report = deformInverse(warp, *out, options, callback);
         });
@@ -301,6 +289,13 @@ raises SolverError naming the first vertex whose inverse did not converge.)");
 }
 
 }  // namespace
+
+InUse::InUse(const PolygonSoup& soup) : soup_(&soup) { ++busyGeometries()[soup_]; }
+
+InUse::~InUse() {
+  auto& busy = busyGeometries();
+  if (--busy[soup_] == 0) busy.erase(soup_);
+}
 
 void bindGeometry(py::module_& m) {
   bindGeometryClass(m);

@@ -4,12 +4,15 @@
 
 PYBIND11_MODULE(_spacewarp, m) {
   namespace py = pybind11;
-  m.doc() = "spacewarp's C++ engine: warps, cage coordinates, bindings, files and volumes.";
+  m.doc() =
+      "spacewarp's C++ engine: warps, cage coordinates, bindings, files, volumes and surface "
+      "editing.";
   m.attr("__version__") = SPACEWARP_VERSION;
   spacewarp::python::registerErrors(m);
   spacewarp::python::bindWarps(m);
   spacewarp::python::bindCoordinates(m);
   spacewarp::python::bindGeometry(m);
   spacewarp::python::bindVolume(m);
+  spacewarp::python::bindSurface(m);
   spacewarp::python::bindBenchHooks(m);
 }

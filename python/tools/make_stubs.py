@@ -10,7 +10,8 @@ it calls `handle` or `object` (array-likes, 3-vectors, callbacks) and the result
 should cover but do not is an error, so a new binding cannot slip into the stubs as `Any`
 unnoticed. --check compares the file with what would be written (exit 1 when it differs).
 
-__init__.pyi re-exports the extension's names, __version__ and `testing` (the package's __all__).
+__init__.pyi re-exports the extension's names, __version__, `testing` and the pure-Python
+load_handles (typed inline in _handles.py): the package's __all__.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ the extension's API (_spacewarp.pyi) and the property kit spacewarp.testing (typ
 from . import testing as testing
 from ._spacewarp import *
 from ._spacewarp import __version__ as __version__
+from ._handles import load_handles as load_handles
 '''
 
 HEADER = '''"""Type stubs of spacewarp._spacewarp, written by python/tools/make_stubs.py from the
@@ -74,9 +76,12 @@ HANDLE_ARGS = {
     "matrix": "ArrayLike",
     "values": "ArrayLike",
     "axes": "ArrayLike",
+    "triangles": "ArrayLike",
+    "constrained": "ArrayLike",
 }
 POINT_ARGS = {"points", "posed", "normals", "positions", "handles", "targets", "centers", "fixed",
-              "nodes", "samples", "vertices", "from_points", "to_points"}
+              "nodes", "samples", "vertices", "from_points", "to_points", "rest", "start",
+              "start_control_points", "mesh_positions"}
 
 # Types by qualified name ("Class.member.argument", "Class.member.return", "function.return",
 # "Class.property", "Class.property.set") where the pybind11 signature says too little.
@@ -108,6 +113,11 @@ OVERRIDES = {
     "warp_dense.values": "NDArray[Any]",
     "warp_dense.return": "tuple[NDArray[Any], _Float64Array]",
     "warp_volume.return": "list[dict[str, Any]]",
+    "cotan_laplacian.return": "Any",
+    "resolve_handles.regions": "Sequence[dict[str, Any]]",
+    "resolve_handles.return": "tuple[NDArray[np.uint32], _Float64Array]",
+    "edit.handles": "Sequence[dict[str, Any]]",
+    "edit.coordinates": "Optional[Coordinates]",
 }
 
 # String options: their accepted values (checked in C++; a Literal lets editors complete them).
@@ -127,6 +137,8 @@ OVERRIDES.update({
     "cage_coordinates.outside": 'Literal["raise", "nearest"]',
     "warp_volume.vectors": 'Literal["auto", "push", "normal", "keep"]',
     "warp_volume.redistance": 'Literal["normalize", "rebuild", "none"]',
+    "LinearEditor.__init__.method": 'Literal["laplacian", "bilaplacian"]',
+    "edit.method": 'Literal["laplacian", "bilaplacian", "arap", "cage-arap"]',
 })
 
 USED: set[str] = set()  # the OVERRIDES keys the module still has (an unused one is an error)
@@ -375,7 +387,8 @@ def generate_package() -> str:
     # The extension's names come from its own stub's __all__ (type checkers follow `+=` of a
     # submodule's __all__), so the list is written once.
     return (PACKAGE_HEADER + "from . import _spacewarp as _spacewarp\n\n"
-            + '__all__ = ["__version__", "testing"]\n__all__ += _spacewarp.__all__\n')
+            + '__all__ = ["__version__", "testing", "load_handles"]\n'
+            + "__all__ += _spacewarp.__all__\n")
 
 
 def generate() -> str:

@@ -188,6 +188,21 @@ def subdivided_cube(n: int) -> tuple[np.ndarray, list[list[int]]]:
     return np.array(vertices, float), faces
 
 
+def main_thread_stall(work: Callable[[], object]) -> tuple[float, float]:
+    """(longest pause of the main thread, duration) while `work` runs in another thread: a
+    computation that keeps the GIL stalls the main thread for all of it."""
+    box: dict = {}
+    worker = threading.Thread(target=lambda: box.setdefault("out", work()))
+    start = time.perf_counter()
+    ticks = [start]
+    worker.start()
+    while worker.is_alive():
+        time.sleep(0.001)
+        ticks.append(time.perf_counter())
+    worker.join()
+    return max(np.diff(ticks)), ticks[-1] - start
+
+
 # A child script's start: `warp`, a mean-value warp of a 98-vertex cage (subdivided_cube(4), its
 # source copied in), and 2M `points` inside it: seconds of work to interrupt.
 CAGE_SCRIPT = ("from __future__ import annotations\nimport sys, time\nimport numpy as np\n"

@@ -15,7 +15,7 @@ import pytest
 
 spacewarp = pytest.importorskip("spacewarp")
 
-from conftest import subdivided_cube  # noqa: E402
+from conftest import main_thread_stall, subdivided_cube  # noqa: E402
 
 CONSTANTS = {"__version__", "has_volumes"}
 
@@ -242,22 +242,8 @@ def test_stub_classes_have_the_runtime_members():
     assert functions == runtime_functions
 
 
-def _main_thread_stall(work) -> tuple[float, float]:
-    """(longest pause of the main thread, duration) while `work` runs in another thread."""
-    box: dict = {}
-    worker = threading.Thread(target=lambda: box.setdefault("out", work()))
-    start = time.perf_counter()
-    ticks = [start]
-    worker.start()
-    while worker.is_alive():
-        time.sleep(0.001)
-        ticks.append(time.perf_counter())
-    worker.join()
-    return max(np.diff(ticks)), ticks[-1] - start
-
-
 def test_interior_samples_releases_the_gil(big_cage):
-    longest, duration = _main_thread_stall(
+    longest, duration = main_thread_stall(
         lambda: spacewarp.interior_samples(big_cage, 150_000, seed=2))
     assert duration > 0.3, "too fast to tell"
     assert longest < duration / 3, f"main thread stalled {longest:.3f} s of {duration:.3f} s"
@@ -266,7 +252,7 @@ def test_interior_samples_releases_the_gil(big_cage):
 @pytest.mark.parametrize("what", ["winding_number", "contains"])
 def test_cage_queries_release_the_gil(big_cage, what):
     samples = np.random.default_rng(4).uniform(-1.5, 1.5, size=(200_000, 3))
-    longest, duration = _main_thread_stall(lambda: getattr(big_cage, what)(samples))
+    longest, duration = main_thread_stall(lambda: getattr(big_cage, what)(samples))
     if duration < 0.2:
         pytest.skip(f"too fast here ({duration:.3f} s) to see the GIL")
     assert longest < duration / 3, f"main thread stalled {longest:.3f} s of {duration:.3f} s"

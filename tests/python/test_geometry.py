@@ -264,6 +264,22 @@ def test_deform_in_place(mesh):
     assert np.array_equal(mesh.normals, copy.normals)
 
 
+def test_a_geometry_in_use_by_a_call_refuses_changes(mesh):
+    # The progress callable runs while deform works on the geometry with the GIL released: a
+    # change from there (or from another thread) would reallocate what the call reads.
+    refused = []
+
+    def change(stage, fraction):
+        try:
+            mesh.positions = mesh.positions
+        except ValueError as error:
+            refused.append(str(error))
+
+    spacewarp.deform(spacewarp.Twist(rate=0.8), mesh, in_place=True, progress=change)
+    assert refused and "being read or changed" in refused[0]
+    mesh.positions = mesh.positions  # free again afterwards
+
+
 def test_deform_is_all_or_nothing(mesh):
     positions = mesh.positions
     positions[17, 0] = np.nan

@@ -1,0 +1,794 @@
+// Surface editing (surface/): meshes welded from soups, the cotangent Laplacian and mass, handle
+// regions, the Laplacian/bi-Laplacian, ARAP and cage-subspace ARAP editors, and edit().
+
+#include <pybind11/stl.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <mutex>
+#include <optional>
+
+#include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/detail/rotation.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
+#include <spacewarp/surface/arap.h>
+#include <spacewarp/surface/cage_arap.h>
+#include <spacewarp/surface/cotan_laplacian.h>
+#include <spacewarp/surface/handles.h>
+#include <spacewarp/surface/laplacian_editing.h>
+#include <spacewarp/surface/surface_mesh.h>
+
+#include "common.h"
+
+namespace spacewarp::python {
+namespace {
+
+using namespace pybind11::literals;
+using GeometryPtr = std::shared_ptr<PolygonSoup>;
+using CoordinatesPtr = std::shared_ptr<Coordinates>;
+
+/// An editor and the lock that serialises its calls: the editors are not thread-safe (their
+/// factor's workspace) and run with the GIL released. The lock is taken without the GIL, as the
+/// deformation graph's is (a solve's progress callable takes the GIL while holding it).
+template <class Editor>
+struct Locked {
+  explicit Locked(Editor e) : editor(std::move(e)) {}
+  Editor editor;
+  std::mutex mutex;
+};
+
+template <class T>
+py::array_t<T> indexArray(std::span<const T> values) {
+  return py::array_t<T>(static_cast<py::ssize_t>(values.size()), values.data());
+}
+
+/// (n, 3) views of the point vectors of results and meshes, kept alive by `owner`.
+py::array_t<double> pointsView(const std::vector<Vec3>& points, py::handle owner) {
+  return readOnlyView(points.empty() ? nullptr : &points[0].x,
+                      {static_cast<py::ssize_t>(points.size()), 3}, owner);
+}
+
+template <class T>
+py::array_t<T> vectorView(const std::vector<T>& values, py::handle owner) {
+  return readOnlyView(values.data(), {static_cast<py::ssize_t>(values.size())}, owner);
+}
+
+/// A mesh given as positions (n, 3) and triangles (t, 3) (named so in errors).
+struct MeshInput {
+  Points positions;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+};
+
+MeshInput toMesh(py::handle positions, py::handle triangles) {
+  MeshInput mesh{toPoints(positions, "positions", false), {}};
+  mesh.triangles = toTriangles(triangles, mesh.positions.size());
+  return mesh;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Meshes
+
+void bindMesh(py::module_& m) {
+  py::class_<MeshReport>(m, "MeshReport",
+                         R"(What weld_soup() found about a surface (mesh vertex and triangle
+indices; polygon indices of the soup). Arrays are read-only views.)")
+      .def_readonly("boundary_edges", &MeshReport::boundaryEdges,
+                    "Edges with one triangle (holes, open sheets: fine for every method).")
+      .def_property_readonly(
+          "non_manifold_edges",
+          [](py::object self) {
+            const auto& edges = self.cast<const MeshReport&>().nonManifoldEdges;
+            return readOnlyView(edges.empty() ? nullptr : edges[0].data(),
+                                {static_cast<py::ssize_t>(edges.size()), 2}, self);
+          },
+          "(k, 2) uint32: edges shared by more than two triangles, smaller vertex first.")
+      .def_property_readonly(
+          "non_manifold_vertices",
+          [](py::object self) {
+            return vectorView(self.cast<const MeshReport&>().nonManifoldVertices, self);
+          },
+          "(k,) uint32: vertices whose triangles do not form one fan.")
+      .def_property_readonly(
+          "dropped_polygons",
+          [](py::object self) {
+            return vectorView(self.cast<const MeshReport&>().droppedPolygons, self);
+          },
+          "(k,) uint32: soup polygons that welding collapsed or that have no area (not in the "
+          "mesh).")
+      .def_property_readonly(
+          "isolated_vertices",
+          [](py::object self) {
+            return vectorView(self.cast<const MeshReport&>().isolatedVertices, self);
+          },
+          "(k,) uint32: mesh vertices no triangle uses.")
+      .def_readonly("component_count", &MeshReport::componentCount,
+                    "Connected components of the triangles (isolated vertices not counted).")
+      .def_property_readonly("is_manifold", &MeshReport::isManifold,
+                             "Whether every edge has at most two triangles and every vertex one "
+                             "fan.")
+      .def("__repr__", [](const MeshReport& r) {
+        return "<spacewarp.MeshReport: " + std::to_string(r.componentCount) + " components, " +
+               std::to_string(r.boundaryEdges) + " boundary edges, " +
+               std::to_string(r.nonManifoldEdges.size()) + " non-manifold edges, " +
+               std::to_string(r.nonManifoldVertices.size()) + " non-manifold vertices, " +
+               std::to_string(r.droppedPolygons.size()) + " dropped polygons, " +
+               std::to_string(r.isolatedVertices.size()) + " isolated vertices>";
+      });
+
+  py::class_<SurfaceMesh, std::shared_ptr<SurfaceMesh>>(
+      m, "SurfaceMesh",
+      R"(A triangle mesh welded from a Geometry (weld_soup): positions (n, 3) world units,
+triangles (t, 3), and the maps back to the soup. Arrays are read-only views (no copy); the
+editors take mesh.positions and mesh.triangles.)")
+      .def_property_readonly(
+          "positions",
+          [](py::object self) {
+            return pointsView(self.cast<const SurfaceMesh&>().positions, self);
+          },
+          "(n, 3) float64 mesh vertices, world units.")
+      .def_property_readonly(
+          "triangles",
+          [](py::object self) {
+            const auto& t = self.cast<const SurfaceMesh&>().triangles;
+            return readOnlyView(t.empty() ? nullptr : t[0].data(),
+                                {static_cast<py::ssize_t>(t.size()), 3}, self);
+          },
+          "(t, 3) uint32 vertex indices, oriented as the soup's polygons.")
+      .def_property_readonly(
+          "soup_to_mesh",
+          [](py::object self) {
+            return vectorView(self.cast<const SurfaceMesh&>().soupToMesh, self);
+          },
+          "(soup n,) uint32: the mesh vertex of each soup vertex.")
+      .def_property_readonly(
+          "triangle_to_polygon",
+          [](py::object self) {
+            return vectorView(self.cast<const SurfaceMesh&>().triangleToPolygon, self);
+          },
+          "(t,) uint32: the soup polygon each triangle was cut from.")
+      .def_property_readonly(
+          "vertex_component",
+          [](py::object self) {
+            return vectorView(self.cast<const SurfaceMesh&>().vertexComponent, self);
+          },
+          "(n,) uint32: the component of each vertex, 0 .. component_count - 1; isolated "
+          "vertices get component_count and up, one each.")
+      .def_readonly("report", &SurfaceMesh::report, "The MeshReport of the weld.")
+      .def_property_readonly("vertex_count", &SurfaceMesh::vertexCount, "Mesh vertices (n).")
+      .def(
+          "to_soup_positions",
+          [](const SurfaceMesh& s, py::handle meshPositions) {
+            const Points p = toPoints(meshPositions, "mesh_positions", false);
+            std::vector<Vec3> out;
+            withoutGil([&] { out = s.toSoupPositions(p.span); });
+            return copyPoints(out);
+          },
+          "mesh_positions"_a,
+          R"(The soup's vertices (soup n, 3) moved as the mesh vertices (n, 3) they were welded
+into: out[v] = mesh_positions[soup_to_mesh[v]]. Raises InvalidInput for a wrong count.)")
+      .def(
+          "to_soup",
+          [](const SurfaceMesh& s) {
+            auto soup = std::make_shared<PolygonSoup>();
+            withoutGil([&] { *soup = toSoup(s); });
+            return soup;
+          },
+          "A Geometry of the mesh's triangles (no attributes), e.g. to write it.")
+      .def("__repr__", [](const SurfaceMesh& s) {
+        return "<spacewarp.SurfaceMesh: " + std::to_string(s.vertexCount()) + " vertices, " +
+               std::to_string(s.triangles.size()) + " triangles>";
+      });
+
+  m.def(
+      "weld_soup",
+      [](const PolygonSoup& geometry, double relativeTolerance) {
+        auto mesh = std::make_shared<SurfaceMesh>();
+        const InUse busy(geometry);
+        withoutGil([&] { *mesh = weldSoup(geometry, WeldOptions{relativeTolerance}); });
+        return mesh;
+      },
+      "geometry"_a, py::kw_only(), "relative_tolerance"_a = WeldOptions{}.relativeTolerance,
+      R"(The SurfaceMesh of a Geometry: vertices closer than relative_tolerance x the bounding-box
+diagonal welded into one (the default welds copies of the same point only; 0: exactly equal
+positions), polygons fanned into triangles, boundaries, non-manifold parts, dropped polygons and
+components reported (mesh.report), never refused. Raises InvalidInput for a geometry without
+polygons.)");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Operators
+
+void bindOperators(py::module_& m) {
+  m.def(
+      "cotan_laplacian",
+      [](py::handle positions, py::handle triangles) {
+        const MeshInput mesh = toMesh(positions, triangles);
+        Eigen::SparseMatrix<double> l;
+        withoutGil([&] { l = cotanLaplacian(mesh.positions.span, mesh.triangles); });
+        l.makeCompressed();
+        const auto n = static_cast<py::ssize_t>(l.rows());
+        const auto nnz = static_cast<py::ssize_t>(l.nonZeros());
+        py::array_t<double> data(nnz, l.valuePtr());
+        py::array_t<std::int64_t> indices(nnz), indptr(n + 1);
+        std::copy_n(l.innerIndexPtr(), nnz, indices.mutable_data());
+        std::copy_n(l.outerIndexPtr(), n + 1, indptr.mutable_data());
+        return py::module_::import("scipy.sparse")
+            .attr("csc_matrix")(py::make_tuple(data, indices, indptr),
+                                "shape"_a = py::make_tuple(n, n));
+      },
+      "positions"_a, "triangles"_a,
+      R"(The cotangent stiffness matrix L (n, n) of the mesh positions (n, 3), triangles (t, 3):
+a scipy.sparse.csc_matrix, symmetric positive semi-definite, rows summing to 0,
+L_ij = -(cot a_ij + cot b_ij) / 2 over the angles opposite edge ij, dimensionless; x^T L x is the
+Dirichlet energy of the piecewise-linear function x (needs SciPy). Triangles below 1e-12 of
+their longest edge squared in area contribute nothing.)");
+  m.def(
+      "mass_matrix_diagonal",
+      [](py::handle positions, py::handle triangles) {
+        const MeshInput mesh = toMesh(positions, triangles);
+        Eigen::VectorXd mass;
+        withoutGil([&] { mass = massMatrixDiagonal(mesh.positions.span, mesh.triangles); });
+        return py::array_t<double>(static_cast<py::ssize_t>(mass.size()), mass.data());
+      },
+      "positions"_a, "triangles"_a,
+      R"(The lumped mass (n,) of the mesh positions (n, 3), triangles (t, 3): the mixed Voronoi
+area of each vertex (Meyer et al. 2003), world units squared, summing to the surface area;
+vertices without area get the smallest positive mass.)");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Handle regions
+
+/// Handle regions as dicts {"vertices": [...], "matrix": 4 x 4 rows} or {"vertices": [...],
+/// "targets": (k, 3)}, as the CLI's handles file has them; `name` ("regions", "handles") in
+/// messages with the entry at fault ("handles[2].vertices[5]").
+std::vector<HandleRegion> toRegions(py::handle regions, const std::string& name) {
+  if (py::isinstance<py::str>(regions) || py::isinstance<py::dict>(regions) ||
+      !py::isinstance<py::sequence>(regions))
+    throw py::type_error(name + " must be a list of dicts, not " +
+                         std::string(py::str(py::type::of(regions).attr("__name__"))));
+  std::vector<HandleRegion> out;
+  std::size_t k = 0;
+  for (py::handle item : regions) {
+    const std::string at = name + "[" + std::to_string(k++) + "]";
+    if (!py::isinstance<py::dict>(item))
+      throw py::type_error(at + " must be a dict with 'vertices' and 'matrix' or 'targets', not " +
+                           std::string(py::str(py::type::of(item).attr("__name__"))));
+    const auto region = py::reinterpret_borrow<py::dict>(item);
+    for (const auto& entry : region) {
+      const py::handle key = entry.first;
+      const std::string text = py::str(key);
+      if (!py::isinstance<py::str>(key) ||
+          (text != "vertices" && text != "matrix" && text != "targets"))
+        throw InvalidInput(at + ": unknown key " + std::string(py::repr(key)) +
+                           " (the keys: vertices, matrix, targets)");
+    }
+    if (!region.contains("vertices")) throw InvalidInput(at + ": no 'vertices'");
+    const bool hasMatrix = region.contains("matrix"), hasTargets = region.contains("targets");
+    if (hasMatrix == hasTargets)
+      throw InvalidInput(at + (hasMatrix ? ": give 'matrix' or 'targets', not both"
+                                         : ": needs 'matrix' or 'targets'"));
+    HandleRegion r;
+    r.vertices = toIndices(py::object(region["vertices"]), at + ".vertices");
+    if (hasMatrix) {
+      const auto a = DoubleArray::ensure(py::object(region["matrix"]));
+      if (!a || a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4) {
+        PyErr_Clear();
+        throw InvalidInput(at + ".matrix must be 4 rows of 4 numbers (an affine map)");
+      }
+      Mat4 matrix;
+      for (int row = 0; row < 4; ++row)
+        for (int c = 0; c < 4; ++c) matrix[c][row] = a.at(row, c);
+      r.matrix = matrix;
+    } else {
+      const std::string targets = at + ".targets";
+      const Points t = toPoints(py::object(region["targets"]), targets.c_str(), false);
+      r.targets.assign(t.span.begin(), t.span.end());
+    }
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+void bindHandles(py::module_& m) {
+  // load_handles (spacewarp/_handles.py) checks a file's regions here, so that a file and a list
+  // of dicts given to edit() are read by the same code and named the same way.
+  m.def(
+      "_check_handle_regions",
+      [](py::handle regions, const std::string& name) { toRegions(regions, name); }, "regions"_a,
+      "name"_a, "Checks handle region dicts as edit() reads them; `name` starts the messages.");
+  m.def(
+      "resolve_handles",
+      [](py::handle regions, py::handle rest) {
+        const std::vector<HandleRegion> r = toRegions(regions, "regions");
+        const Points p = toPoints(rest, "rest", false);
+        VertexConstraints c;
+        withoutGil([&] { c = resolveHandles(r, p.span); });
+        return py::make_tuple(indexArray<std::uint32_t>(c.vertices), copyPoints(c.targets));
+      },
+      "regions"_a, "rest"_a,
+      R"(The constraints of handle regions on the vertices `rest` (n, 3), world units: returns
+(vertices, targets), (k,) uint32 in increasing order and (k, 3) float64. Each region is a dict
+as in the CLI's handles file: {"vertices": [i, ...], "matrix": 4 rows of 4} (the vertices move
+by that affine map; the identity pins them) or {"vertices": [i, ...], "targets": (k, 3)}. A
+vertex in several regions must get the same target from each. Raises InvalidInput naming the
+region and entry at fault (TypeError for a region that is not a dict).)");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Editors
+
+const char* linearMethodName(LinearEditMethod method) {
+  return method == LinearEditMethod::Laplacian ? "laplacian" : "bilaplacian";
+}
+
+LinearEditMethod linearMethod(const std::string& name) {
+  if (name == "laplacian") return LinearEditMethod::Laplacian;
+  if (name == "bilaplacian") return LinearEditMethod::BiLaplacian;
+  throw InvalidInput("method must be 'laplacian' or 'bilaplacian', not '" + name + "'");
+}
+
+void bindLinearEditor(py::module_& m) {
+  using Editor = Locked<LinearEditor>;
+  py::class_<Editor, std::shared_ptr<Editor>>(
+      m, "LinearEditor",
+      R"(Prefactorised linear surface editing of the mesh positions (n, 3), triangles (t, 3)
+with the vertices `constrained` (k,) as handles: the free vertices' displacement is harmonic
+(method "laplacian", Sorkine et al. 2004) or biharmonic ("bilaplacian", Botsch and Kobbelt
+2004). Reproduces translations exactly but cannot follow rotations (use ArapEditor). Components
+no handle reaches stay at rest (held_vertices).)")
+      .def(py::init([](py::handle positions, py::handle triangles, py::handle constrained,
+                       const std::string& method) {
+             const MeshInput mesh = toMesh(positions, triangles);
+             const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
+             const LinearEditOptions options{linearMethod(method)};
+             std::shared_ptr<Editor> editor;
+             withoutGil([&] {
+               editor = std::make_shared<Editor>(
+                   LinearEditor(mesh.positions.span, mesh.triangles, c, options));
+             });
+             return editor;
+           }),
+           "positions"_a, "triangles"_a, "constrained"_a, py::kw_only(),
+           "method"_a = linearMethodName(LinearEditOptions{}.method))
+      .def(
+          "solve",
+          [](Editor& e, py::handle targets) {
+            const Points t = toPoints(targets, "targets", false);
+            std::vector<Vec3> out;
+            withoutGil([&] {
+              const std::lock_guard lock(e.mutex);
+              out = e.editor.solve(t.span);
+            });
+            return copyPoints(out);
+          },
+          "targets"_a,
+          R"(All n vertices (n, 3) for the constrained vertices at `targets` (k, 3), one per
+constrained vertex in the constructor's order, world units (a back-substitution).)")
+      .def_property_readonly(
+          "held_vertices",
+          [](Editor& e) { return indexArray<std::uint32_t>(e.editor.heldVertices()); },
+          "(h,) uint32: vertices kept at rest because no handle reaches their component.");
+}
+
+void bindArapEditor(py::module_& m) {
+  py::class_<ArapReport>(m, "ArapReport", "What one ArapEditor solve did.")
+      .def_property_readonly(
+          "energies",
+          [](py::object self) { return vectorView(self.cast<const ArapReport&>().energies, self); },
+          "(iterations + 1,) float64: the energy at the start and after each iteration, "
+          "non-increasing, world units squared.")
+      .def_readonly("iterations", &ArapReport::iterations, "Local/global iterations run.")
+      .def_readonly("converged", &ArapReport::converged,
+                    "Whether the relative decrease fell below relative_tolerance before "
+                    "max_iterations.")
+      .def_readonly("started_rigid", &ArapReport::startedRigid,
+                    "Whether the solve started from the handles' common rigid motion (then a "
+                    "rigid motion of all handles is reproduced exactly).");
+  py::class_<ArapResult>(m, "ArapResult", "The result of an ArapEditor solve.")
+      .def_property_readonly(
+          "positions",
+          [](py::object self) {
+            return pointsView(self.cast<const ArapResult&>().positions, self);
+          },
+          "(n, 3) float64, all vertices, world units (read-only).")
+      .def_readonly("report", &ArapResult::report, "The ArapReport.");
+
+  using Editor = Locked<ArapEditor>;
+  const ArapOptions defaults;
+  py::class_<Editor, std::shared_ptr<Editor>>(
+      m, "ArapEditor",
+      R"(Prefactorised as-rigid-as-possible surface editing (Sorkine and Alexa 2007) of the mesh
+positions (n, 3), triangles (t, 3) with the vertices `constrained` (k,) as handles: one rotation
+per vertex, cotangent weights; at most max_iterations local/global iterations per solve, stopping
+when one lowers the energy by less than relative_tolerance of it (0: always max_iterations).
+Components no handle reaches stay at rest (held_vertices).)")
+      .def(py::init([](py::handle positions, py::handle triangles, py::handle constrained,
+                       int maxIterations, double relativeTolerance) {
+             const MeshInput mesh = toMesh(positions, triangles);
+             const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
+             const ArapOptions options{maxIterations, relativeTolerance};
+             std::shared_ptr<Editor> editor;
+             withoutGil([&] {
+               editor = std::make_shared<Editor>(
+                   ArapEditor(mesh.positions.span, mesh.triangles, c, options));
+             });
+             return editor;
+           }),
+           "positions"_a, "triangles"_a, "constrained"_a, py::kw_only(),
+           "max_iterations"_a = defaults.maxIterations,
+           "relative_tolerance"_a = defaults.relativeTolerance)
+      .def(
+          "solve",
+          [](Editor& e, py::handle targets, const py::object& progress) {
+            const Points t = toPoints(targets, "targets", false);
+            ArapResult result;
+            runCancellable(progress, [&](const ProgressCallback& callback) {
+              const std::lock_guard lock(e.mutex);
+              result = e.editor.solve(t.span, callback);
+            });
+            return result;
+          },
+          "targets"_a, py::kw_only(), "progress"_a = py::none(),
+          R"(Solves for the constrained vertices at `targets` (k, 3), constructor order, world
+units, starting from the Laplacian-editing solution or the handles' rigid motion (the lower
+energy). Returns an ArapResult. Reports stage "arap".)")
+      .def(
+          "solve_from",
+          [](Editor& e, py::handle start, py::handle targets, const py::object& progress) {
+            const Points s = toPoints(start, "start", false);
+            const Points t = toPoints(targets, "targets", false);
+            ArapResult result;
+            runCancellable(progress, [&](const ProgressCallback& callback) {
+              const std::lock_guard lock(e.mutex);
+              result = e.editor.solveFrom(s.span, t.span, callback);
+            });
+            return result;
+          },
+          "start"_a, "targets"_a, py::kw_only(), "progress"_a = py::none(),
+          R"(As solve(), continuing from `start` (n, 3), e.g. the previous frame's positions.)")
+      .def(
+          "energy",
+          [](Editor& e, py::handle positions) {
+            const Points p = toPoints(positions, "positions", false);
+            double energy = 0.0;
+            withoutGil([&] {
+              const std::lock_guard lock(e.mutex);
+              energy = e.editor.energy(p.span);
+            });
+            return energy;
+          },
+          "positions"_a,
+          "The ARAP energy of `positions` (n, 3) with its optimal rotations, world units squared.")
+      .def_property_readonly(
+          "held_vertices",
+          [](Editor& e) { return indexArray<std::uint32_t>(e.editor.heldVertices()); },
+          "(h,) uint32: vertices kept at rest because no handle reaches their component.");
+}
+
+void bindCageArapEditor(py::module_& m) {
+  py::class_<CageArapReport>(m, "CageArapReport", "What one CageArapEditor solve did.")
+      .def_property_readonly(
+          "energies",
+          [](py::object self) {
+            return vectorView(self.cast<const CageArapReport&>().energies, self);
+          },
+          "(iterations + 1,) float64: total energy (ARAP + handle term) at the start and after "
+          "each iteration, non-increasing.")
+      .def_readonly("iterations", &CageArapReport::iterations, "Iterations run.")
+      .def_readonly("converged", &CageArapReport::converged,
+                    "Whether the relative decrease fell below relative_tolerance before "
+                    "max_iterations.")
+      .def_readonly("started_rigid", &CageArapReport::startedRigid,
+                    "Whether the solve started from the handles' common rigid motion.")
+      .def_property_readonly(
+          "handle_residuals",
+          [](py::object self) {
+            return vectorView(self.cast<const CageArapReport&>().handleResiduals, self);
+          },
+          "(k,) float64: distance of each constrained vertex from its target, world units.")
+      .def_property_readonly(
+          "unreached",
+          [](py::object self) {
+            return vectorView(self.cast<const CageArapReport&>().unreached, self);
+          },
+          "(u,) uint32: constrained vertices (mesh indices) left farther than reach_tolerance "
+          "from their targets: the cage cannot carry them there rigidly (or at all).")
+      .def_readonly("max_residual", &CageArapReport::maxResidual,
+                    "The largest handle residual, world units.");
+  py::class_<CageArapResult>(m, "CageArapResult", "The result of a CageArapEditor solve.")
+      .def_property_readonly(
+          "control_points",
+          [](py::object self) {
+            return pointsView(self.cast<const CageArapResult&>().controlPoints, self);
+          },
+          "(m, 3) float64: the posed control points (cage vertices), world units (read-only); "
+          "coordinates.warp(control_points) carries any other geometry the same way.")
+      .def_property_readonly(
+          "positions",
+          [](py::object self) {
+            return pointsView(self.cast<const CageArapResult&>().positions, self);
+          },
+          "(n, 3) float64: the model's vertices, world units (read-only).")
+      .def_readonly("report", &CageArapResult::report, "The CageArapReport.");
+
+  using Editor = Locked<CageArapEditor>;
+  const CageArapOptions defaults;
+  py::class_<Editor, std::shared_ptr<Editor>>(
+      m, "CageArapEditor",
+      R"(ARAP in a cage's subspace (Huang et al. 2006): the unknowns are the control points of
+`coordinates` (MeanValue, Green, Harmonic, Lattice, Rbf, ... weighing every vertex of the mesh
+positions (n, 3), triangles (t, 3)); the model follows through its binding, and the energy is
+its ARAP energy with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
+point, at least 64, at most n) plus soft handle constraints on `constrained` (k,) weighted by
+handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
+below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
+reported unreached. Building binds the model (stage "bind") and the subspace ("subspace");
+raises InvalidInput as LinearEditor does (and for options out of range, or matrices that would
+not fit in memory), SolverError when the subspace system cannot be factorised.)")
+      .def(py::init([](py::handle positions, py::handle triangles, CoordinatesPtr coordinates,
+                       py::handle constrained, std::size_t rotationClusters, double handleWeight,
+                       int maxIterations, double relativeTolerance, double reachTolerance,
+                       const py::object& progress) {
+             const MeshInput mesh = toMesh(positions, triangles);
+             const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
+             const CageArapOptions options{rotationClusters, handleWeight, maxIterations,
+                                           relativeTolerance, reachTolerance};
+             std::shared_ptr<Editor> editor;
+             runCancellable(progress, [&](const ProgressCallback& callback) {
+               editor = std::make_shared<Editor>(CageArapEditor(mesh.positions.span, mesh.triangles,
+                                                                coordinates, c, options, callback));
+             });
+             return editor;
+           }),
+           "positions"_a, "triangles"_a, "coordinates"_a, "constrained"_a, py::kw_only(),
+           "rotation_clusters"_a = defaults.rotationClusters,
+           "handle_weight"_a = defaults.handleWeight, "max_iterations"_a = defaults.maxIterations,
+           "relative_tolerance"_a = defaults.relativeTolerance,
+           "reach_tolerance"_a = defaults.reachTolerance, "progress"_a = py::none())
+      .def(
+          "solve",
+          [](Editor& e, py::handle targets, const py::object& progress) {
+            const Points t = toPoints(targets, "targets", false);
+            CageArapResult result;
+            runCancellable(progress, [&](const ProgressCallback& callback) {
+              const std::lock_guard lock(e.mutex);
+              result = e.editor.solve(t.span, callback);
+            });
+            return result;
+          },
+          "targets"_a, py::kw_only(), "progress"_a = py::none(),
+          R"(The cage pose that best moves the constrained vertices to `targets` (k, 3),
+constructor order, world units, starting from the handles' rigid motion or the rotation-free
+solution (the lower energy). Returns a CageArapResult. Reports stage "cage-arap".)")
+      .def(
+          "solve_from",
+          [](Editor& e, py::handle start, py::handle targets, const py::object& progress) {
+            const Points s = toPoints(start, "start_control_points", false);
+            const Points t = toPoints(targets, "targets", false);
+            CageArapResult result;
+            runCancellable(progress, [&](const ProgressCallback& callback) {
+              const std::lock_guard lock(e.mutex);
+              result = e.editor.solveFrom(s.span, t.span, callback);
+            });
+            return result;
+          },
+          "start_control_points"_a, "targets"_a, py::kw_only(), "progress"_a = py::none(),
+          "As solve(), continuing from a cage pose `start_control_points` (m, 3).")
+      .def_property_readonly(
+          "cluster_count", [](Editor& e) { return e.editor.clusterCount(); },
+          "Rotation clusters K (n gives exactly the surface ARAP energy).");
+}
+
+// ---------------------------------------------------------------------------------------------
+// edit(): one call from a Geometry and handle regions to the edited Geometry
+
+/// Area-weighted normals of the soup's vertices over its polygons (fanned), at `positions`:
+/// welded copies of a vertex keep their own polygons' normals (a flat-shaded soup stays flat).
+std::vector<Vec3> areaNormals(const PolygonSoup& soup, std::span<const Vec3> positions) {
+  std::vector<Vec3> normals(positions.size(), Vec3(0.0));
+  for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
+    const auto polygon = soup.polygon(p);
+    for (std::size_t c = 1; c + 1 < polygon.size(); ++c) {
+      const Vec3& a = positions[polygon[0]];
+      const Vec3 n = glm::cross(positions[polygon[c]] - a, positions[polygon[c + 1]] - a);
+      for (const std::uint32_t v : {polygon[0], polygon[c], polygon[c + 1]}) normals[v] += n;
+    }
+  }
+  return normals;
+}
+
+/// The soup's normals after its positions moved from `rest`: per-vertex normals recomputed
+/// (area-weighted over the soup's polygons) and turned to the side of the surface the input's
+/// pointed to; per-corner normals rotated with their polygon (the best rigid fit of its
+/// corners). Vertices without area keep their normal.
+void updateNormals(PolygonSoup& soup, std::span<const Vec3> rest) {
+  if (soup.hasNormals()) {
+    const std::vector<Vec3> before = areaNormals(soup, rest),
+                            after = areaNormals(soup, soup.positions);
+    for (std::size_t v = 0; v < soup.size(); ++v) {
+      const double length = glm::length(after[v]);
+      if (!(length > 0.0)) continue;
+      const double side = glm::dot(before[v], soup.normals[v]) < 0.0 ? -1.0 : 1.0;
+      soup.normals[v] = after[v] * (side / length);
+    }
+  }
+  if (!soup.cornerNormals.empty()) {
+    CornerAttribute& corners = soup.cornerNormals;
+    std::vector<Vec3> values;
+    std::vector<Vec3> from, to;
+    for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
+      const auto polygon = soup.polygon(p);
+      from.clear();
+      to.clear();
+      for (const std::uint32_t v : polygon) {
+        from.push_back(rest[v]);
+        to.push_back(soup.positions[v]);
+      }
+      const Mat3 r = detail::rigidFit(from, to).r;
+      // A value may be shared by corners of several polygons: each corner gets its own copy.
+      for (std::size_t c = soup.faceOffsets[p]; c < soup.faceOffsets[p + 1]; ++c) {
+        if (corners.indices[c] == CornerAttribute::kNone) continue;
+        values.push_back(glm::normalize(r * corners.values[corners.indices[c]]));
+        corners.indices[c] = static_cast<std::uint32_t>(values.size() - 1);
+      }
+    }
+    corners.values = std::move(values);
+  }
+}
+
+/// A number in a warning: four significant digits.
+std::string shortNumber(double x) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.4g", x);
+  return text;
+}
+
+enum class EditMethod { Laplacian, BiLaplacian, Arap, CageArap };
+
+EditMethod editMethod(const std::string& name) {
+  if (name == "laplacian") return EditMethod::Laplacian;
+  if (name == "bilaplacian") return EditMethod::BiLaplacian;
+  if (name == "arap") return EditMethod::Arap;
+  if (name == "cage-arap") return EditMethod::CageArap;
+  throw InvalidInput("method must be 'laplacian', 'bilaplacian', 'arap' or 'cage-arap', not '" +
+                     name + "'");
+}
+
+struct EditOptions {
+  std::optional<int> maxIterations;
+  std::optional<double> relativeTolerance;
+  std::optional<std::size_t> rotationClusters;
+  std::optional<double> handleWeight;
+  std::optional<double> reachTolerance;
+};
+
+/// Refuses options given for a method they do not apply to (as the CLI does).
+void checkApplicable(EditMethod method, const std::string& name, const CoordinatesPtr& coordinates,
+                     const EditOptions& o) {
+  const bool iterative = method == EditMethod::Arap || method == EditMethod::CageArap;
+  const bool cage = method == EditMethod::CageArap;
+  const auto refuse = [&](bool given, bool applies, const char* option) {
+    if (given && !applies)
+      throw InvalidInput(std::string(option) + " does not apply to method '" + name + "'");
+  };
+  refuse(o.maxIterations.has_value(), iterative, "max_iterations");
+  refuse(o.relativeTolerance.has_value(), iterative, "relative_tolerance");
+  refuse(o.rotationClusters.has_value(), cage, "rotation_clusters");
+  refuse(o.handleWeight.has_value(), cage, "handle_weight");
+  refuse(o.reachTolerance.has_value(), cage, "reach_tolerance");
+  refuse(coordinates != nullptr, cage, "coordinates");
+  if (cage && !coordinates)
+    throw InvalidInput("method 'cage-arap' needs coordinates (e.g. spacewarp.MeanValue(cage))");
+}
+
+GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const std::string& name,
+                         const CoordinatesPtr& coordinates, double weldTolerance,
+                         const EditOptions& o, const py::object& progress) {
+  const EditMethod method = editMethod(name);
+  checkApplicable(method, name, coordinates, o);
+  const std::vector<HandleRegion> regions = toRegions(handles, "handles");
+  const auto out = std::make_shared<PolygonSoup>();
+  std::vector<std::string> warnings;
+  const InUse busy(geometry);
+  runCancellable(progress, [&](const ProgressCallback& callback) {
+    *out = geometry;
+    const SurfaceMesh mesh = weldSoup(*out, WeldOptions{weldTolerance});
+    const double diagonal = boundingBox(out->positions).diagonal();
+    const VertexConstraints c =
+        mapConstraints(resolveHandles(regions, out->positions), mesh.soupToMesh, 1e-9 * diagonal);
+    std::vector<Vec3> moved;
+    std::span<const std::uint32_t> held;
+    std::optional<LinearEditor> linear;
+    std::optional<ArapEditor> arap;
+    if (method == EditMethod::Laplacian || method == EditMethod::BiLaplacian) {
+      const LinearEditMethod m = method == EditMethod::Laplacian ? LinearEditMethod::Laplacian
+                                                                 : LinearEditMethod::BiLaplacian;
+      linear.emplace(mesh.positions, mesh.triangles, c.vertices, LinearEditOptions{m});
+      moved = linear->solve(c.targets);
+      held = linear->heldVertices();
+    } else if (method == EditMethod::Arap) {
+      ArapOptions options;
+      options.maxIterations = o.maxIterations.value_or(options.maxIterations);
+      options.relativeTolerance = o.relativeTolerance.value_or(options.relativeTolerance);
+      arap.emplace(mesh.positions, mesh.triangles, c.vertices, options);
+      ArapResult result = arap->solve(c.targets, callback);
+      held = arap->heldVertices();
+      const ArapReport& r = result.report;
+      if (!r.converged)
+        warnings.push_back("ARAP did not converge in " + std::to_string(r.iterations) +
+                           " iterations (energy " + shortNumber(r.energies.front()) + " -> " +
+                           shortNumber(r.energies.back()) + ")");
+      moved = std::move(result.positions);
+    } else {
+      CageArapOptions options;
+      options.rotationClusters = o.rotationClusters.value_or(options.rotationClusters);
+      options.handleWeight = o.handleWeight.value_or(options.handleWeight);
+      options.maxIterations = o.maxIterations.value_or(options.maxIterations);
+      options.relativeTolerance = o.relativeTolerance.value_or(options.relativeTolerance);
+      options.reachTolerance = o.reachTolerance.value_or(options.reachTolerance);
+      CageArapEditor editor(mesh.positions, mesh.triangles, coordinates, c.vertices, options,
+                            callback);
+      CageArapResult result = editor.solve(c.targets, callback);
+      const CageArapReport& r = result.report;
+      if (!r.unreached.empty())
+        warnings.push_back(std::to_string(r.unreached.size()) +
+                           " handle vertices are left farther than reach_tolerance from their "
+                           "targets (max residual " +
+                           shortNumber(r.maxResidual) +
+                           "): the cage cannot carry them there rigidly");
+      moved = std::move(result.positions);
+    }
+    if (!held.empty())
+      warnings.push_back(std::to_string(held.size()) +
+                         " mesh vertices are in parts no handle reaches: they stay at rest");
+    const std::vector<Vec3> rest = out->positions;
+    out->positions = mesh.toSoupPositions(moved);
+    updateNormals(*out, rest);
+  });
+  warnAll(warnings);
+  return out;
+}
+
+void bindEdit(py::module_& m) {
+  m.def(
+      "edit",
+      [](const PolygonSoup& geometry, py::handle handles, const std::string& method,
+         const CoordinatesPtr& coordinates, double weldTolerance, std::optional<int> maxIterations,
+         std::optional<double> relativeTolerance, std::optional<std::size_t> rotationClusters,
+         std::optional<double> handleWeight, std::optional<double> reachTolerance,
+         const py::object& progress) {
+        return editGeometry(
+            geometry, handles, method, coordinates, weldTolerance,
+            {maxIterations, relativeTolerance, rotationClusters, handleWeight, reachTolerance},
+            progress);
+      },
+      "geometry"_a, "handles"_a, py::kw_only(), "method"_a = "arap", "coordinates"_a = nullptr,
+      "weld_tolerance"_a = WeldOptions{}.relativeTolerance, "max_iterations"_a = py::none(),
+      "relative_tolerance"_a = py::none(), "rotation_clusters"_a = py::none(),
+      "handle_weight"_a = py::none(), "reach_tolerance"_a = py::none(), "progress"_a = py::none(),
+      R"(The Geometry edited by its surface, as `spacewarp edit` does: welded (weld_soup with
+weld_tolerance), the handle regions resolved (resolve_handles; vertex indices are the geometry's,
+as in the CLI's handles file) and carried to the mesh, solved by method "laplacian",
+"bilaplacian", "arap" or "cage-arap" (which needs `coordinates`, e.g. MeanValue(cage)), and
+returned as a new Geometry with the polygons, attributes and groups of the input. Per-vertex
+normals are recomputed from the edited polygons (area-weighted, on the side the input's pointed
+to); per-corner normals turn with their polygon. Options left None take the editor's defaults
+(ArapEditor, CageArapEditor); an option the method does not use raises InvalidInput. A solve
+that did not converge, handles left unreached and parts no handle reaches are UserWarnings.)");
+}
+
+}  // namespace
+
+void bindSurface(py::module_& m) {
+  bindMesh(m);
+  bindOperators(m);
+  bindHandles(m);
+  bindLinearEditor(m);
+  bindArapEditor(m);
+  bindCageArapEditor(m);
+  bindEdit(m);
+}
+
+}  // namespace spacewarp::python
