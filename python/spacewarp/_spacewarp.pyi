@@ -187,7 +187,9 @@ class Affine(Warp):
 class ArapEditor:
     """Prefactorised as-rigid-as-possible surface editing (Sorkine and Alexa 2007) of the mesh
     positions (n, 3), triangles (t, 3) with the vertices `constrained` (k,) as handles: one rotation
-    per vertex, cotangent weights; at most max_iterations local/global iterations per solve, stopping
+    per vertex acting on the edges of its triangles (energy "spokes_and_rims", Chao et al. 2010, the
+    default: bounded below with obtuse triangles) or on its one-ring edges only ("spokes", the
+    paper's), cotangent weights; at most max_iterations local/global iterations per solve, stopping
     when one lowers the energy by less than relative_tolerance of it (0: always max_iterations).
     Components no handle reaches stay at rest (held_vertices).
     """
@@ -198,6 +200,7 @@ class ArapEditor:
         triangles: ArrayLike,
         constrained: ArrayLike,
         *,
+        energy: str = "spokes_and_rims",
         max_iterations: int = 20,
         relative_tolerance: float = 1e-06,
     ) -> None: ...
@@ -364,7 +367,7 @@ class CageArapEditor:
     """ARAP in a cage's subspace (Huang et al. 2006): the unknowns are the control points of
     `coordinates` (MeanValue, Green, Harmonic, Lattice, Rbf, ... weighing every vertex of the mesh
     positions (n, 3), triangles (t, 3)); the model follows through its binding, and the energy is
-    its ARAP energy with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
+    its ARAP energy (`energy` as ArapEditor's) with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
     point, at least 64, at most n) plus soft handle constraints on `constrained` (k,) weighted by
     handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
     below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
@@ -380,6 +383,7 @@ class CageArapEditor:
         coordinates: Coordinates,
         constrained: ArrayLike,
         *,
+        energy: str = "spokes_and_rims",
         rotation_clusters: int = 0,
         handle_weight: float = 100.0,
         max_iterations: int = 30,
@@ -1069,6 +1073,7 @@ def edit(
     method: Literal["laplacian", "bilaplacian", "arap", "cage-arap"] = "arap",
     coordinates: Optional[Coordinates] = None,
     weld_tolerance: float = 1e-09,
+    energy: Optional[str] = None,
     max_iterations: Optional[int] = None,
     relative_tolerance: Optional[float] = None,
     rotation_clusters: Optional[int] = None,

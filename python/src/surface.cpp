@@ -323,6 +323,16 @@ const char* linearMethodName(LinearEditMethod method) {
   return method == LinearEditMethod::Laplacian ? "laplacian" : "bilaplacian";
 }
 
+const char* arapEnergyName(ArapEnergy energy) {
+  return energy == ArapEnergy::SpokesAndRims ? "spokes_and_rims" : "spokes";
+}
+
+ArapEnergy arapEnergy(const std::string& name) {
+  if (name == "spokes_and_rims") return ArapEnergy::SpokesAndRims;
+  if (name == "spokes") return ArapEnergy::Spokes;
+  throw InvalidInput("energy must be 'spokes_and_rims' or 'spokes', not '" + name + "'");
+}
+
 LinearEditMethod linearMethod(const std::string& name) {
   if (name == "laplacian") return LinearEditMethod::Laplacian;
   if (name == "bilaplacian") return LinearEditMethod::BiLaplacian;
@@ -401,14 +411,16 @@ void bindArapEditor(py::module_& m) {
       m, "ArapEditor",
       R"(Prefactorised as-rigid-as-possible surface editing (Sorkine and Alexa 2007) of the mesh
 positions (n, 3), triangles (t, 3) with the vertices `constrained` (k,) as handles: one rotation
-per vertex, cotangent weights; at most max_iterations local/global iterations per solve, stopping
+per vertex acting on the edges of its triangles (energy "spokes_and_rims", Chao et al. 2010, the
+default: bounded below with obtuse triangles) or on its one-ring edges only ("spokes", the
+paper's), cotangent weights; at most max_iterations local/global iterations per solve, stopping
 when one lowers the energy by less than relative_tolerance of it (0: always max_iterations).
 Components no handle reaches stay at rest (held_vertices).)")
       .def(py::init([](py::handle positions, py::handle triangles, py::handle constrained,
-                       int maxIterations, double relativeTolerance) {
+                       const std::string& energy, int maxIterations, double relativeTolerance) {
              const MeshInput mesh = toMesh(positions, triangles);
              const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
-             const ArapOptions options{maxIterations, relativeTolerance};
+             const ArapOptions options{arapEnergy(energy), maxIterations, relativeTolerance};
              std::shared_ptr<Editor> editor;
              withoutGil([&] {
                editor = std::make_shared<Editor>(
@@ -417,6 +429,7 @@ Components no handle reaches stay at rest (held_vertices).)")
              return editor;
            }),
            "positions"_a, "triangles"_a, "constrained"_a, py::kw_only(),
+           "energy"_a = arapEnergyName(defaults.energy),
            "max_iterations"_a = defaults.maxIterations,
            "relative_tolerance"_a = defaults.relativeTolerance)
       .def(
@@ -520,33 +533,35 @@ void bindCageArapEditor(py::module_& m) {
       R"(ARAP in a cage's subspace (Huang et al. 2006): the unknowns are the control points of
 `coordinates` (MeanValue, Green, Harmonic, Lattice, Rbf, ... weighing every vertex of the mesh
 positions (n, 3), triangles (t, 3)); the model follows through its binding, and the energy is
-its ARAP energy with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
+its ARAP energy (`energy` as ArapEditor's) with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
 point, at least 64, at most n) plus soft handle constraints on `constrained` (k,) weighted by
 handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
 below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
 reported unreached. Building binds the model (stage "bind") and the subspace ("subspace");
 raises InvalidInput as LinearEditor does (and for options out of range, or matrices that would
 not fit in memory), SolverError when the subspace system cannot be factorised.)")
-      .def(py::init([](py::handle positions, py::handle triangles, CoordinatesPtr coordinates,
-                       py::handle constrained, std::size_t rotationClusters, double handleWeight,
-                       int maxIterations, double relativeTolerance, double reachTolerance,
-                       const py::object& progress) {
-             const MeshInput mesh = toMesh(positions, triangles);
-             const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
-             const CageArapOptions options{rotationClusters, handleWeight, maxIterations,
-                                           relativeTolerance, reachTolerance};
-             std::shared_ptr<Editor> editor;
-             runCancellable(progress, [&](const ProgressCallback& callback) {
-               editor = std::make_shared<Editor>(CageArapEditor(mesh.positions.span, mesh.triangles,
-                                                                coordinates, c, options, callback));
-             });
-             return editor;
-           }),
-           "positions"_a, "triangles"_a, "coordinates"_a, "constrained"_a, py::kw_only(),
-           "rotation_clusters"_a = defaults.rotationClusters,
-           "handle_weight"_a = defaults.handleWeight, "max_iterations"_a = defaults.maxIterations,
-           "relative_tolerance"_a = defaults.relativeTolerance,
-           "reach_tolerance"_a = defaults.reachTolerance, "progress"_a = py::none())
+      .def(
+          py::init([](py::handle positions, py::handle triangles, CoordinatesPtr coordinates,
+                      py::handle constrained, const std::string& energy,
+                      std::size_t rotationClusters, double handleWeight, int maxIterations,
+                      double relativeTolerance, double reachTolerance, const py::object& progress) {
+            const MeshInput mesh = toMesh(positions, triangles);
+            const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
+            const CageArapOptions options{arapEnergy(energy), rotationClusters,  handleWeight,
+                                          maxIterations,      relativeTolerance, reachTolerance};
+            std::shared_ptr<Editor> editor;
+            runCancellable(progress, [&](const ProgressCallback& callback) {
+              editor = std::make_shared<Editor>(CageArapEditor(mesh.positions.span, mesh.triangles,
+                                                               coordinates, c, options, callback));
+            });
+            return editor;
+          }),
+          "positions"_a, "triangles"_a, "coordinates"_a, "constrained"_a, py::kw_only(),
+          "energy"_a = arapEnergyName(defaults.energy),
+          "rotation_clusters"_a = defaults.rotationClusters,
+          "handle_weight"_a = defaults.handleWeight, "max_iterations"_a = defaults.maxIterations,
+          "relative_tolerance"_a = defaults.relativeTolerance,
+          "reach_tolerance"_a = defaults.reachTolerance, "progress"_a = py::none())
       .def(
           "solve",
           [](Editor& e, py::handle targets, const py::object& progress) {
@@ -657,6 +672,7 @@ EditMethod editMethod(const std::string& name) {
 }
 
 struct EditOptions {
+  std::optional<std::string> energy;
   std::optional<int> maxIterations;
   std::optional<double> relativeTolerance;
   std::optional<std::size_t> rotationClusters;
@@ -673,6 +689,7 @@ void checkApplicable(EditMethod method, const std::string& name, const Coordinat
     if (given && !applies)
       throw InvalidInput(std::string(option) + " does not apply to method '" + name + "'");
   };
+  refuse(o.energy.has_value(), iterative, "energy");
   refuse(o.maxIterations.has_value(), iterative, "max_iterations");
   refuse(o.relativeTolerance.has_value(), iterative, "relative_tolerance");
   refuse(o.rotationClusters.has_value(), cage, "rotation_clusters");
@@ -710,6 +727,7 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
       held = linear->heldVertices();
     } else if (method == EditMethod::Arap) {
       ArapOptions options;
+      if (o.energy) options.energy = arapEnergy(*o.energy);
       options.maxIterations = o.maxIterations.value_or(options.maxIterations);
       options.relativeTolerance = o.relativeTolerance.value_or(options.relativeTolerance);
       arap.emplace(mesh.positions, mesh.triangles, c.vertices, options);
@@ -723,6 +741,7 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
       moved = std::move(result.positions);
     } else {
       CageArapOptions options;
+      if (o.energy) options.energy = arapEnergy(*o.energy);
       options.rotationClusters = o.rotationClusters.value_or(options.rotationClusters);
       options.handleWeight = o.handleWeight.value_or(options.handleWeight);
       options.maxIterations = o.maxIterations.value_or(options.maxIterations);
@@ -755,19 +774,20 @@ void bindEdit(py::module_& m) {
   m.def(
       "edit",
       [](const PolygonSoup& geometry, py::handle handles, const std::string& method,
-         const CoordinatesPtr& coordinates, double weldTolerance, std::optional<int> maxIterations,
-         std::optional<double> relativeTolerance, std::optional<std::size_t> rotationClusters,
-         std::optional<double> handleWeight, std::optional<double> reachTolerance,
-         const py::object& progress) {
-        return editGeometry(
-            geometry, handles, method, coordinates, weldTolerance,
-            {maxIterations, relativeTolerance, rotationClusters, handleWeight, reachTolerance},
-            progress);
+         const CoordinatesPtr& coordinates, double weldTolerance, std::optional<std::string> energy,
+         std::optional<int> maxIterations, std::optional<double> relativeTolerance,
+         std::optional<std::size_t> rotationClusters, std::optional<double> handleWeight,
+         std::optional<double> reachTolerance, const py::object& progress) {
+        return editGeometry(geometry, handles, method, coordinates, weldTolerance,
+                            {energy, maxIterations, relativeTolerance, rotationClusters,
+                             handleWeight, reachTolerance},
+                            progress);
       },
       "geometry"_a, "handles"_a, py::kw_only(), "method"_a = "arap", "coordinates"_a = nullptr,
-      "weld_tolerance"_a = WeldOptions{}.relativeTolerance, "max_iterations"_a = py::none(),
-      "relative_tolerance"_a = py::none(), "rotation_clusters"_a = py::none(),
-      "handle_weight"_a = py::none(), "reach_tolerance"_a = py::none(), "progress"_a = py::none(),
+      "weld_tolerance"_a = WeldOptions{}.relativeTolerance, "energy"_a = py::none(),
+      "max_iterations"_a = py::none(), "relative_tolerance"_a = py::none(),
+      "rotation_clusters"_a = py::none(), "handle_weight"_a = py::none(),
+      "reach_tolerance"_a = py::none(), "progress"_a = py::none(),
       R"(The Geometry edited by its surface, as `spacewarp edit` does: welded (weld_soup with
 weld_tolerance), the handle regions resolved (resolve_handles; vertex indices are the geometry's,
 as in the CLI's handles file) and carried to the mesh, solved by method "laplacian",
