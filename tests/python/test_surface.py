@@ -260,14 +260,17 @@ def test_a_common_translation_is_reproduced_by_every_editor(mesh, ends, cage_coo
         assert np.abs(moved - expected).max() < 1e-9 * size(mesh), name
 
 
-def test_a_common_rigid_motion_is_reproduced_by_arap_and_cage_arap(mesh, ends, cage_coordinates):
+@pytest.mark.parametrize("energy", ["spokes_and_rims", "spokes"])
+def test_a_common_rigid_motion_is_reproduced_by_arap_and_cage_arap(mesh, ends, cage_coordinates,
+                                                                   energy):
     r, shift = rotation([1, 1, 0.5], 70), np.array([1.0, -2.0, 0.5])
     expected = mesh.positions @ r.T + shift
-    arap = spacewarp.ArapEditor(mesh.positions, mesh.triangles, ends)
+    arap = spacewarp.ArapEditor(mesh.positions, mesh.triangles, ends, energy=energy)
     result = arap.solve(expected[ends])
     assert result.report.started_rigid
     assert np.abs(result.positions - expected).max() < 1e-9 * size(mesh)
-    cage = spacewarp.CageArapEditor(mesh.positions, mesh.triangles, cage_coordinates, ends)
+    cage = spacewarp.CageArapEditor(mesh.positions, mesh.triangles, cage_coordinates, ends,
+                                    energy=energy)
     posed = cage.solve(expected[ends])
     assert np.abs(posed.positions - expected).max() < 1e-9 * size(mesh)
     rest_cage = cage_coordinates.rest_control_points
@@ -500,6 +503,10 @@ def test_edit_refuses_options_the_method_does_not_use(cage_coordinates):
         spacewarp.edit(soup, regions, method="cage-arap")
     with pytest.raises(spacewarp.InvalidInput, match="coordinates does not apply"):
         spacewarp.edit(soup, regions, coordinates=cage_coordinates)
+    with pytest.raises(spacewarp.InvalidInput, match="energy does not apply"):
+        spacewarp.edit(soup, regions, method="bilaplacian", energy="spokes")
+    with pytest.raises(spacewarp.InvalidInput, match="'spokes', not 'rims'"):
+        spacewarp.edit(soup, regions, method="arap", energy="rims")
     with pytest.raises(spacewarp.InvalidInput, match="'cage-arap', not 'arapp'"):
         spacewarp.edit(soup, regions, method="arapp")
     with pytest.raises(spacewarp.InvalidInput, match=r"handles\[1\].vertices\[0\]"):
