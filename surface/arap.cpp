@@ -37,31 +37,44 @@ struct ArapEditor::Impl {
   Eigen::SparseMatrix<double> freeFixed;  // A_fc of terms.system
   detail::SparseCholesky factor{{"ArapEditor", "check the mesh for degenerate parts"}};
   ArapOptions options;
-  std::vector<Mat3> rotations;          // of the last local step
-  std::vector<double> vertexEnergy;     // of the last local step
-  std::vector<Mat3> elementCovariance;  // scratch of the local step
+  std::vector<Mat3> rotations;       // of the last local step
+  std::vector<double> vertexEnergy;  // of the last local step
+  // Scratch of the steps, per element: its covariance share Σ w d ē̅ᵀ and Σ w |d|² (d = x_a − x_b)
+  // in the local step, its edges' w (Σ_owners R) ē in the global step.
+  std::vector<Mat3> elementCovariance;
+  std::vector<double> elementSquared;
+  std::vector<std::array<Vec3, 3>> elementRhs;
+  double restSquaredTotal = 0.0;  // Σ_i Σ_{T(i)} w |ē|²: the energy's scale
 
-  // Optimal rotations of x (all n vertices) and the energy they give.
+  // Optimal rotations of x (all n vertices) and the energy they give. The energy of vertex i is
+  // Σ_{T(i)} w (|d|² + |ē|²) − 2 tr(R_iᵀ cov_i), from per-element sums (accurate to rounding of
+  // the edge terms' size).
   double localStep(std::span<const Vec3> x) {
     const auto& t = terms;
     forVertices(t.elements.size(), [&](std::size_t e) {
-      elementCovariance[e] = detail::elementCovariance(t.elements[e], x);
+      const detail::ArapElement& el = t.elements[e];
+      Mat3 cov(0.0);
+      double squared = 0.0;
+      for (int k = 0; k < el.count; ++k) {
+        const Vec3 wd = el.weight[k] * (x[el.a[k]] - x[el.b[k]]);
+        cov += glm::outerProduct(wd, el.rest[k]);
+        squared += glm::dot(wd, x[el.a[k]] - x[el.b[k]]);
+      }
+      elementCovariance[e] = cov;
+      elementSquared[e] = squared;
     });
     forVertices(t.vertexCount(), [&](std::size_t i) {
-      Mat3 cov(0.0);  // Σ w e e̅ᵀ over T(i): tr(Rᵀ cov) = Σ w eᵀ R e̅
-      for (std::size_t k = t.vertexOffsets[i]; k < t.vertexOffsets[i + 1]; ++k)
-        cov += elementCovariance[t.vertexElements[k]];
-      const Mat3 r = detail::closestRotationNear(cov, rotations[i]);
-      double energy = 0.0;
+      Mat3 cov(0.0);  // Σ w d ē̅ᵀ over T(i): tr(Rᵀ cov) = Σ w dᵀ R ē
+      double squared = 0.0;
       for (std::size_t k = t.vertexOffsets[i]; k < t.vertexOffsets[i + 1]; ++k) {
-        const detail::ArapElement& e = t.elements[t.vertexElements[k]];
-        for (int j = 0; j < e.count; ++j) {
-          const Vec3 d = (x[e.a[j]] - x[e.b[j]]) - r * e.rest[j];
-          energy += e.weight[j] * glm::dot(d, d);
-        }
+        const std::uint32_t e = t.vertexElements[k];
+        cov += elementCovariance[e];
+        squared += elementSquared[e] + t.restSquared[e];
       }
+      const Mat3 r = detail::closestRotationNear(cov, rotations[i]);
       rotations[i] = r;
-      vertexEnergy[i] = energy;
+      vertexEnergy[i] = squared - 2.0 * (glm::dot(r[0], cov[0]) + glm::dot(r[1], cov[1]) +
+                                         glm::dot(r[2], cov[2]));
     });
     double total = 0.0;
     for (double e : vertexEnergy) total += e;
@@ -72,18 +85,20 @@ struct ArapEditor::Impl {
   std::vector<Vec3> globalStep(const Eigen::MatrixXd& fixed) {
     const auto& p = problem;
     const auto& t = terms;
+    forVertices(t.elements.size(), [&](std::size_t e) {
+      const detail::ArapElement& el = t.elements[e];
+      Mat3 sum = rotations[el.owner[0]];
+      for (int o = 1; o < el.ownerCount; ++o) sum += rotations[el.owner[o]];
+      for (int k = 0; k < el.count; ++k) elementRhs[e][k] = el.weight[k] * (sum * el.rest[k]);
+    });
     Eigen::MatrixXd rhs(static_cast<Eigen::Index>(p.freeVertices.size()), 3);
     forVertices(p.freeVertices.size(), [&](std::size_t f) {
       const std::uint32_t v = p.freeVertices[f];
-      Vec3 b(0.0);  // Σ over v's elements and their edges at v of ±w (Σ_owners R) e̅
+      Vec3 b(0.0);  // Σ over v's elements and their edges at v of ±w (Σ_owners R) ē
       for (std::size_t k = t.vertexOffsets[v]; k < t.vertexOffsets[v + 1]; ++k) {
-        const detail::ArapElement& e = t.elements[t.vertexElements[k]];
-        Mat3 sum = rotations[e.owner[0]];
-        for (int o = 1; o < e.ownerCount; ++o) sum += rotations[e.owner[o]];
-        for (int j = 0; j < e.count; ++j) {
-          if (e.a[j] == v) b += e.weight[j] * (sum * e.rest[j]);
-          if (e.b[j] == v) b -= e.weight[j] * (sum * e.rest[j]);
-        }
+        const auto& q = elementRhs[t.vertexElements[k]];
+        const auto& sign = t.vertexEdgeSigns[k];
+        b += double(sign[0]) * q[0] + double(sign[1]) * q[1] + double(sign[2]) * q[2];
       }
       rhs.row(static_cast<Eigen::Index>(f)) << b.x, b.y, b.z;
     });
@@ -109,6 +124,10 @@ ArapEditor::ArapEditor(std::span<const Vec3> positions,
   im.rotations.assign(positions.size(), Mat3(1.0));
   im.vertexEnergy.assign(positions.size(), 0.0);
   im.elementCovariance.resize(im.terms.elements.size());
+  im.elementSquared.resize(im.terms.elements.size());
+  im.elementRhs.resize(im.terms.elements.size());
+  for (std::size_t e = 0; e < im.terms.elements.size(); ++e)
+    im.restSquaredTotal += im.terms.elements[e].ownerCount * im.terms.restSquared[e];
   if (im.problem.freeVertices.empty()) return;
   const Eigen::SparseMatrix<double> lower = im.problem.freeBlockLower(im.terms.system);
   im.factor.analyzePattern(lower);
@@ -176,9 +195,8 @@ ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Ve
     return result;
   }
   ProgressTracker tracker(progress, "arap", static_cast<std::size_t>(im.options.maxIterations));
-  // The energy is zero to rounding: nothing left to move. (Obtuse triangles' negative weights
-  // can make it slightly negative.)
-  const double floor = 1e-28 * p.diagonal * p.diagonal * double(im.terms.elements.size());
+  // The energy is zero to the rounding of its terms (a rigid motion): nothing left to move.
+  const double floor = 1e-14 * im.restSquaredTotal;
   std::vector<Mat3> keep;
   while (report.iterations < im.options.maxIterations && !report.converged) {
     if (std::abs(e) <= floor) {

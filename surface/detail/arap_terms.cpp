@@ -64,13 +64,22 @@ ArapTerms makeArapTerms(ArapEnergy energy, std::span<const Vec3> rest,
     for (int o = 0; o < e.ownerCount; ++o) ++t.vertexOffsets[e.owner[o] + 1];
   std::partial_sum(t.vertexOffsets.begin(), t.vertexOffsets.end(), t.vertexOffsets.begin());
   t.vertexElements.resize(t.vertexOffsets.back());
+  t.vertexEdgeSigns.resize(t.vertexOffsets.back());
   std::vector<std::size_t> fill(t.vertexOffsets.begin(), t.vertexOffsets.end() - 1);
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(12 * t.elements.size());
   for (std::size_t i = 0; i < t.elements.size(); ++i) {
     const ArapElement& e = t.elements[i];
-    for (int o = 0; o < e.ownerCount; ++o)
-      t.vertexElements[fill[e.owner[o]]++] = static_cast<std::uint32_t>(i);
+    for (int o = 0; o < e.ownerCount; ++o) {
+      const std::uint32_t v = e.owner[o];
+      std::array<std::int8_t, 3> signs{};
+      for (int k = 0; k < e.count; ++k) signs[k] = std::int8_t((e.a[k] == v) - (e.b[k] == v));
+      t.vertexEdgeSigns[fill[v]] = signs;
+      t.vertexElements[fill[v]++] = static_cast<std::uint32_t>(i);
+    }
+    double restSquared = 0.0;
+    for (int k = 0; k < e.count; ++k) restSquared += e.weight[k] * glm::dot(e.rest[k], e.rest[k]);
+    t.restSquared.push_back(restSquared);
     for (int k = 0; k < e.count; ++k) {
       const double w = e.ownerCount * e.weight[k];
       t.totalWeight += w;

@@ -36,11 +36,16 @@ struct ArapTerms {
   /// vertexElements[vertexOffsets[v] .. vertexOffsets[v + 1]).
   std::vector<std::size_t> vertexOffsets;
   std::vector<std::uint32_t> vertexElements;
+  /// Parallel to vertexElements: for each edge k of the element, +1 if v is its a, −1 if its b,
+  /// 0 if neither (the rim of a triangle seen from the opposite corner).
+  std::vector<std::array<std::int8_t, 3>> vertexEdgeSigns;
   /// Σ_e Σ_owners Σ_edges w (δ_a − δ_b)(δ_a − δ_b)ᵀ (n × n), the quadratic part: the global step
   /// solves system x = rhs(R). 2L for spokes, 3L for spokes and rims.
   Eigen::SparseMatrix<double> system;
   /// Σ_i Σ_{T(i)} w: the sum of the energy's edge weights.
   double totalWeight = 0.0;
+  /// Per element: Σ_edges w |ē|², the constant part of each owner's energy.
+  std::vector<double> restSquared;
 
   std::size_t vertexCount() const { return vertexOffsets.size() - 1; }
 };

@@ -64,7 +64,8 @@ TEST(ArapEditor, BendsABarKeepingItsEdgesWhereLaplacianEditingShrinksThem) {
   EXPECT_TRUE(nonIncreasing(result.report.energies));
   EXPECT_NEAR(result.report.energies.front(), arap.energy(linear), 1e-9 * arap.energy(linear));
   EXPECT_LT(result.report.energies.back(), 0.2 * arap.energy(linear));
-  EXPECT_DOUBLE_EQ(result.report.energies.back(), arap.energy(result.positions));
+  EXPECT_NEAR(result.report.energies.back(), arap.energy(result.positions),
+              1e-12 * result.report.energies.front());
   const double arapChange = test::meanEdgeLengthChange(mesh, result.positions);
   const double linearChange = test::meanEdgeLengthChange(mesh, linear);
   EXPECT_LT(arapChange, 0.05);
