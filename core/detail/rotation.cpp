@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 
+#include <Eigen/LU>
 #include <Eigen/SVD>
 
 namespace spacewarp::detail {
