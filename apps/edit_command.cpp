@@ -503,7 +503,15 @@ void runEdit(const EditArgs& args, const CliContext& context) {
   recomputeVertexNormals(soup, mesh, edited.positions);
   rotateCornerNormals(soup, mesh, edited.positions);
   writeSoupFile(soup, args.output, args.ascii, context);
-  if (!args.cageOut.empty()) writePosedCage(args, edited.cage, context);
+  if (!args.cageOut.empty()) {
+    writePosedCage(args, edited.cage, context);
+    // The edit keeps Green's face-normal columns at rest; a Green deform of the posed cage
+    // recomputes them from it.
+    if (args.coordinates == "green")
+      context.warn("--cage-out " + args.cageOut +
+                   ": with --coordinates green, `deform --method green` of this pose does not "
+                   "reproduce the edit exactly (the edit keeps the face normals' terms at rest)");
+  }
   warnNotKept(args.model, soup, context);
 
   const std::string what =

@@ -284,6 +284,19 @@ TEST_F(EditCliTest, CageOutReproducesTheEditThroughDeform) {
   EXPECT_GT(moved, 0.1 * size_);  // the edit did something
 }
 
+// Green coordinates' face-normal terms stay at rest in the edit, so their posed cage alone does
+// not carry it: said in a warning, the outputs still written.
+TEST_F(EditCliTest, CageOutWithGreenCoordinatesWarnsThatDeformDiffers) {
+  writeCapHandles(Mat4(1.0), glm::translate(Mat4(1.0), Vec3(0.5, 0.0, 0.0)));
+  const CliResult r =
+      edit("cage-arap", "--coordinates green --cage-out " + (dir_ / "posed.obj").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("green coordinates of 20 cage vertices"));
+  EXPECT_THAT(r.err, HasSubstr("does not reproduce the edit exactly"));
+  EXPECT_TRUE(fs::exists(dir_ / "out.obj"));
+  EXPECT_TRUE(fs::exists(dir_ / "posed.obj"));
+}
+
 // A part of the model that no handle reaches stays where it is, with a warning.
 TEST_F(EditCliTest, UnreachedPartsStayWithAWarning) {
   PolygonSoup two = bar_;
