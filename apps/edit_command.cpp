@@ -246,11 +246,12 @@ void warnAboutTheMesh(const std::string& model, const SurfaceMesh& mesh,
                  std::to_string(soupOf[report.nonManifoldVertices.front()]) +
                  "; the methods still run, but the result there may crease");
   }
-  if (!report.droppedPolygons.empty()) {
-    context.warn(model + ": " + counted(report.droppedPolygons.size(), "face") +
-                 " without area or collapsed by welding (the first face " +
-                 std::to_string(report.droppedPolygons.front()) +
-                 ") take no part in the edit; they are written, moved with their vertices");
+  if (const std::size_t dropped = report.droppedPolygons.size(); dropped > 0) {
+    context.warn(model + ": " + counted(dropped, "face") +
+                 " without area or collapsed by welding (the first: face " +
+                 std::to_string(report.droppedPolygons.front()) + ") " +
+                 (dropped == 1 ? "takes" : "take") +
+                 " no part in the edit; written, moved with their vertices");
   }
 }
 
@@ -489,8 +490,9 @@ void runEdit(const EditArgs& args, const CliContext& context) {
     throw InvalidInput(args.model + ": has no triangle to edit (every one of its " +
                        counted(soup.polygonCount(), "face") +
                        " has no area or collapsed when welded)");
-  warnAboutTheMesh(args.model, mesh, context);
+  // The handles are checked before any warning, so that a refused run prints one line.
   const VertexConstraints constraints = readConstraints(args.handles, soup, mesh);
+  warnAboutTheMesh(args.model, mesh, context);
 
   const Edited edited = editWith(args, mesh, constraints, context);
 
