@@ -593,8 +593,6 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
   });
   for (CLI::Option* option : iterative) option->group("Options of --method arap and cage-arap");
 
-  const std::vector<CLI::Option*> harmonic =
-      optionsAddedBy(cmd, [&] { addCageMethodOptions(cmd, args->cageOptions); });
   const std::vector<CLI::Option*> cageOnly = optionsAddedBy(cmd, [&] {
     cmd->add_option("--cage", args->cage, "cage-arap: the cage (closed mesh) around the model");
     std::string coordinateList;
@@ -621,6 +619,10 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
     cmd->add_option("--reach-tolerance", args->reachTolerance, text)->check(kFiniteNonNegative);
   });
   for (CLI::Option* option : cageOnly) option->group("Options of --method cage-arap");
+  const std::vector<CLI::Option*> harmonic =
+      optionsAddedBy(cmd, [&] { addCageMethodOptions(cmd, args->cageOptions); });
+  for (CLI::Option* option : harmonic)
+    option->group("Options of --method cage-arap --coordinates harmonic");
   CLI::Option* cageOption = cageOnly.front();
 
   cmd->callback([args, asciiOption, iterative, harmonic, cageOnly, cageOption] {
