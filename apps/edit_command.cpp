@@ -421,11 +421,24 @@ Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConst
                      context);
     return {std::move(result.positions), {}};
   }
-  // cage-arap
-  auto cage = std::make_shared<const Cage>(Cage::fromFile(args.cage));
-  auto coordinates = namingFile(args.cage, [&] {
-    return cageCoordinates(args.coordinates, cage, args.cageOptions, progress);
-  });
+  // cage-arap: the coordinates of the cage or of the lattice
+  std::shared_ptr<const Coordinates> coordinates;
+  std::string controls;
+  if (args.lattice.empty()) {
+    auto cage = std::make_shared<const Cage>(Cage::fromFile(args.cage));
+    coordinates = namingFile(args.cage, [&] {
+      return cageCoordinates(args.coordinates, cage, args.cageOptions, progress);
+    });
+    controls =
+        args.coordinates + " coordinates of " + countedVertices(cage->vertexCount(), "cage ");
+  } else {
+    const json rig = readRigFile(args.lattice);
+    if (!rig.is_object() || rig.value("method", json()) != "ffd")
+      throw InvalidInput(printable(args.lattice) +
+                         ": --lattice takes an ffd rig (\"method\": \"ffd\")");
+    coordinates = loadRigFile(args.lattice, context).coordinates;
+    controls = "the lattice's " + counted(coordinates->controlPointCount(), "control point");
+  }
   CageArapOptions options;
   options.rotationClusters = args.clusters;
   options.handleWeight = args.handleWeight;
@@ -442,9 +455,8 @@ Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConst
   const CageArapReport& r = result.report;
   char residual[64];
   std::snprintf(residual, sizeof residual, "max handle residual %.3g", r.maxResidual);
-  note(context, "cage-arap: " + counted(clusters, "rotation cluster") + ", " + args.coordinates +
-                    " coordinates of " + countedVertices(cage->vertexCount(), "cage ") + ", " +
-                    residual);
+  note(context,
+       "cage-arap: " + counted(clusters, "rotation cluster") + ", " + controls + ", " + residual);
   reportIterations("cage-arap", r.iterations, r.energies, r.converged, r.startedRigid,
                    "--iterations", context);
   if (!r.unreached.empty()) {
@@ -461,6 +473,18 @@ Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConst
                  "cage)");
   }
   return {std::move(result.positions), std::move(result.controlPoints)};
+}
+
+// The posed lattice: the ffd rig with its control points replaced (the fit's keys, if it had
+// them, removed), so that `deform --rig` carries the edit.
+void writePosedLattice(const EditArgs& args, std::span<const Vec3> posed) {
+  json rig = readRigFile(args.lattice);
+  rig.erase("constraints");
+  rig.erase("smoothness");
+  json points = json::array();
+  for (const Vec3& p : posed) points.push_back({p.x, p.y, p.z});
+  rig["controlPoints"] = std::move(points);
+  writeJsonFile(rig, args.latticeOut);
 }
 
 // The posed cage: the rest cage file's soup (faces, attributes) with the cage vertices moved.
@@ -505,6 +529,7 @@ void runEdit(const EditArgs& args, const CliContext& context) {
   recomputeVertexNormals(soup, mesh, edited.positions);
   rotateCornerNormals(soup, mesh, edited.positions);
   writeSoupFile(soup, args.output, args.ascii, context);
+  if (!args.latticeOut.empty()) writePosedLattice(args, edited.cage);
   if (!args.cageOut.empty()) {
     writePosedCage(args, edited.cage, context);
     // The edit keeps Green's face-normal columns at rest; a Green deform of the posed cage
@@ -523,6 +548,7 @@ void runEdit(const EditArgs& args, const CliContext& context) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::string output = args.output;
   if (!args.cageOut.empty()) output += " and " + args.cageOut;
+  if (!args.latticeOut.empty()) output += " and " + args.latticeOut;
   context.say(summaryLine("edited", what, seconds, output, context.warnings()));
 }
 
@@ -604,6 +630,12 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
     cmd->add_option("--cage-out", args->cageOut,
                     "cage-arap: also write the posed cage (the rest cage's faces), for `spacewarp "
                     "deform --method mvc --cage CAGE --pose POSED` of clouds and volumes");
+    cmd->add_option("--lattice", args->lattice,
+                    "cage-arap: instead of --cage, an ffd rig (JSON) whose lattice's coordinates "
+                    "carry the model (its pose is ignored: the edit starts at rest)");
+    cmd->add_option("--lattice-out", args->latticeOut,
+                    "cage-arap with --lattice: also write the ffd rig with the posed control "
+                    "points, for `spacewarp deform --rig`");
     cmd->add_option("--clusters", args->clusters,
                     "cage-arap: rotation clusters (default 0: 4 per cage vertex, at least 64, at "
                     "most the vertex count)");
@@ -639,7 +671,23 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
       rejectGiven(harmonic, "applies to --method cage-arap --coordinates harmonic only");
       return;
     }
-    if (cageOption->count() == 0) throw CLI::RequiredError("--cage (--method cage-arap needs it)");
+    if (!args->lattice.empty()) {
+      if (cageOption->count() > 0)
+        throw CLI::ValidationError("--lattice and --cage: give one, the controls of cage-arap");
+      for (CLI::Option* option : cageOnly)
+        if (option->count() > 0 &&
+            (option->get_name() == "--coordinates" || option->get_name() == "--cage-out"))
+          throw CLI::ValidationError(option->get_name() + " applies to --cage, not to --lattice");
+      rejectGiven(harmonic, "applies to --cage with --coordinates harmonic, not to --lattice");
+      if (!args->latticeOut.empty() && lowerExtension(args->latticeOut) != ".json")
+        throw CLI::ValidationError("--lattice-out " + args->latticeOut +
+                                   ": the posed lattice is an ffd rig, written as .json");
+      return;
+    }
+    if (cageOption->count() == 0)
+      throw CLI::RequiredError("--cage (or --lattice; --method cage-arap needs its controls)");
+    if (!args->latticeOut.empty())
+      throw CLI::ValidationError("--lattice-out applies to --lattice, not to --cage");
     if (args->coordinates != "harmonic")
       rejectGiven(harmonic, "applies to --coordinates harmonic only, not to --coordinates " +
                                 args->coordinates);

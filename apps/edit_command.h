@@ -20,6 +20,8 @@ struct EditRequest {
   std::string output;               ///< the edited mesh (.obj, .off, .ply)
   std::string cage;                 ///< cage-arap: the cage file
   std::string cageOut;              ///< cage-arap: where to write the posed cage ("" for nowhere)
+  std::string lattice;              ///< cage-arap: an ffd rig file whose lattice replaces the cage
+  std::string latticeOut;           ///< cage-arap with a lattice: where to write the posed ffd rig
   std::string coordinates = "mvc";  ///< cage-arap: the cage coordinates (cageMethods())
   bool ascii = false;               ///< PLY output as ASCII
   double weldTolerance = WeldOptions{}.relativeTolerance;

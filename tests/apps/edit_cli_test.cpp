@@ -284,6 +284,55 @@ TEST_F(EditCliTest, CageOutReproducesTheEditThroughDeform) {
   EXPECT_GT(moved, 0.1 * size_);  // the edit did something
 }
 
+// A Bernstein lattice around the bar instead of a cage: a common translation is reproduced, and
+// the posed ffd rig of --lattice-out carries the edit through `spacewarp deform --rig`.
+TEST_F(EditCliTest, LatticeControlsTheSubspaceAndItsPoseReproducesTheEdit) {
+  const Vec3 lo = kLo - 0.25, size = kHi - kLo + 0.5;
+  std::vector<Vec3> rest;
+  for (int k = 0; k < 5; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) rest.push_back(lo + size * Vec3(i / 2.0, j / 2.0, k / 4.0));
+  const auto vec3 = [](const Vec3& v) {
+    const std::string one = jsonPoints(std::vector<Vec3>{v});  // "[[x, y, z]]"
+    return one.substr(1, one.size() - 2);
+  };
+  write("ffd.json", R"({"method": "ffd", "basis": "bernstein", "origin": )" + vec3(lo) +
+                        R"(, "size": )" + vec3(size) +
+                        R"(, "resolution": [3, 3, 5], "controlPoints": )" + jsonPoints(rest) + "}");
+  const auto latticeEdit = [&](const std::string& extra) {
+    return run("edit --method cage-arap --lattice " + (dir_ / "ffd.json").string() + " --handles " +
+               (dir_ / "handles.json").string() + " " + (dir_ / "bar.obj").string() + " -o " +
+               (dir_ / "out.obj").string() + " " + extra);
+  };
+  const Mat4 shift = glm::translate(Mat4(1.0), Vec3(0.4, -0.3, 1.1));
+  writeCapHandles(shift, shift);
+  CliResult r = latticeEdit("");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("the lattice's 45 control points"));
+  EXPECT_LE(maxError([&](const Vec3& p) { return applied(shift, p); }), 1e-9 * size_);
+
+  writeCapHandles(Mat4(1.0), glm::translate(Mat4(1.0), Vec3(0.6, 0.0, 0.2)));
+  r = latticeEdit("--lattice-out " + (dir_ / "posed.json").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const PolygonSoup edited = readSoup(dir_ / "out.obj");
+  const CliResult d = run("deform --rig " + (dir_ / "posed.json").string() + " " +
+                          (dir_ / "bar.obj").string() + " -o " + (dir_ / "deformed.obj").string());
+  ASSERT_EQ(d.exitCode, 0) << d.err;
+  const PolygonSoup deformed = readSoup(dir_ / "deformed.obj");
+  ASSERT_EQ(deformed.size(), edited.size());
+  double worst = 0.0, moved = 0.0;
+  for (std::size_t v = 0; v < edited.size(); ++v) {
+    worst = std::max(worst, glm::length(deformed.positions[v] - edited.positions[v]));
+    moved = std::max(moved, glm::length(edited.positions[v] - bar_.positions[v]));
+  }
+  EXPECT_LE(worst, 1e-6 * size_);
+  EXPECT_GT(moved, 0.1 * size_);
+  // --lattice replaces --cage and its options.
+  fs::remove(dir_ / "out.obj");
+  expectFailure(latticeEdit("--cage " + (dir_ / "cage.obj").string()), 2, "--lattice and --cage");
+  expectFailure(latticeEdit("--coordinates green"), 2, "--coordinates applies to --cage");
+}
+
 // Green coordinates' face-normal terms stay at rest in the edit, so their posed cage alone does
 // not carry it: said in a warning, the outputs still written.
 TEST_F(EditCliTest, CageOutWithGreenCoordinatesWarnsThatDeformDiffers) {
