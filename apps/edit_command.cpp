@@ -373,19 +373,22 @@ std::string energyLine(const std::vector<double>& energies) {
 }
 
 // The ARAP-type report: iterations, energies, convergence (a warning when not converged, as the
-// deformation graph's: the result is still the best found and is written).
+// deformation graph's: the result is still the best found and is written). With --tolerance 0
+// every iteration was asked for, so running them all is no surprise.
 void reportIterations(const std::string& name, int iterations, const std::vector<double>& energies,
-                      bool converged, bool startedRigid, const std::string& iterationsOption,
+                      bool converged, bool startedRigid, const EditArgs& args,
                       const CliContext& context) {
   const std::string line = name + ": " + counted(std::size_t(iterations), "iteration") + ", " +
                            energyLine(energies) +
                            (startedRigid ? " (from the handles' rigid motion)" : "");
   if (converged) {
     note(context, line + ", converged");
+  } else if (args.tolerance == 0.0) {
+    note(context, line + " (--tolerance 0: every iteration run)");
   } else {
     context.warn(name + " did not converge in " + counted(std::size_t(iterations), "iteration") +
-                 " (" + energyLine(energies) + "); the result is written; raise " +
-                 iterationsOption + " or --tolerance");
+                 " (" + energyLine(energies) +
+                 "); the result is written; raise --iterations or --tolerance");
   }
 }
 
@@ -417,8 +420,7 @@ Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConst
       return editor.solve(c.targets, progress);
     });
     const ArapReport& r = result.report;
-    reportIterations("arap", r.iterations, r.energies, r.converged, r.startedRigid, "--iterations",
-                     context);
+    reportIterations("arap", r.iterations, r.energies, r.converged, r.startedRigid, args, context);
     return {std::move(result.positions), {}};
   }
   // cage-arap: the coordinates of the cage or of the lattice
@@ -457,8 +459,8 @@ Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConst
   std::snprintf(residual, sizeof residual, "max handle residual %.3g", r.maxResidual);
   note(context,
        "cage-arap: " + counted(clusters, "rotation cluster") + ", " + controls + ", " + residual);
-  reportIterations("cage-arap", r.iterations, r.energies, r.converged, r.startedRigid,
-                   "--iterations", context);
+  reportIterations("cage-arap", r.iterations, r.energies, r.converged, r.startedRigid, args,
+                   context);
   if (!r.unreached.empty()) {
     const std::vector<std::uint32_t> soupOf = firstSoupVertex(mesh);
     std::vector<std::uint32_t> unreached;

@@ -173,10 +173,15 @@ TEST_F(EditCliTest, ArapReportsItsSolveAndWarnsWhenItDoesNotConverge) {
   EXPECT_THAT(r.err, HasSubstr("converged"));
   EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
   EXPECT_THAT(r.out, HasSubstr("edited 452 vertices (900 triangles, 72 handle vertices) by arap"));
-  r = edit("arap", "--iterations 1 --tolerance 0");
+  r = edit("arap", "--iterations 1");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_THAT(r.err, HasSubstr("warning: arap did not converge in 1 iteration"));
   EXPECT_TRUE(fs::exists(dir_ / "out.obj"));
+  // --tolerance 0 asks for every iteration: no warning then.
+  r = edit("arap", "--iterations 2 --tolerance 0");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("arap: 2 iterations"));
+  EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
 }
 
 TEST_F(EditCliTest, BiLaplacianDiffersFromLaplacian) {
