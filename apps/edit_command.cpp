@@ -113,7 +113,7 @@ class HandlesReader {
     for (std::size_t k = 0; k < list.size(); ++k) {
       const std::string entry = at + ".vertices[" + std::to_string(k) + "]";
       const json& v = list[k];
-      if (!v.is_number_integer() || (v.is_number_integer() && !v.is_number_unsigned()))
+      if (!v.is_number_unsigned())  // negative and fractional numbers are not
         fail(entry, "must be a vertex index (a whole number from 0), not " + v.dump());
       const auto index = v.get<std::uint64_t>();
       if (index >= vertexCount_)
