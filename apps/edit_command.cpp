@@ -470,9 +470,8 @@ Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConst
     context.warn(args.model + ": " + countedVertices(unreached.size(), "handle ") +
                  " left farther than --reach-tolerance " + tolerance +
                  " of the model's size from their targets (" + residual + "): vertices " +
-                 someVertices(unreached) +
-                 "; the cage cannot carry them there rigidly (raise --handle-weight, or refine the "
-                 "cage)");
+                 someVertices(unreached) + "; the " + (args.lattice.empty() ? "cage" : "lattice") +
+                 " cannot carry them there rigidly (raise --handle-weight, or refine it)");
   }
   return {std::move(result.positions), std::move(result.controlPoints)};
 }
@@ -513,9 +512,9 @@ void runEdit(const EditArgs& args, const CliContext& context) {
   weld.relativeTolerance = args.weldTolerance;
   const SurfaceMesh mesh = namingFile(args.model, [&] { return weldSoup(soup, weld); });
   if (mesh.triangles.empty())
-    throw InvalidInput(args.model + ": has no triangle to edit (every one of its " +
-                       counted(soup.polygonCount(), "face") +
-                       " has no area or collapsed when welded)");
+    throw InvalidInput(args.model +
+                       ": has no triangle to edit (welding collapsed every one of its " +
+                       counted(soup.polygonCount(), "face") + ")");
   // The handles are checked before any warning, so that a refused run prints one line.
   const VertexConstraints constraints = readConstraints(args.handles, soup, mesh);
   warnAboutTheMesh(args.model, mesh, context);
