@@ -214,6 +214,30 @@ TEST_F(EditCliTest, OutputKeepsTheFacesAndTheirOrder) {
   EXPECT_EQ(out.faceIndices, bar_.faceIndices);
 }
 
+// Vertex and face attributes (PLY) come through the edit untouched.
+TEST_F(EditCliTest, OutputKeepsTheAttributes) {
+  PolygonSoup bar = bar_;
+  ScalarAttribute label{"label", ScalarType::UInt8, {}};
+  for (std::size_t v = 0; v < bar.size(); ++v) label.values.push_back(double(v % 7));
+  ScalarAttribute material{"material_index", ScalarType::Int32, {}};
+  for (std::size_t p = 0; p < bar.polygonCount(); ++p) material.values.push_back(double(p % 3));
+  bar.attributes.push_back(label);
+  bar.faceAttributes.push_back(material);
+  writeSoup(bar, dir_ / "bar.ply");
+  writeCapHandles(Mat4(1.0), glm::translate(Mat4(1.0), Vec3(0.5, 0.0, 0.0)));
+  const CliResult r =
+      run("edit --method bilaplacian --handles " + (dir_ / "handles.json").string() + " " +
+          (dir_ / "bar.ply").string() + " -o " + (dir_ / "out.ply").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const PolygonSoup out = readSoup(dir_ / "out.ply");
+  ASSERT_EQ(out.attributes.size(), 1u);
+  EXPECT_EQ(out.attributes[0].name, "label");
+  EXPECT_EQ(out.attributes[0].values, label.values);
+  ASSERT_EQ(out.faceAttributes.size(), 1u);
+  EXPECT_EQ(out.faceAttributes[0].values, material.values);
+  EXPECT_EQ(out.faceIndices, bar.faceIndices);
+}
+
 // Normals: per-vertex ones are recomputed on the edited surface (so under a rigid motion they
 // turn with it), per-corner ones turn with their face.
 TEST_F(EditCliTest, NormalsTurnWithARigidMotion) {
