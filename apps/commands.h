@@ -36,6 +36,7 @@ inline void rejectGiven(const std::vector<CLI::Option*>& options, const std::str
 
 Command addInfoCommand(CLI::App& app, const CliContext& context);
 Command addDeformCommand(CLI::App& app, const CliContext& context);
+Command addEditCommand(CLI::App& app, const CliContext& context);
 Command addInverseCommand(CLI::App& app, const CliContext& context);
 Command addWeightsCommand(CLI::App& app, const CliContext& context);
 Command addCompareCommand(CLI::App& app, const CliContext& context);

@@ -131,8 +131,9 @@ int run(int argc, char** argv) {
 
   const std::vector<Command> commands = {
       addInfoCommand(app, context),    addDeformCommand(app, context),
-      addInverseCommand(app, context), addWeightsCommand(app, context),
-      addCompareCommand(app, context), addDemoCommand(app, context),
+      addEditCommand(app, context),    addInverseCommand(app, context),
+      addWeightsCommand(app, context), addCompareCommand(app, context),
+      addDemoCommand(app, context),
   };
   // --threads and --quiet may be given before or after the subcommand's name; declaring them
   // on every subcommand too (same variables) also lists them in its --help.

@@ -239,6 +239,15 @@ TEST_F(IoSafetyCliTest, SoupWritersFailCleanly) {
       dir_ / "ascii.ply");
 }
 
+// spacewarp edit writes its mesh through the same writer, after its solve.
+TEST_F(IoSafetyCliTest, EditWriterFailsCleanly) {
+  writeSoup(makeBoxSurface(Vec3(-1), Vec3(1), {8, 8, 8}), dir_ / "box.obj");
+  write("handles.json", R"({"handles": [{"vertices": [0], "targets": [[-1, -1, -1.5]]}]})");
+  expectCleanWriteFailure({"edit", "--method", "laplacian", "--handles", path("handles.json"),
+                           path("box.obj"), "-o", path("out.obj")},
+                          dir_ / "out.obj");
+}
+
 TEST_F(IoSafetyCliTest, PointCloudWritersFailCleanly) {
   writeCloud(Vec3(-1), Vec3(1), 1000, 3);
   writeTwistRig();

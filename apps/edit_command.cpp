@@ -1,0 +1,700 @@
+// spacewarp edit --method laplacian|bilaplacian|arap|cage-arap --handles HANDLES.json MODEL -o
+// OUT: surface-based editing (surface/): the model is welded into a triangle mesh, the handle
+// regions are moved and the rest of the surface follows by the chosen method; the output is the
+// input soup with its positions (and normals) replaced.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <memory>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/core/detail/rotation.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/mesh_io.h>
+#include <spacewarp/rig/cage_rig.h>
+#include <spacewarp/rig/rig.h>
+#include <spacewarp/surface/arap.h>
+#include <spacewarp/surface/cage_arap.h>
+#include <spacewarp/surface/handles.h>
+#include <spacewarp/surface/laplacian_editing.h>
+#include <spacewarp/surface/surface_mesh.h>
+#include "apps/cage_options.h"
+#include "apps/commands.h"
+#include "apps/edit_command.h"
+#include "apps/file_kinds.h"
+#include "apps/jobs.h"
+
+namespace spacewarp::cli {
+
+namespace {
+
+using nlohmann::json;
+
+using EditArgs = EditRequest;
+
+// "1 vertex", "452 vertices", "3 handle vertices" (counted() only adds an s).
+std::string countedVertices(std::size_t n, const std::string& kind = "") {
+  return groupDigits(n) + " " + kind + (n == 1 ? "vertex" : "vertices");
+}
+
+// --- HANDLES.json -------------------------------------------------------------------------
+
+// Reads one handles file into regions of soup-vertex indices, with messages that name the file
+// and the JSON path ("h.json: handles[2].vertices[5]: ..."). Range and shape checks are done
+// here, where the path is known; resolveHandles() then finds only conflicts.
+class HandlesReader {
+ public:
+  HandlesReader(std::string file, std::size_t vertexCount)
+      : file_(std::move(file)), vertexCount_(vertexCount) {}
+
+  std::vector<HandleRegion> read(const json& root) const {
+    if (!root.is_object()) fail("", "must be a JSON object {\"handles\": [...]}");
+    allowOnly(root, "", {"handles"});
+    if (!root.contains("handles")) fail("handles", "is missing");
+    const json& list = root.at("handles");
+    if (!list.is_array() || list.empty())
+      fail("handles", "must be a non-empty array of handle regions");
+    std::vector<HandleRegion> regions;
+    for (std::size_t r = 0; r < list.size(); ++r)
+      regions.push_back(region(list[r], "handles[" + std::to_string(r) + "]"));
+    return regions;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& at, const std::string& what) const {
+    throw InvalidInput(printable(file_ + ": " + (at.empty() ? "" : at + ": ") + what));
+  }
+
+  // Unknown keys are errors, as in rigs: a misspelt key would otherwise be silently ignored.
+  void allowOnly(const json& object, const std::string& at,
+                 const std::vector<std::string>& keys) const {
+    for (const auto& [key, value] : object.items()) {
+      if (std::find(keys.begin(), keys.end(), key) != keys.end()) continue;
+      std::string list;
+      for (const std::string& k : keys) list += (list.empty() ? "" : ", ") + k;
+      fail(at.empty() ? key : at + "." + key, "is not a key here (the keys: " + list + ")");
+    }
+  }
+
+  HandleRegion region(const json& object, const std::string& at) const {
+    if (!object.is_object())
+      fail(at, "must be an object {\"vertices\": [...], \"matrix\" or \"targets\": [...]}");
+    allowOnly(object, at, {"vertices", "matrix", "targets"});
+    HandleRegion region;
+    region.vertices = vertices(object, at);
+    const bool matrix = object.contains("matrix"), targets = object.contains("targets");
+    if (matrix && targets) fail(at, "has both 'matrix' and 'targets': give one");
+    if (!matrix && !targets) fail(at, "needs 'matrix' (an affine map) or 'targets' (points)");
+    if (matrix)
+      region.matrix = affineMatrix(object.at("matrix"), at + ".matrix");
+    else
+      region.targets = points(object.at("targets"), at + ".targets", region.vertices.size());
+    return region;
+  }
+
+  std::vector<std::uint32_t> vertices(const json& object, const std::string& at) const {
+    if (!object.contains("vertices")) fail(at + ".vertices", "is missing");
+    const json& list = object.at("vertices");
+    if (!list.is_array() || list.empty())
+      fail(at + ".vertices", "must be a non-empty array of vertex indices");
+    std::vector<std::uint32_t> out;
+    out.reserve(list.size());
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      const std::string entry = at + ".vertices[" + std::to_string(k) + "]";
+      const json& v = list[k];
+      if (!v.is_number_unsigned())  // negative and fractional numbers are not
+        fail(entry, "must be a vertex index (a whole number from 0), not " + v.dump());
+      const auto index = v.get<std::uint64_t>();
+      if (index >= vertexCount_)
+        fail(entry, std::to_string(index) + " is out of range (the model has " +
+                        std::to_string(vertexCount_) + " vertices, 0.." +
+                        std::to_string(vertexCount_ - 1) + " in file order)");
+      out.push_back(static_cast<std::uint32_t>(index));
+    }
+    return out;
+  }
+
+  std::vector<double> numbers(const json& v, const std::string& at, std::size_t n) const {
+    if (!v.is_array() || v.size() != n)
+      fail(at, "must be an array of " + std::to_string(n) + " numbers");
+    std::vector<double> out;
+    for (const json& e : v) {
+      if (!e.is_number() || !std::isfinite(e.get<double>()))
+        fail(at, "must contain finite numbers only");
+      out.push_back(e.get<double>());
+    }
+    return out;
+  }
+
+  // Row-major rows, as rigs take them; GLM is column-major.
+  Mat4 affineMatrix(const json& rows, const std::string& at) const {
+    if (!rows.is_array() || rows.size() != 4) fail(at, "must be an array of 4 rows of 4 numbers");
+    Mat4 m;
+    for (int r = 0; r < 4; ++r) {
+      const std::vector<double> row = numbers(rows[r], at + "[" + std::to_string(r) + "]", 4);
+      for (int c = 0; c < 4; ++c) m[c][r] = row[c];
+    }
+    if (m[0][3] != 0.0 || m[1][3] != 0.0 || m[2][3] != 0.0 || m[3][3] != 1.0)
+      fail(at + "[3]", "must be [0, 0, 0, 1]: the matrix must be affine");
+    return m;
+  }
+
+  std::vector<Vec3> points(const json& list, const std::string& at, std::size_t count) const {
+    if (!list.is_array())
+      fail(at, "must be an array of [x, y, z] points, one for each of 'vertices'");
+    if (list.size() != count)
+      fail(at, "has " + std::to_string(list.size()) + " points but 'vertices' has " +
+                   std::to_string(count) + ": give one target for each vertex");
+    std::vector<Vec3> out;
+    for (std::size_t k = 0; k < list.size(); ++k) {
+      const std::vector<double> p = numbers(list[k], at + "[" + std::to_string(k) + "]", 3);
+      out.emplace_back(p[0], p[1], p[2]);
+    }
+    return out;
+  }
+
+  std::string file_;
+  std::size_t vertexCount_;
+};
+
+// The whole of a small text file. Throws IoError naming it.
+std::string readText(const std::filesystem::path& path) {
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw IoError(printable(path.string()) + ": is a directory, not a handles file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(printable(path.string()) + ": cannot open the handles file");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw IoError(printable(path.string()) + ": cannot read the handles file");
+  return text;
+}
+
+// The library's messages name regions "handle region 2" and start with the function's name;
+// the file's user knows them as handles[2].
+std::string inFileTerms(std::string what) {
+  for (const char* prefix : {"resolveHandles: ", "mapConstraints: "})
+    if (what.starts_with(prefix)) what.erase(0, std::string(prefix).size());
+  return std::regex_replace(what, std::regex("handle region ([0-9]+)"), "handles[$1]");
+}
+
+// The constraints of the handles file on the welded mesh's vertices.
+VertexConstraints readConstraints(const std::string& path, const PolygonSoup& soup,
+                                  const SurfaceMesh& mesh) {
+  const std::string where = printable(path);
+  // parseRigJson: the project's JSON reading (duplicate keys, nesting depth, positions of
+  // syntax errors), which is not specific to rigs.
+  const json root = parseRigJson(readText(path), where);
+  const std::vector<HandleRegion> regions = HandlesReader(where, soup.size()).read(root);
+  try {
+    const VertexConstraints onSoup = resolveHandles(regions, soup.positions);
+    const double tolerance = 1e-9 * boundingBox(soup.positions).diagonal();
+    return mapConstraints(onSoup, mesh.soupToMesh, tolerance);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(where + ": " + inFileTerms(e.what()));
+  }
+}
+
+// --- the model -----------------------------------------------------------------------------
+
+// The first soup vertex welded into each mesh vertex: how messages name mesh vertices (the
+// user knows the file's order).
+std::vector<std::uint32_t> firstSoupVertex(const SurfaceMesh& mesh) {
+  std::vector<std::uint32_t> first(mesh.vertexCount(), ~std::uint32_t{0});
+  for (std::size_t v = mesh.soupToMesh.size(); v-- > 0;)
+    first[mesh.soupToMesh[v]] = static_cast<std::uint32_t>(v);
+  return first;
+}
+
+// "vertices 3, 17, 40 and 5 more" (soup indices, sorted).
+std::string someVertices(std::vector<std::uint32_t> soupVertices, std::size_t shown = 5) {
+  std::sort(soupVertices.begin(), soupVertices.end());
+  std::string list;
+  for (std::size_t k = 0; k < std::min(shown, soupVertices.size()); ++k)
+    list += (k ? ", " : "") + std::to_string(soupVertices[k]);
+  if (soupVertices.size() > shown)
+    list += " and " + groupDigits(soupVertices.size() - shown) + " more";
+  return list;
+}
+
+// One warning per kind of trouble that weldSoup() reported; none is fatal.
+void warnAboutTheMesh(const std::string& model, const SurfaceMesh& mesh,
+                      const CliContext& context) {
+  const MeshReport& report = mesh.report;
+  const std::vector<std::uint32_t> soupOf = firstSoupVertex(mesh);
+  if (!report.nonManifoldEdges.empty()) {
+    const auto& e = report.nonManifoldEdges.front();
+    context.warn(model + ": " + counted(report.nonManifoldEdges.size(), "non-manifold edge") +
+                 " (more than two faces), the first between vertices " +
+                 std::to_string(soupOf[e[0]]) + " and " + std::to_string(soupOf[e[1]]) +
+                 "; the methods still run, but the result there may crease");
+  }
+  if (!report.nonManifoldVertices.empty()) {
+    context.warn(model + ": " +
+                 countedVertices(report.nonManifoldVertices.size(), "non-manifold ") +
+                 " (faces touching at a point), the first vertex " +
+                 std::to_string(soupOf[report.nonManifoldVertices.front()]) +
+                 "; the methods still run, but the result there may crease");
+  }
+  if (const std::size_t dropped = report.droppedPolygons.size(); dropped > 0) {
+    context.warn(model + ": " + counted(dropped, "face") +
+                 " without area or collapsed by welding (the first: face " +
+                 std::to_string(report.droppedPolygons.front()) + ") " +
+                 (dropped == 1 ? "takes" : "take") +
+                 " no part in the edit; written, moved with their vertices");
+  }
+}
+
+// Vertices that no handle reaches through the surface (components without a constrained
+// vertex, isolated points): the linear and ARAP energies cannot place them, so they stay.
+void warnHeld(const std::string& model, const SurfaceMesh& mesh,
+              std::span<const std::uint32_t> held, const CliContext& context) {
+  if (held.empty()) return;
+  const std::vector<std::uint32_t> soupOf = firstSoupVertex(mesh);
+  std::set<std::uint32_t> parts;
+  std::vector<std::uint32_t> soupVertices;
+  for (const std::uint32_t v : held) {
+    parts.insert(mesh.vertexComponent[v]);
+    soupVertices.push_back(soupOf[v]);
+  }
+  context.warn(model + ": " + countedVertices(held.size(), "") + " in " +
+               counted(parts.size(), "part") +
+               " of the surface that no handle reaches stay in place (" +
+               (mesh.report.isolatedVertices.empty()
+                    ? std::string()
+                    : countedVertices(mesh.report.isolatedVertices.size(), "isolated ") + "; ") +
+               "vertices " + someVertices(soupVertices) + ")");
+}
+
+// --- output normals ------------------------------------------------------------------------
+
+// Σ cross products of the triangles at each mesh vertex: area-weighted vertex normals of the
+// triangles' orientation (the soup's, since weldSoup fans polygons in their corner order).
+std::vector<Vec3> areaWeightedNormals(const SurfaceMesh& mesh, std::span<const Vec3> positions) {
+  std::vector<Vec3> sum(mesh.vertexCount(), Vec3(0.0));
+  for (const auto& t : mesh.triangles) {
+    const Vec3 n = glm::cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]);
+    for (const std::uint32_t v : t) sum[v] += n;
+  }
+  return sum;
+}
+
+// Per-vertex normals recomputed on the edited mesh, each keeping the side of the input's
+// normal (the same recomputation at rest tells which side the input chose). Vertices of no
+// triangle keep their normal.
+void recomputeVertexNormals(PolygonSoup& soup, const SurfaceMesh& mesh,
+                            std::span<const Vec3> edited) {
+  const std::vector<Vec3> rest = areaWeightedNormals(mesh, mesh.positions);
+  const std::vector<Vec3> now = areaWeightedNormals(mesh, edited);
+  for (std::size_t v = 0; v < soup.normals.size(); ++v) {
+    const std::uint32_t m = mesh.soupToMesh[v];
+    const double length = glm::length(now[m]);
+    if (!(length > 0.0)) continue;
+    const double side = glm::dot(rest[m], soup.normals[v]) < 0.0 ? -1.0 : 1.0;
+    soup.normals[v] = side * now[m] / length;
+  }
+}
+
+// The rotation of each soup polygon from rest to edited: the closest rotation to the
+// covariance of its triangles' edges, plus its normal's direction (weighted like the edges),
+// which fixes the rotation about the polygon's plane. The identity for dropped polygons.
+std::vector<Mat3> polygonRotations(const PolygonSoup& soup, const SurfaceMesh& mesh,
+                                   std::span<const Vec3> edited) {
+  const std::size_t polygons = soup.polygonCount();
+  std::vector<Mat3> covariance(polygons, Mat3(0.0));
+  std::vector<Vec3> restNormal(polygons, Vec3(0.0)), editedNormal(polygons, Vec3(0.0));
+  std::vector<double> scale(polygons, 0.0);
+  const std::span<const Vec3> rest = mesh.positions;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    const std::uint32_t p = mesh.triangleToPolygon[t];
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 r = rest[tri[(k + 1) % 3]] - rest[tri[k]];
+      const Vec3 e = edited[tri[(k + 1) % 3]] - edited[tri[k]];
+      covariance[p] += glm::outerProduct(e, r);
+      scale[p] += glm::dot(r, r);
+    }
+    restNormal[p] += glm::cross(rest[tri[1]] - rest[tri[0]], rest[tri[2]] - rest[tri[0]]);
+    editedNormal[p] += glm::cross(edited[tri[1]] - edited[tri[0]], edited[tri[2]] - edited[tri[0]]);
+  }
+  std::vector<Mat3> rotation(polygons, Mat3(1.0));
+  for (std::size_t p = 0; p < polygons; ++p) {
+    if (!(scale[p] > 0.0)) continue;
+    const double r = glm::length(restNormal[p]), e = glm::length(editedNormal[p]);
+    Mat3 b = covariance[p];
+    if (r > 0.0 && e > 0.0)
+      b += scale[p] * glm::outerProduct(editedNormal[p] / e, restNormal[p] / r);
+    rotation[p] = detail::closestRotation(b);
+  }
+  return rotation;
+}
+
+// Corner normals rotated by their polygon's rotation; a normal shared by several corners
+// becomes the normalised sum of its rotations (smooth shading stays smooth, a crease's or a
+// flat face's own normal turns exactly with its face). Normals no corner uses are kept.
+void rotateCornerNormals(PolygonSoup& soup, const SurfaceMesh& mesh, std::span<const Vec3> edited) {
+  CornerAttribute& normals = soup.cornerNormals;
+  if (normals.indices.empty()) return;
+  const std::vector<Mat3> rotation = polygonRotations(soup, mesh, edited);
+  std::vector<Vec3> sum(normals.values.size(), Vec3(0.0));
+  for (std::size_t p = 0; p < soup.polygonCount(); ++p)
+    for (std::uint32_t c = soup.faceOffsets[p]; c < soup.faceOffsets[p + 1]; ++c)
+      if (const std::uint32_t k = normals.indices[c]; k != CornerAttribute::kNone)
+        sum[k] += rotation[p] * normals.values[k];
+  for (std::size_t k = 0; k < sum.size(); ++k)
+    if (const double length = glm::length(sum[k]); length > 0.0)
+      normals.values[k] = sum[k] / length;
+}
+
+// --- the methods ---------------------------------------------------------------------------
+
+// Prints one informational line on stderr unless quiet (the solve's report, as the graph
+// rig's; stdout keeps the summary line).
+void note(const CliContext& context, const std::string& line) {
+  if (context.quiet) return;
+  std::fflush(stdout);
+  std::fprintf(stderr, "spacewarp: %s\n", line.c_str());
+}
+
+std::string energyLine(const std::vector<double>& energies) {
+  char text[96];
+  std::snprintf(text, sizeof text, "energy %.4g -> %.4g", energies.front(), energies.back());
+  return text;
+}
+
+// The ARAP-type report: iterations, energies, convergence (a warning when not converged, as the
+// deformation graph's: the result is still the best found and is written). With --tolerance 0
+// every iteration was asked for, so running them all is no surprise.
+void reportIterations(const std::string& name, int iterations, const std::vector<double>& energies,
+                      bool converged, bool startedRigid, const EditArgs& args,
+                      const CliContext& context) {
+  const std::string line = name + ": " + counted(std::size_t(iterations), "iteration") + ", " +
+                           energyLine(energies) +
+                           (startedRigid ? " (from the handles' rigid motion)" : "");
+  if (converged) {
+    note(context, line + ", converged");
+  } else if (args.tolerance == 0.0) {
+    note(context, line + " (--tolerance 0: every iteration run)");
+  } else {
+    context.warn(name + " did not converge in " + counted(std::size_t(iterations), "iteration") +
+                 " (" + energyLine(energies) +
+                 "); the result is written; raise --iterations or --tolerance");
+  }
+}
+
+struct Edited {
+  std::vector<Vec3> positions;  // mesh vertices
+  std::vector<Vec3> cage;       // cage-arap: the posed cage
+};
+
+Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConstraints& c,
+                const CliContext& context) {
+  const ProgressCallback progress = context.progress();
+  if (args.method == "laplacian" || args.method == "bilaplacian") {
+    LinearEditOptions options;
+    options.method =
+        args.method == "laplacian" ? LinearEditMethod::Laplacian : LinearEditMethod::BiLaplacian;
+    return namingFile(args.model, [&]() -> Edited {
+      LinearEditor editor(mesh.positions, mesh.triangles, c.vertices, options);
+      warnHeld(args.model, mesh, editor.heldVertices(), context);
+      return {editor.solve(c.targets), {}};
+    });
+  }
+  if (args.method == "arap") {
+    ArapOptions options;
+    if (args.iterations > 0) options.maxIterations = args.iterations;
+    if (args.tolerance >= 0.0) options.relativeTolerance = args.tolerance;
+    ArapResult result = namingFile(args.model, [&] {
+      ArapEditor editor(mesh.positions, mesh.triangles, c.vertices, options);
+      warnHeld(args.model, mesh, editor.heldVertices(), context);
+      return editor.solve(c.targets, progress);
+    });
+    const ArapReport& r = result.report;
+    reportIterations("arap", r.iterations, r.energies, r.converged, r.startedRigid, args, context);
+    return {std::move(result.positions), {}};
+  }
+  // cage-arap: the coordinates of the cage or of the lattice
+  std::shared_ptr<const Coordinates> coordinates;
+  std::string controls;
+  if (args.lattice.empty()) {
+    auto cage = std::make_shared<const Cage>(Cage::fromFile(args.cage));
+    coordinates = namingFile(args.cage, [&] {
+      return cageCoordinates(args.coordinates, cage, args.cageOptions, progress);
+    });
+    controls =
+        args.coordinates + " coordinates of " + countedVertices(cage->vertexCount(), "cage ");
+  } else {
+    const json rig = readRigFile(args.lattice);
+    if (!rig.is_object() || rig.value("method", json()) != "ffd")
+      throw InvalidInput(printable(args.lattice) +
+                         ": --lattice takes an ffd rig (\"method\": \"ffd\")");
+    coordinates = loadRigFile(args.lattice, context).coordinates;
+    controls = "the lattice's " + counted(coordinates->controlPointCount(), "control point");
+  }
+  CageArapOptions options;
+  options.rotationClusters = args.clusters;
+  options.handleWeight = args.handleWeight;
+  options.reachTolerance = args.reachTolerance;
+  if (args.iterations > 0) options.maxIterations = args.iterations;
+  if (args.tolerance >= 0.0) options.relativeTolerance = args.tolerance;
+  std::size_t clusters = 0;
+  CageArapResult result = namingFile(args.model, [&] {
+    CageArapEditor editor(mesh.positions, mesh.triangles, coordinates, c.vertices, options,
+                          progress);
+    clusters = editor.clusterCount();
+    return editor.solve(c.targets, progress);
+  });
+  const CageArapReport& r = result.report;
+  char residual[64];
+  std::snprintf(residual, sizeof residual, "max handle residual %.3g", r.maxResidual);
+  note(context,
+       "cage-arap: " + counted(clusters, "rotation cluster") + ", " + controls + ", " + residual);
+  reportIterations("cage-arap", r.iterations, r.energies, r.converged, r.startedRigid, args,
+                   context);
+  if (!r.unreached.empty()) {
+    const std::vector<std::uint32_t> soupOf = firstSoupVertex(mesh);
+    std::vector<std::uint32_t> unreached;
+    for (const std::uint32_t v : r.unreached) unreached.push_back(soupOf[v]);
+    char tolerance[32];
+    std::snprintf(tolerance, sizeof tolerance, "%g", args.reachTolerance);
+    context.warn(args.model + ": " + countedVertices(unreached.size(), "handle ") +
+                 " left farther than --reach-tolerance " + tolerance +
+                 " of the model's size from their targets (" + residual + "): vertices " +
+                 someVertices(unreached) + "; the " + (args.lattice.empty() ? "cage" : "lattice") +
+                 " cannot carry them there rigidly (raise --handle-weight, or refine it)");
+  }
+  return {std::move(result.positions), std::move(result.controlPoints)};
+}
+
+// The posed lattice: the ffd rig with its control points replaced (the fit's keys, if it had
+// them, removed), so that `deform --rig` carries the edit.
+void writePosedLattice(const EditArgs& args, std::span<const Vec3> posed) {
+  json rig = readRigFile(args.lattice);
+  rig.erase("constraints");
+  rig.erase("smoothness");
+  json points = json::array();
+  for (const Vec3& p : posed) points.push_back({p.x, p.y, p.z});
+  rig["controlPoints"] = std::move(points);
+  writeJsonFile(rig, args.latticeOut);
+}
+
+// The posed cage: the rest cage file's soup (faces, attributes) with the cage vertices moved.
+void writePosedCage(const EditArgs& args, std::span<const Vec3> posed, const CliContext& context) {
+  PolygonSoup cage = readSoup(args.cage);
+  if (cage.positions.size() != posed.size())
+    throw InvalidInput(args.cage + ": the cage has " + std::to_string(cage.positions.size()) +
+                       " vertices but its coordinates " + std::to_string(posed.size()) +
+                       " control points");
+  std::copy(posed.begin(), posed.end(), cage.positions.begin());
+  cage.normals.clear();  // a posed cage's normals would be stale
+  cage.cornerNormals = {};
+  writeSoupFile(cage, args.cageOut, false, context);
+}
+
+}  // namespace
+
+void runEdit(const EditArgs& args, const CliContext& context) {
+  const auto start = std::chrono::steady_clock::now();
+  formatFromPath(args.output);
+  if (!args.cageOut.empty()) formatFromPath(args.cageOut);
+  PolygonSoup soup = readSoup(args.model);
+  WeldOptions weld;
+  weld.relativeTolerance = args.weldTolerance;
+  const SurfaceMesh mesh = namingFile(args.model, [&] { return weldSoup(soup, weld); });
+  if (mesh.triangles.empty())
+    throw InvalidInput(args.model +
+                       ": has no triangle to edit (welding collapsed every one of its " +
+                       counted(soup.polygonCount(), "face") + ")");
+  // The handles are checked before any warning, so that a refused run prints one line.
+  const VertexConstraints constraints = readConstraints(args.handles, soup, mesh);
+  warnAboutTheMesh(args.model, mesh, context);
+
+  const Edited edited = editWith(args, mesh, constraints, context);
+
+  const std::vector<Vec3> positions = mesh.toSoupPositions(edited.positions);
+  for (std::size_t v = 0; v < positions.size(); ++v)
+    if (!isFinite(positions[v]))
+      throw SolverError(args.model + ": the edit sent vertex " + std::to_string(v) +
+                        " to a non-finite position");
+  soup.positions = positions;
+  recomputeVertexNormals(soup, mesh, edited.positions);
+  rotateCornerNormals(soup, mesh, edited.positions);
+  writeSoupFile(soup, args.output, args.ascii, context);
+  if (!args.latticeOut.empty()) writePosedLattice(args, edited.cage);
+  if (!args.cageOut.empty()) {
+    writePosedCage(args, edited.cage, context);
+    // The edit keeps Green's face-normal columns at rest; a Green deform of the posed cage
+    // recomputes them from it.
+    if (args.coordinates == "green")
+      context.warn("--cage-out " + args.cageOut +
+                   ": with --coordinates green, `deform --method green` of this pose does not "
+                   "reproduce the edit exactly (the edit keeps the face normals' terms at rest)");
+  }
+  warnNotKept(args.model, soup, context);
+
+  const std::string what =
+      countedVertices(mesh.vertexCount(), "") + " (" + counted(mesh.triangles.size(), "triangle") +
+      ", " + countedVertices(constraints.vertices.size(), "handle ") + ") by " + args.method;
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::string output = args.output;
+  if (!args.cageOut.empty()) output += " and " + args.cageOut;
+  if (!args.latticeOut.empty()) output += " and " + args.latticeOut;
+  context.say(summaryLine("edited", what, seconds, output, context.warnings()));
+}
+
+namespace {
+
+// A finite number >= 0 (CLI11's NonNegativeNumber lets "nan" through).
+const CLI::Validator kFiniteNonNegative(
+    [](std::string& value) -> std::string {
+      double t = 0.0;
+      if (CLI::detail::lexical_cast(value, t) && std::isfinite(t) && t >= 0.0) return {};
+      return "'" + value + "' is not a finite number >= 0";
+    },
+    "NUMBER >= 0");
+
+const CLI::Validator kFinitePositive(
+    [](std::string& value) -> std::string {
+      double t = 0.0;
+      if (CLI::detail::lexical_cast(value, t) && std::isfinite(t) && t > 0.0) return {};
+      return "'" + value + "' is not a finite number > 0";
+    },
+    "NUMBER > 0");
+
+}  // namespace
+
+Command addEditCommand(CLI::App& app, const CliContext& context) {
+  auto args = std::make_shared<EditArgs>();
+  const ArapOptions arap;
+  const CageArapOptions cageArap;
+  char text[256];
+
+  CLI::App* cmd = app.add_subcommand(
+      "edit",
+      "Edit a surface (OBJ, OFF, PLY mesh) by moving handle regions: Laplacian, bi-Laplacian, "
+      "as-rigid-as-possible, or ARAP in a cage's subspace");
+  cmd->add_option("--method", args->method,
+                  "laplacian | bilaplacian (linear: follow translations, not rotations) | arap | "
+                  "cage-arap (ARAP through a cage's coordinates, with --cage)")
+      ->check(CLI::IsMember({"laplacian", "bilaplacian", "arap", "cage-arap"}))
+      ->required();
+  cmd->add_option("--handles", args->handles,
+                  "JSON file {\"handles\": [{\"vertices\": [i, ...], \"matrix\": [4 rows of 4]} or "
+                  "{\"vertices\": [...], \"targets\": [[x, y, z], ...]}, ...]}; indices in the "
+                  "model's file order")
+      ->required();
+  cmd->add_option("MODEL", args->model, "the surface to edit (.obj, .off, .ply)")->required();
+  cmd->add_option("-o,--output", args->output,
+                  "output file (.obj, .off, .ply): the model with its vertices moved")
+      ->required();
+  auto* asciiOption =
+      cmd->add_flag("--ascii", args->ascii, "write PLY as ASCII rather than binary little-endian");
+  std::snprintf(text, sizeof text,
+                "vertices closer than this × the model's bounding-box diagonal are welded into "
+                "one (default %g)",
+                args->weldTolerance);
+  cmd->add_option("--weld-tolerance", args->weldTolerance, text)->check(kFiniteNonNegative);
+
+  const std::vector<CLI::Option*> iterative = optionsAddedBy(cmd, [&] {
+    cmd->add_option("--iterations", args->iterations,
+                    "arap, cage-arap: at most this many local/global iterations (default " +
+                        std::to_string(arap.maxIterations) + " for arap, " +
+                        std::to_string(cageArap.maxIterations) + " for cage-arap)")
+        ->check(CLI::Range(1, 1000000));
+    std::snprintf(text, sizeof text,
+                  "arap, cage-arap: stop when an iteration lowers the energy by less than this "
+                  "fraction (default %g for arap, %g for cage-arap; 0 runs every iteration)",
+                  arap.relativeTolerance, cageArap.relativeTolerance);
+    cmd->add_option("--tolerance", args->tolerance, text)->check(kFiniteNonNegative);
+  });
+  for (CLI::Option* option : iterative) option->group("Options of --method arap and cage-arap");
+
+  const std::vector<CLI::Option*> cageOnly = optionsAddedBy(cmd, [&] {
+    cmd->add_option("--cage", args->cage, "cage-arap: the cage (closed mesh) around the model");
+    std::string coordinateList;
+    for (const std::string& m : cageMethods())
+      coordinateList += (coordinateList.empty() ? "" : "|") + m;
+    cmd->add_option("--coordinates", args->coordinates,
+                    "cage-arap: the cage coordinates (" + coordinateList + "; default mvc)")
+        ->check(CLI::IsMember(cageMethods()));
+    cmd->add_option("--cage-out", args->cageOut,
+                    "cage-arap: also write the posed cage (the rest cage's faces), for `spacewarp "
+                    "deform --method mvc --cage CAGE --pose POSED` of clouds and volumes");
+    cmd->add_option("--lattice", args->lattice,
+                    "cage-arap: instead of --cage, an ffd rig (JSON) whose lattice's coordinates "
+                    "carry the model (its pose is ignored: the edit starts at rest)");
+    cmd->add_option("--lattice-out", args->latticeOut,
+                    "cage-arap with --lattice: also write the ffd rig with the posed control "
+                    "points, for `spacewarp deform --rig`");
+    cmd->add_option("--clusters", args->clusters,
+                    "cage-arap: rotation clusters (default 0: 4 per cage vertex, at least 64, at "
+                    "most the vertex count)");
+    std::snprintf(text, sizeof text,
+                  "cage-arap: weight of the handles against rigidity, relative to the mesh's "
+                  "stiffness (default %g)",
+                  cageArap.handleWeight);
+    cmd->add_option("--handle-weight", args->handleWeight, text)->check(kFinitePositive);
+    std::snprintf(text, sizeof text,
+                  "cage-arap: warn about handle vertices farther than this × the model's "
+                  "bounding-box diagonal from their targets (default %g)",
+                  cageArap.reachTolerance);
+    cmd->add_option("--reach-tolerance", args->reachTolerance, text)->check(kFiniteNonNegative);
+  });
+  for (CLI::Option* option : cageOnly) option->group("Options of --method cage-arap");
+  const std::vector<CLI::Option*> harmonic =
+      optionsAddedBy(cmd, [&] { addCageMethodOptions(cmd, args->cageOptions); });
+  for (CLI::Option* option : harmonic)
+    option->group("Options of --method cage-arap --coordinates harmonic");
+  CLI::Option* cageOption = cageOnly.front();
+
+  cmd->callback([args, asciiOption, iterative, harmonic, cageOnly, cageOption] {
+    if (fileKind(args->model) == FileKind::Volume)
+      throw CLI::ValidationError(args->model + ": edit takes a surface mesh (.obj, .off, .ply)");
+    checkConversion(args->model, args->output);
+    if (formatFromPath(args->output) != FileFormat::Ply)
+      rejectGiven({asciiOption}, "applies to .ply output only, not to " + args->output);
+    const std::string method = "--method " + args->method;
+    if (args->method != "arap" && args->method != "cage-arap")
+      rejectGiven(iterative, "applies to --method arap and cage-arap only, not to " + method);
+    if (args->method != "cage-arap") {
+      rejectGiven(cageOnly, "applies to --method cage-arap only, not to " + method);
+      rejectGiven(harmonic, "applies to --method cage-arap --coordinates harmonic only");
+      return;
+    }
+    if (!args->lattice.empty()) {
+      if (cageOption->count() > 0)
+        throw CLI::ValidationError("--lattice and --cage: give one, the controls of cage-arap");
+      for (CLI::Option* option : cageOnly)
+        if (option->count() > 0 &&
+            (option->get_name() == "--coordinates" || option->get_name() == "--cage-out"))
+          throw CLI::ValidationError(option->get_name() + " applies to --cage, not to --lattice");
+      rejectGiven(harmonic, "applies to --cage with --coordinates harmonic, not to --lattice");
+      if (!args->latticeOut.empty() && lowerExtension(args->latticeOut) != ".json")
+        throw CLI::ValidationError("--lattice-out " + args->latticeOut +
+                                   ": the posed lattice is an ffd rig, written as .json");
+      return;
+    }
+    if (cageOption->count() == 0)
+      throw CLI::RequiredError("--cage (or --lattice; --method cage-arap needs its controls)");
+    if (!args->latticeOut.empty())
+      throw CLI::ValidationError("--lattice-out applies to --lattice, not to --cage");
+    if (args->coordinates != "harmonic")
+      rejectGiven(harmonic, "applies to --coordinates harmonic only, not to --coordinates " +
+                                args->coordinates);
+    if (!args->cageOut.empty()) checkConversion(args->cage, args->cageOut);
+  });
+  return {cmd, [args, &context] { runEdit(*args, context); }};
+}
+
+}  // namespace spacewarp::cli
