@@ -19,7 +19,6 @@
 #include <nlohmann/json.hpp>
 
 #include <spacewarp/coords/cage.h>
-#include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/rig/cage_rig.h>
@@ -278,84 +277,6 @@ void warnHeld(const std::string& model, const SurfaceMesh& mesh,
 
 // --- output normals ------------------------------------------------------------------------
 
-// Σ cross products of the triangles at each mesh vertex: area-weighted vertex normals of the
-// triangles' orientation (the soup's, since weldSoup fans polygons in their corner order).
-std::vector<Vec3> areaWeightedNormals(const SurfaceMesh& mesh, std::span<const Vec3> positions) {
-  std::vector<Vec3> sum(mesh.vertexCount(), Vec3(0.0));
-  for (const auto& t : mesh.triangles) {
-    const Vec3 n = glm::cross(positions[t[1]] - positions[t[0]], positions[t[2]] - positions[t[0]]);
-    for (const std::uint32_t v : t) sum[v] += n;
-  }
-  return sum;
-}
-
-// Per-vertex normals recomputed on the edited mesh, each keeping the side of the input's
-// normal (the same recomputation at rest tells which side the input chose). Vertices of no
-// triangle keep their normal.
-void recomputeVertexNormals(PolygonSoup& soup, const SurfaceMesh& mesh,
-                            std::span<const Vec3> edited) {
-  const std::vector<Vec3> rest = areaWeightedNormals(mesh, mesh.positions);
-  const std::vector<Vec3> now = areaWeightedNormals(mesh, edited);
-  for (std::size_t v = 0; v < soup.normals.size(); ++v) {
-    const std::uint32_t m = mesh.soupToMesh[v];
-    const double length = glm::length(now[m]);
-    if (!(length > 0.0)) continue;
-    const double side = glm::dot(rest[m], soup.normals[v]) < 0.0 ? -1.0 : 1.0;
-    soup.normals[v] = side * now[m] / length;
-  }
-}
-
-// The rotation of each soup polygon from rest to edited: the closest rotation to the
-// covariance of its triangles' edges, plus its normal's direction (weighted like the edges),
-// which fixes the rotation about the polygon's plane. The identity for dropped polygons.
-std::vector<Mat3> polygonRotations(const PolygonSoup& soup, const SurfaceMesh& mesh,
-                                   std::span<const Vec3> edited) {
-  const std::size_t polygons = soup.polygonCount();
-  std::vector<Mat3> covariance(polygons, Mat3(0.0));
-  std::vector<Vec3> restNormal(polygons, Vec3(0.0)), editedNormal(polygons, Vec3(0.0));
-  std::vector<double> scale(polygons, 0.0);
-  const std::span<const Vec3> rest = mesh.positions;
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const auto& tri = mesh.triangles[t];
-    const std::uint32_t p = mesh.triangleToPolygon[t];
-    for (int k = 0; k < 3; ++k) {
-      const Vec3 r = rest[tri[(k + 1) % 3]] - rest[tri[k]];
-      const Vec3 e = edited[tri[(k + 1) % 3]] - edited[tri[k]];
-      covariance[p] += glm::outerProduct(e, r);
-      scale[p] += glm::dot(r, r);
-    }
-    restNormal[p] += glm::cross(rest[tri[1]] - rest[tri[0]], rest[tri[2]] - rest[tri[0]]);
-    editedNormal[p] += glm::cross(edited[tri[1]] - edited[tri[0]], edited[tri[2]] - edited[tri[0]]);
-  }
-  std::vector<Mat3> rotation(polygons, Mat3(1.0));
-  for (std::size_t p = 0; p < polygons; ++p) {
-    if (!(scale[p] > 0.0)) continue;
-    const double r = glm::length(restNormal[p]), e = glm::length(editedNormal[p]);
-    Mat3 b = covariance[p];
-    if (r > 0.0 && e > 0.0)
-      b += scale[p] * glm::outerProduct(editedNormal[p] / e, restNormal[p] / r);
-    rotation[p] = detail::closestRotation(b);
-  }
-  return rotation;
-}
-
-// Corner normals rotated by their polygon's rotation; a normal shared by several corners
-// becomes the normalised sum of its rotations (smooth shading stays smooth, a crease's or a
-// flat face's own normal turns exactly with its face). Normals no corner uses are kept.
-void rotateCornerNormals(PolygonSoup& soup, const SurfaceMesh& mesh, std::span<const Vec3> edited) {
-  CornerAttribute& normals = soup.cornerNormals;
-  if (normals.indices.empty()) return;
-  const std::vector<Mat3> rotation = polygonRotations(soup, mesh, edited);
-  std::vector<Vec3> sum(normals.values.size(), Vec3(0.0));
-  for (std::size_t p = 0; p < soup.polygonCount(); ++p)
-    for (std::uint32_t c = soup.faceOffsets[p]; c < soup.faceOffsets[p + 1]; ++c)
-      if (const std::uint32_t k = normals.indices[c]; k != CornerAttribute::kNone)
-        sum[k] += rotation[p] * normals.values[k];
-  for (std::size_t k = 0; k < sum.size(); ++k)
-    if (const double length = glm::length(sum[k]); length > 0.0)
-      normals.values[k] = sum[k] / length;
-}
-
 // --- the methods ---------------------------------------------------------------------------
 
 // Prints one informational line on stderr unless quiet (the solve's report, as the graph
@@ -392,88 +313,77 @@ void reportIterations(const std::string& name, int iterations, const std::vector
   }
 }
 
-struct Edited {
-  std::vector<Vec3> positions;  // mesh vertices
-  std::vector<Vec3> cage;       // cage-arap: the posed cage
-};
+// The options of the edit, from the command line.
+SurfaceEditOptions editOptions(const EditArgs& args) {
+  SurfaceEditOptions o;
+  o.method = args.method == "laplacian"     ? SurfaceEditMethod::Laplacian
+             : args.method == "bilaplacian" ? SurfaceEditMethod::BiLaplacian
+             : args.method == "arap"        ? SurfaceEditMethod::Arap
+                                            : SurfaceEditMethod::CageArap;
+  const ArapEnergy energy =
+      args.energy == "spokes" ? ArapEnergy::Spokes : ArapEnergy::SpokesAndRims;
+  o.arap.energy = o.cageArap.energy = energy;
+  if (args.iterations > 0) o.arap.maxIterations = o.cageArap.maxIterations = args.iterations;
+  if (args.tolerance >= 0.0)
+    o.arap.relativeTolerance = o.cageArap.relativeTolerance = args.tolerance;
+  o.cageArap.rotationClusters = args.clusters;
+  o.cageArap.handleWeight = args.handleWeight;
+  o.cageArap.reachTolerance = args.reachTolerance;
+  return o;
+}
 
-Edited editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConstraints& c,
-                const CliContext& context) {
+SurfaceEdit editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConstraints& c,
+                     const CliContext& context) {
   const ProgressCallback progress = context.progress();
-  if (args.method == "laplacian" || args.method == "bilaplacian") {
-    LinearEditOptions options;
-    options.method =
-        args.method == "laplacian" ? LinearEditMethod::Laplacian : LinearEditMethod::BiLaplacian;
-    return namingFile(args.model, [&]() -> Edited {
-      LinearEditor editor(mesh.positions, mesh.triangles, c.vertices, options);
-      warnHeld(args.model, mesh, editor.heldVertices(), context);
-      return {editor.solve(c.targets), {}};
-    });
+  SurfaceEditOptions options = editOptions(args);
+  std::string controls;  // cage-arap: the coordinates of the cage or of the lattice
+  if (options.method == SurfaceEditMethod::CageArap) {
+    if (args.lattice.empty()) {
+      auto cage = std::make_shared<const Cage>(Cage::fromFile(args.cage));
+      options.coordinates = namingFile(args.cage, [&] {
+        return cageCoordinates(args.coordinates, cage, args.cageOptions, progress);
+      });
+      controls =
+          args.coordinates + " coordinates of " + countedVertices(cage->vertexCount(), "cage ");
+    } else {
+      const json rig = readRigFile(args.lattice);
+      if (!rig.is_object() || rig.value("method", json()) != "ffd")
+        throw InvalidInput(printable(args.lattice) +
+                           ": --lattice takes an ffd rig (\"method\": \"ffd\")");
+      options.coordinates = loadRigFile(args.lattice, context).coordinates;
+      controls =
+          "the lattice's " + counted(options.coordinates->controlPointCount(), "control point");
+    }
   }
-  if (args.method == "arap") {
-    ArapOptions options;
-    if (args.iterations > 0) options.maxIterations = args.iterations;
-    if (args.tolerance >= 0.0) options.relativeTolerance = args.tolerance;
-    ArapResult result = namingFile(args.model, [&] {
-      ArapEditor editor(mesh.positions, mesh.triangles, c.vertices, options);
-      warnHeld(args.model, mesh, editor.heldVertices(), context);
-      return editor.solve(c.targets, progress);
-    });
-    const ArapReport& r = result.report;
+  SurfaceEdit edit = namingFile(args.model, [&] { return editMesh(mesh, c, options, progress); });
+  warnHeld(args.model, mesh, edit.heldVertices, context);
+  if (edit.arapReport) {
+    const ArapReport& r = *edit.arapReport;
     reportIterations("arap", r.iterations, r.energies, r.converged, r.startedRigid, args, context);
-    return {std::move(result.positions), {}};
   }
-  // cage-arap: the coordinates of the cage or of the lattice
-  std::shared_ptr<const Coordinates> coordinates;
-  std::string controls;
-  if (args.lattice.empty()) {
-    auto cage = std::make_shared<const Cage>(Cage::fromFile(args.cage));
-    coordinates = namingFile(args.cage, [&] {
-      return cageCoordinates(args.coordinates, cage, args.cageOptions, progress);
-    });
-    controls =
-        args.coordinates + " coordinates of " + countedVertices(cage->vertexCount(), "cage ");
-  } else {
-    const json rig = readRigFile(args.lattice);
-    if (!rig.is_object() || rig.value("method", json()) != "ffd")
-      throw InvalidInput(printable(args.lattice) +
-                         ": --lattice takes an ffd rig (\"method\": \"ffd\")");
-    coordinates = loadRigFile(args.lattice, context).coordinates;
-    controls = "the lattice's " + counted(coordinates->controlPointCount(), "control point");
+  if (edit.cageArapReport) {
+    const CageArapReport& r = *edit.cageArapReport;
+    char residual[64];
+    std::snprintf(residual, sizeof residual, "max handle residual %.3g", r.maxResidual);
+    note(context, "cage-arap: " + counted(edit.clusterCount, "rotation cluster") + ", " + controls +
+                      ", " + residual);
+    reportIterations("cage-arap", r.iterations, r.energies, r.converged, r.startedRigid, args,
+                     context);
+    if (!r.unreached.empty()) {
+      const std::vector<std::uint32_t> soupOf = firstSoupVertex(mesh);
+      std::vector<std::uint32_t> unreached;
+      for (const std::uint32_t v : r.unreached) unreached.push_back(soupOf[v]);
+      char tolerance[32];
+      std::snprintf(tolerance, sizeof tolerance, "%g", args.reachTolerance);
+      context.warn(args.model + ": " + countedVertices(unreached.size(), "handle ") +
+                   " left farther than --reach-tolerance " + tolerance +
+                   " of the model's size from their targets (" + residual + "): vertices " +
+                   someVertices(unreached) + "; the " +
+                   (args.lattice.empty() ? "cage" : "lattice") +
+                   " cannot carry them there rigidly (raise --handle-weight, or refine it)");
+    }
   }
-  CageArapOptions options;
-  options.rotationClusters = args.clusters;
-  options.handleWeight = args.handleWeight;
-  options.reachTolerance = args.reachTolerance;
-  if (args.iterations > 0) options.maxIterations = args.iterations;
-  if (args.tolerance >= 0.0) options.relativeTolerance = args.tolerance;
-  std::size_t clusters = 0;
-  CageArapResult result = namingFile(args.model, [&] {
-    CageArapEditor editor(mesh.positions, mesh.triangles, coordinates, c.vertices, options,
-                          progress);
-    clusters = editor.clusterCount();
-    return editor.solve(c.targets, progress);
-  });
-  const CageArapReport& r = result.report;
-  char residual[64];
-  std::snprintf(residual, sizeof residual, "max handle residual %.3g", r.maxResidual);
-  note(context,
-       "cage-arap: " + counted(clusters, "rotation cluster") + ", " + controls + ", " + residual);
-  reportIterations("cage-arap", r.iterations, r.energies, r.converged, r.startedRigid, args,
-                   context);
-  if (!r.unreached.empty()) {
-    const std::vector<std::uint32_t> soupOf = firstSoupVertex(mesh);
-    std::vector<std::uint32_t> unreached;
-    for (const std::uint32_t v : r.unreached) unreached.push_back(soupOf[v]);
-    char tolerance[32];
-    std::snprintf(tolerance, sizeof tolerance, "%g", args.reachTolerance);
-    context.warn(args.model + ": " + countedVertices(unreached.size(), "handle ") +
-                 " left farther than --reach-tolerance " + tolerance +
-                 " of the model's size from their targets (" + residual + "): vertices " +
-                 someVertices(unreached) + "; the " + (args.lattice.empty() ? "cage" : "lattice") +
-                 " cannot carry them there rigidly (raise --handle-weight, or refine it)");
-  }
-  return {std::move(result.positions), std::move(result.controlPoints)};
+  return edit;
 }
 
 // The posed lattice: the ffd rig with its control points replaced (the fit's keys, if it had
@@ -519,20 +429,12 @@ void runEdit(const EditArgs& args, const CliContext& context) {
   const VertexConstraints constraints = readConstraints(args.handles, soup, mesh);
   warnAboutTheMesh(args.model, mesh, context);
 
-  const Edited edited = editWith(args, mesh, constraints, context);
-
-  const std::vector<Vec3> positions = mesh.toSoupPositions(edited.positions);
-  for (std::size_t v = 0; v < positions.size(); ++v)
-    if (!isFinite(positions[v]))
-      throw SolverError(args.model + ": the edit sent vertex " + std::to_string(v) +
-                        " to a non-finite position");
-  soup.positions = positions;
-  recomputeVertexNormals(soup, mesh, edited.positions);
-  rotateCornerNormals(soup, mesh, edited.positions);
+  const SurfaceEdit edited = editWith(args, mesh, constraints, context);
+  applyEdit(soup, mesh, edited.positions);
   writeSoupFile(soup, args.output, args.ascii, context);
-  if (!args.latticeOut.empty()) writePosedLattice(args, edited.cage);
+  if (!args.latticeOut.empty()) writePosedLattice(args, edited.controlPoints);
   if (!args.cageOut.empty()) {
-    writePosedCage(args, edited.cage, context);
+    writePosedCage(args, edited.controlPoints, context);
     // The edit keeps Green's face-normal columns at rest; a Green deform of the posed cage
     // recomputes them from it.
     if (args.coordinates == "green")
@@ -617,6 +519,11 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
                   "fraction (default %g for arap, %g for cage-arap; 0 runs every iteration)",
                   arap.relativeTolerance, cageArap.relativeTolerance);
     cmd->add_option("--tolerance", args->tolerance, text)->check(kFiniteNonNegative);
+    cmd->add_option("--energy", args->energy,
+                    "arap, cage-arap: the edges each vertex's rotation acts on: "
+                    "spokes-and-rims (its triangles' edges; bounded below with obtuse triangles; "
+                    "default) | spokes (its one-ring edges, Sorkine and Alexa 2007)")
+        ->check(CLI::IsMember({"spokes-and-rims", "spokes"}));
   });
   for (CLI::Option* option : iterative) option->group("Options of --method arap and cage-arap");
 

@@ -7,6 +7,7 @@
 
 #include <spacewarp/rig/cage_rig.h>
 #include <spacewarp/surface/cage_arap.h>
+#include <spacewarp/surface/edit_mesh.h>
 #include <spacewarp/surface/surface_mesh.h>
 #include "apps/cli_context.h"
 
@@ -25,9 +26,10 @@ struct EditRequest {
   std::string coordinates = "mvc";  ///< cage-arap: the cage coordinates (cageMethods())
   bool ascii = false;               ///< PLY output as ASCII
   double weldTolerance = WeldOptions{}.relativeTolerance;
-  int iterations = 0;        ///< arap, cage-arap: 0 keeps the method's default
-  double tolerance = -1.0;   ///< arap, cage-arap: < 0 keeps the method's default
-  std::size_t clusters = 0;  ///< cage-arap: CageArapOptions::rotationClusters
+  std::string energy = "spokes-and-rims";  ///< arap, cage-arap: spokes-and-rims or spokes
+  int iterations = 0;                      ///< arap, cage-arap: 0 keeps the method's default
+  double tolerance = -1.0;                 ///< arap, cage-arap: < 0 keeps the method's default
+  std::size_t clusters = 0;                ///< cage-arap: CageArapOptions::rotationClusters
   double handleWeight = CageArapOptions{}.handleWeight;
   double reachTolerance = CageArapOptions{}.reachTolerance;
   CageMethodOptions cageOptions;  ///< cage-arap with harmonic coordinates

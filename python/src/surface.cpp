@@ -9,12 +9,12 @@
 #include <optional>
 
 #include <spacewarp/core/coordinates.h>
-#include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/geometry.h>
 #include <spacewarp/surface/arap.h>
 #include <spacewarp/surface/cage_arap.h>
 #include <spacewarp/surface/cotan_laplacian.h>
+#include <spacewarp/surface/edit_mesh.h>
 #include <spacewarp/surface/handles.h>
 #include <spacewarp/surface/laplacian_editing.h>
 #include <spacewarp/surface/surface_mesh.h>
@@ -599,60 +599,6 @@ solution (the lower energy). Returns a CageArapResult. Reports stage "cage-arap"
 // ---------------------------------------------------------------------------------------------
 // edit(): one call from a Geometry and handle regions to the edited Geometry
 
-/// Area-weighted normals of the soup's vertices over its polygons (fanned), at `positions`:
-/// welded copies of a vertex keep their own polygons' normals (a flat-shaded soup stays flat).
-std::vector<Vec3> areaNormals(const PolygonSoup& soup, std::span<const Vec3> positions) {
-  std::vector<Vec3> normals(positions.size(), Vec3(0.0));
-  for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
-    const auto polygon = soup.polygon(p);
-    for (std::size_t c = 1; c + 1 < polygon.size(); ++c) {
-      const Vec3& a = positions[polygon[0]];
-      const Vec3 n = glm::cross(positions[polygon[c]] - a, positions[polygon[c + 1]] - a);
-      for (const std::uint32_t v : {polygon[0], polygon[c], polygon[c + 1]}) normals[v] += n;
-    }
-  }
-  return normals;
-}
-
-/// The soup's normals after its positions moved from `rest`: per-vertex normals recomputed
-/// (area-weighted over the soup's polygons) and turned to the side of the surface the input's
-/// pointed to; per-corner normals rotated with their polygon (the best rigid fit of its
-/// corners). Vertices without area keep their normal.
-void updateNormals(PolygonSoup& soup, std::span<const Vec3> rest) {
-  if (soup.hasNormals()) {
-    const std::vector<Vec3> before = areaNormals(soup, rest),
-                            after = areaNormals(soup, soup.positions);
-    for (std::size_t v = 0; v < soup.size(); ++v) {
-      const double length = glm::length(after[v]);
-      if (!(length > 0.0)) continue;
-      const double side = glm::dot(before[v], soup.normals[v]) < 0.0 ? -1.0 : 1.0;
-      soup.normals[v] = after[v] * (side / length);
-    }
-  }
-  if (!soup.cornerNormals.empty()) {
-    CornerAttribute& corners = soup.cornerNormals;
-    std::vector<Vec3> values;
-    std::vector<Vec3> from, to;
-    for (std::size_t p = 0; p < soup.polygonCount(); ++p) {
-      const auto polygon = soup.polygon(p);
-      from.clear();
-      to.clear();
-      for (const std::uint32_t v : polygon) {
-        from.push_back(rest[v]);
-        to.push_back(soup.positions[v]);
-      }
-      const Mat3 r = detail::rigidFit(from, to).r;
-      // A value may be shared by corners of several polygons: each corner gets its own copy.
-      for (std::size_t c = soup.faceOffsets[p]; c < soup.faceOffsets[p + 1]; ++c) {
-        if (corners.indices[c] == CornerAttribute::kNone) continue;
-        values.push_back(glm::normalize(r * corners.values[corners.indices[c]]));
-        corners.indices[c] = static_cast<std::uint32_t>(values.size() - 1);
-      }
-    }
-    corners.values = std::move(values);
-  }
-}
-
 /// A number in a warning: four significant digits.
 std::string shortNumber(double x) {
   char text[32];
@@ -660,13 +606,11 @@ std::string shortNumber(double x) {
   return text;
 }
 
-enum class EditMethod { Laplacian, BiLaplacian, Arap, CageArap };
-
-EditMethod editMethod(const std::string& name) {
-  if (name == "laplacian") return EditMethod::Laplacian;
-  if (name == "bilaplacian") return EditMethod::BiLaplacian;
-  if (name == "arap") return EditMethod::Arap;
-  if (name == "cage-arap") return EditMethod::CageArap;
+SurfaceEditMethod editMethod(const std::string& name) {
+  if (name == "laplacian") return SurfaceEditMethod::Laplacian;
+  if (name == "bilaplacian") return SurfaceEditMethod::BiLaplacian;
+  if (name == "arap") return SurfaceEditMethod::Arap;
+  if (name == "cage-arap") return SurfaceEditMethod::CageArap;
   throw InvalidInput("method must be 'laplacian', 'bilaplacian', 'arap' or 'cage-arap', not '" +
                      name + "'");
 }
@@ -681,10 +625,10 @@ struct EditOptions {
 };
 
 /// Refuses options given for a method they do not apply to (as the CLI does).
-void checkApplicable(EditMethod method, const std::string& name, const CoordinatesPtr& coordinates,
-                     const EditOptions& o) {
-  const bool iterative = method == EditMethod::Arap || method == EditMethod::CageArap;
-  const bool cage = method == EditMethod::CageArap;
+void checkApplicable(SurfaceEditMethod method, const std::string& name,
+                     const CoordinatesPtr& coordinates, const EditOptions& o) {
+  const bool iterative = method == SurfaceEditMethod::Arap || method == SurfaceEditMethod::CageArap;
+  const bool cage = method == SurfaceEditMethod::CageArap;
   const auto refuse = [&](bool given, bool applies, const char* option) {
     if (given && !applies)
       throw InvalidInput(std::string(option) + " does not apply to method '" + name + "'");
@@ -703,8 +647,19 @@ void checkApplicable(EditMethod method, const std::string& name, const Coordinat
 GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const std::string& name,
                          const CoordinatesPtr& coordinates, double weldTolerance,
                          const EditOptions& o, const py::object& progress) {
-  const EditMethod method = editMethod(name);
-  checkApplicable(method, name, coordinates, o);
+  SurfaceEditOptions options;
+  options.method = editMethod(name);
+  checkApplicable(options.method, name, coordinates, o);
+  if (o.energy) options.arap.energy = options.cageArap.energy = arapEnergy(*o.energy);
+  if (o.maxIterations)
+    options.arap.maxIterations = options.cageArap.maxIterations = *o.maxIterations;
+  if (o.relativeTolerance)
+    options.arap.relativeTolerance = options.cageArap.relativeTolerance = *o.relativeTolerance;
+  options.cageArap.rotationClusters =
+      o.rotationClusters.value_or(options.cageArap.rotationClusters);
+  options.cageArap.handleWeight = o.handleWeight.value_or(options.cageArap.handleWeight);
+  options.cageArap.reachTolerance = o.reachTolerance.value_or(options.cageArap.reachTolerance);
+  options.coordinates = coordinates;
   const std::vector<HandleRegion> regions = toRegions(handles, "handles");
   const auto out = std::make_shared<PolygonSoup>();
   std::vector<std::string> warnings;
@@ -715,56 +670,21 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
     const double diagonal = boundingBox(out->positions).diagonal();
     const VertexConstraints c =
         mapConstraints(resolveHandles(regions, out->positions), mesh.soupToMesh, 1e-9 * diagonal);
-    std::vector<Vec3> moved;
-    std::span<const std::uint32_t> held;
-    std::optional<LinearEditor> linear;
-    std::optional<ArapEditor> arap;
-    if (method == EditMethod::Laplacian || method == EditMethod::BiLaplacian) {
-      const LinearEditMethod m = method == EditMethod::Laplacian ? LinearEditMethod::Laplacian
-                                                                 : LinearEditMethod::BiLaplacian;
-      linear.emplace(mesh.positions, mesh.triangles, c.vertices, LinearEditOptions{m});
-      moved = linear->solve(c.targets);
-      held = linear->heldVertices();
-    } else if (method == EditMethod::Arap) {
-      ArapOptions options;
-      if (o.energy) options.energy = arapEnergy(*o.energy);
-      options.maxIterations = o.maxIterations.value_or(options.maxIterations);
-      options.relativeTolerance = o.relativeTolerance.value_or(options.relativeTolerance);
-      arap.emplace(mesh.positions, mesh.triangles, c.vertices, options);
-      ArapResult result = arap->solve(c.targets, callback);
-      held = arap->heldVertices();
-      const ArapReport& r = result.report;
-      if (!r.converged)
-        warnings.push_back("ARAP did not converge in " + std::to_string(r.iterations) +
-                           " iterations (energy " + shortNumber(r.energies.front()) + " -> " +
-                           shortNumber(r.energies.back()) + ")");
-      moved = std::move(result.positions);
-    } else {
-      CageArapOptions options;
-      if (o.energy) options.energy = arapEnergy(*o.energy);
-      options.rotationClusters = o.rotationClusters.value_or(options.rotationClusters);
-      options.handleWeight = o.handleWeight.value_or(options.handleWeight);
-      options.maxIterations = o.maxIterations.value_or(options.maxIterations);
-      options.relativeTolerance = o.relativeTolerance.value_or(options.relativeTolerance);
-      options.reachTolerance = o.reachTolerance.value_or(options.reachTolerance);
-      CageArapEditor editor(mesh.positions, mesh.triangles, coordinates, c.vertices, options,
-                            callback);
-      CageArapResult result = editor.solve(c.targets, callback);
-      const CageArapReport& r = result.report;
-      if (!r.unreached.empty())
-        warnings.push_back(std::to_string(r.unreached.size()) +
-                           " handle vertices are left farther than reach_tolerance from their "
-                           "targets (max residual " +
-                           shortNumber(r.maxResidual) +
-                           "): the cage cannot carry them there rigidly");
-      moved = std::move(result.positions);
-    }
-    if (!held.empty())
-      warnings.push_back(std::to_string(held.size()) +
+    const SurfaceEdit edit = editMesh(mesh, c, options, callback);
+    if (const auto& r = edit.arapReport; r && !r->converged)
+      warnings.push_back("ARAP did not converge in " + std::to_string(r->iterations) +
+                         " iterations (energy " + shortNumber(r->energies.front()) + " -> " +
+                         shortNumber(r->energies.back()) + ")");
+    if (const auto& r = edit.cageArapReport; r && !r->unreached.empty())
+      warnings.push_back(std::to_string(r->unreached.size()) +
+                         " handle vertices are left farther than reach_tolerance from their "
+                         "targets (max residual " +
+                         shortNumber(r->maxResidual) +
+                         "): the cage cannot carry them there rigidly");
+    if (!edit.heldVertices.empty())
+      warnings.push_back(std::to_string(edit.heldVertices.size()) +
                          " mesh vertices are in parts no handle reaches: they stay at rest");
-    const std::vector<Vec3> rest = out->positions;
-    out->positions = mesh.toSoupPositions(moved);
-    updateNormals(*out, rest);
+    applyEdit(*out, mesh, edit.positions);
   });
   warnAll(warnings);
   return out;

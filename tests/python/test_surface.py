@@ -312,7 +312,8 @@ def test_arap_energies_never_increase_and_solve_from_continues(mesh, ends):
     again = editor.solve_from(result.positions, bend_targets(mesh, ends))
     assert again.report.energies[0] == pytest.approx(energies[-1], rel=1e-9)
     assert again.report.energies[-1] <= energies[-1] * (1 + 1e-12)
-    assert editor.energy(mesh.positions) == 0.0 or editor.energy(mesh.positions) < 1e-20
+    # Zero at rest, to the rounding of the energy's per-element sums.
+    assert abs(editor.energy(mesh.positions)) < 1e-12 * energies[0]
 
 
 def test_cage_arap_energies_never_increase(mesh, ends, cage_coordinates):
