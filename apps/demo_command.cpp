@@ -219,13 +219,7 @@ void editTheBar(const fs::path& dir, const PolygonSoup& bar, const CliContext& c
     request.model = (dir / "bar.obj").string();
     request.output = (dir / ("bar_" + method + ".obj")).string();
     std::string cage;
-    if (method == "arap") {
-      // Surface ARAP spreads a large turn along a long bar slowly (about 250 iterations to a
-      // relative decrease of 1e-4 here; the default 20 stop far from it).
-      request.iterations = 500;
-      request.tolerance = 1e-4;
-      cage = " --iterations 500 --tolerance 1e-4";
-    } else {
+    if (method == "cage-arap") {
       request.cage = (dir / "cage.obj").string();
       request.cageOut = (dir / "cage_pose_cage-arap.obj").string();
       cage = " --cage " + request.cage + " --cage-out " + request.cageOut;

@@ -8,6 +8,7 @@
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/surface/detail/anderson.h>
 #include <spacewarp/surface/detail/arap_terms.h>
 #include <spacewarp/surface/detail/edit_problem.h>
 
@@ -112,9 +113,10 @@ ArapEditor::ArapEditor(std::span<const Vec3> positions,
                        std::span<const std::uint32_t> constrained, const ArapOptions& options)
     : impl_(std::make_unique<Impl>()) {
   if (options.maxIterations < 0 || !(options.relativeTolerance >= 0.0) ||
-      !std::isfinite(options.relativeTolerance)) {
+      !std::isfinite(options.relativeTolerance) || options.accelerationWindow < 0) {
     throw InvalidInput(
-        "ArapEditor: maxIterations must be >= 0 and relativeTolerance finite and >= 0");
+        "ArapEditor: maxIterations and accelerationWindow must be >= 0, relativeTolerance finite "
+        "and >= 0");
   }
   auto& im = *impl_;
   im.options = options;
@@ -198,14 +200,25 @@ ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Ve
   // The energy is zero to the rounding of its terms (a rigid motion): nothing left to move.
   const double floor = 1e-14 * im.restSquaredTotal;
   std::vector<Mat3> keep;
+  detail::AndersonAccelerator anderson(static_cast<std::size_t>(im.options.accelerationWindow));
+  const auto flat = [](std::vector<Vec3>& x) {
+    return Eigen::Map<Eigen::VectorXd>(&x[0].x, static_cast<Eigen::Index>(3 * x.size()));
+  };
   while (report.iterations < im.options.maxIterations && !report.converged) {
     if (std::abs(e) <= floor) {
       report.converged = true;
       break;
     }
     keep = im.rotations;
-    std::vector<Vec3> next = im.globalStep(fixed);
-    const double eNext = im.localStep(next);
+    std::vector<Vec3> plain = im.globalStep(fixed);
+    std::vector<Vec3> next = plain;
+    flat(next) = anderson.next(flat(result.positions), flat(plain));
+    double eNext = im.localStep(next);
+    if (!(eNext < e) && next != plain) {  // the extrapolation did not help: the plain step
+      anderson.reset();
+      next = std::move(plain);
+      eNext = im.localStep(next);
+    }
     if (eNext > e) {  // rounding: the exact steps cannot raise it; keep the better state
       im.rotations = keep;
       report.converged = true;

@@ -35,11 +35,16 @@ enum class ArapEnergy {
 struct ArapOptions {
   /// The energy's edge sets (default SpokesAndRims).
   ArapEnergy energy = ArapEnergy::SpokesAndRims;
-  /// At most this many local/global iterations per solve (default 20).
-  int maxIterations = 20;
+  /// At most this many local/global iterations per solve (default 200: with acceleration a
+  /// 90° bend of a 10k-vertex bar converges to 1e-6 in about 130).
+  int maxIterations = 200;
   /// Stop when an iteration lowers the energy by less than this fraction of it (default 1e-6);
   /// 0 runs maxIterations.
   double relativeTolerance = 1e-6;
+  /// Anderson acceleration over this many previous iterations (default 5; 0: the plain
+  /// local/global iteration). An accelerated iterate is kept only when it lowers the energy, so
+  /// the energy still never increases; the fixed points are the plain iteration's.
+  int accelerationWindow = 5;
 };
 
 /// What one ARAP solve did.

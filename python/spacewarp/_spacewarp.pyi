@@ -190,7 +190,9 @@ class ArapEditor:
     per vertex acting on the edges of its triangles (energy "spokes_and_rims", Chao et al. 2010, the
     default: bounded below with obtuse triangles) or on its one-ring edges only ("spokes", the
     paper's), cotangent weights; at most max_iterations local/global iterations per solve, stopping
-    when one lowers the energy by less than relative_tolerance of it (0: always max_iterations).
+    when one lowers the energy by less than relative_tolerance of it (0: always max_iterations),
+    with Anderson acceleration over the last acceleration_window iterations (0: none; an accelerated
+    step is kept only when it lowers the energy).
     Components no handle reaches stay at rest (held_vertices).
     """
 
@@ -201,8 +203,9 @@ class ArapEditor:
         constrained: ArrayLike,
         *,
         energy: str = "spokes_and_rims",
-        max_iterations: int = 20,
+        max_iterations: int = 200,
         relative_tolerance: float = 1e-06,
+        acceleration_window: int = 5,
     ) -> None: ...
 
     def solve(self, targets: _Points, *, progress: _Progress = None) -> ArapResult:

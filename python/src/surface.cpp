@@ -414,13 +414,17 @@ positions (n, 3), triangles (t, 3) with the vertices `constrained` (k,) as handl
 per vertex acting on the edges of its triangles (energy "spokes_and_rims", Chao et al. 2010, the
 default: bounded below with obtuse triangles) or on its one-ring edges only ("spokes", the
 paper's), cotangent weights; at most max_iterations local/global iterations per solve, stopping
-when one lowers the energy by less than relative_tolerance of it (0: always max_iterations).
+when one lowers the energy by less than relative_tolerance of it (0: always max_iterations),
+with Anderson acceleration over the last acceleration_window iterations (0: none; an accelerated
+step is kept only when it lowers the energy).
 Components no handle reaches stay at rest (held_vertices).)")
       .def(py::init([](py::handle positions, py::handle triangles, py::handle constrained,
-                       const std::string& energy, int maxIterations, double relativeTolerance) {
+                       const std::string& energy, int maxIterations, double relativeTolerance,
+                       int accelerationWindow) {
              const MeshInput mesh = toMesh(positions, triangles);
              const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
-             const ArapOptions options{arapEnergy(energy), maxIterations, relativeTolerance};
+             const ArapOptions options{arapEnergy(energy), maxIterations, relativeTolerance,
+                                       accelerationWindow};
              std::shared_ptr<Editor> editor;
              withoutGil([&] {
                editor = std::make_shared<Editor>(
@@ -431,7 +435,8 @@ Components no handle reaches stay at rest (held_vertices).)")
            "positions"_a, "triangles"_a, "constrained"_a, py::kw_only(),
            "energy"_a = arapEnergyName(defaults.energy),
            "max_iterations"_a = defaults.maxIterations,
-           "relative_tolerance"_a = defaults.relativeTolerance)
+           "relative_tolerance"_a = defaults.relativeTolerance,
+           "acceleration_window"_a = defaults.accelerationWindow)
       .def(
           "solve",
           [](Editor& e, py::handle targets, const py::object& progress) {

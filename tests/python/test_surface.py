@@ -300,8 +300,9 @@ def bend_targets(mesh, ends, degrees: float = 60) -> np.ndarray:
 
 
 def test_arap_energies_never_increase_and_solve_from_continues(mesh, ends):
+    # The plain iteration (no acceleration) runs every one of max_iterations with tolerance 0.
     editor = spacewarp.ArapEditor(mesh.positions, mesh.triangles, ends, max_iterations=40,
-                                  relative_tolerance=0.0)
+                                  relative_tolerance=0.0, acceleration_window=0)
     result = editor.solve(bend_targets(mesh, ends))
     energies = result.report.energies
     assert result.report.iterations == 40 and len(energies) == 41
@@ -388,7 +389,7 @@ def test_editor_construction_errors_are_invalid_input(mesh, ends, cage_coordinat
 
 def test_a_progress_callable_returning_false_cancels(mesh, ends, cage_coordinates):
     editor = spacewarp.ArapEditor(mesh.positions, mesh.triangles, ends, max_iterations=50,
-                                  relative_tolerance=0.0)
+                                  relative_tolerance=0.0, acceleration_window=0)
     calls = []
 
     def stop_at_third(stage, fraction):
@@ -522,8 +523,9 @@ def test_edit_stops_when_its_progress_callable_returns_false():
     stages = []
     with pytest.raises(spacewarp.Cancelled):
         spacewarp.edit(soup, regions, progress=lambda stage, fraction: stages.append(stage) or False)
-    # The False at the start is seen after the first iteration (as every stage's first unit).
-    assert stages == ["arap", "arap"]
+    # The False at the start is seen after the first iteration (as every stage's first unit),
+    # which reports again only if it completed a whole percent of max_iterations.
+    assert stages in (["arap"], ["arap", "arap"])
 
 
 def test_edit_warns_when_arap_does_not_converge():
