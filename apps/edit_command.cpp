@@ -324,7 +324,8 @@ SurfaceEditOptions editOptions(const EditArgs& args) {
       args.energy == "spokes" ? ArapEnergy::Spokes : ArapEnergy::SpokesAndRims;
   o.arap.energy = o.cageArap.energy = energy;
   if (args.iterations > 0) o.arap.maxIterations = o.cageArap.maxIterations = args.iterations;
-  if (args.acceleration >= 0) o.arap.accelerationWindow = args.acceleration;
+  if (args.acceleration >= 0)
+    o.arap.accelerationWindow = o.cageArap.accelerationWindow = args.acceleration;
   if (args.tolerance >= 0.0)
     o.arap.relativeTolerance = o.cageArap.relativeTolerance = args.tolerance;
   o.cageArap.rotationClusters = args.clusters;
@@ -521,7 +522,7 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
                   arap.relativeTolerance, cageArap.relativeTolerance);
     cmd->add_option("--tolerance", args->tolerance, text)->check(kFiniteNonNegative);
     cmd->add_option("--acceleration", args->acceleration,
-                    "arap: Anderson acceleration over the last M iterations (default " +
+                    "arap, cage-arap: Anderson acceleration over the last M iterations (default " +
                         std::to_string(arap.accelerationWindow) +
                         "; 0: the plain local/global iteration)")
         ->check(CLI::Range(0, 50));
@@ -580,8 +581,6 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
     const std::string method = "--method " + args->method;
     if (args->method != "arap" && args->method != "cage-arap")
       rejectGiven(iterative, "applies to --method arap and cage-arap only, not to " + method);
-    if (args->method == "cage-arap" && args->acceleration >= 0)
-      throw CLI::ValidationError("--acceleration applies to --method arap only, not to " + method);
     if (args->method != "cage-arap") {
       rejectGiven(cageOnly, "applies to --method cage-arap only, not to " + method);
       rejectGiven(harmonic, "applies to --method cage-arap --coordinates harmonic only");

@@ -28,7 +28,7 @@ struct EditRequest {
   double weldTolerance = WeldOptions{}.relativeTolerance;
   std::string energy = "spokes-and-rims";  ///< arap, cage-arap: spokes-and-rims or spokes
   int iterations = 0;                      ///< arap, cage-arap: 0 keeps the method's default
-  int acceleration = -1;                   ///< arap: < 0 keeps ArapOptions::accelerationWindow
+  int acceleration = -1;                   ///< arap, cage-arap: < 0 keeps the default window
   double tolerance = -1.0;                 ///< arap, cage-arap: < 0 keeps the method's default
   std::size_t clusters = 0;                ///< cage-arap: CageArapOptions::rotationClusters
   double handleWeight = CageArapOptions{}.handleWeight;

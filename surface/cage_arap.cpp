@@ -10,6 +10,7 @@
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/surface/detail/anderson.h>
 #include <spacewarp/surface/detail/arap_terms.h>
 #include <spacewarp/surface/detail/edit_problem.h>
 #include <spacewarp/surface/detail/rotation_clusters.h>
@@ -95,12 +96,12 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
   const std::string caller = "CageArapEditor";
   if (!coordinates) throw InvalidInput(caller + ": no coordinates");
   if (!(options.handleWeight > 0.0) || !std::isfinite(options.handleWeight) ||
-      options.maxIterations < 0 || !(options.relativeTolerance >= 0.0) ||
-      !std::isfinite(options.relativeTolerance) || !(options.reachTolerance >= 0.0) ||
-      !std::isfinite(options.reachTolerance)) {
+      options.maxIterations < 0 || options.accelerationWindow < 0 ||
+      !(options.relativeTolerance >= 0.0) || !std::isfinite(options.relativeTolerance) ||
+      !(options.reachTolerance >= 0.0) || !std::isfinite(options.reachTolerance)) {
     throw InvalidInput(caller +
-                       ": handleWeight must be finite and > 0, maxIterations >= 0, the "
-                       "tolerances finite and >= 0");
+                       ": handleWeight must be finite and > 0, maxIterations and "
+                       "accelerationWindow >= 0, the tolerances finite and >= 0");
   }
   auto& im = *impl_;
   im.options = options;
@@ -265,14 +266,22 @@ CageArapResult CageArapEditor::solveFrom(std::span<const Vec3> startControlPoint
   ProgressTracker tracker(progress, "cage-arap",
                           static_cast<std::size_t>(im.options.maxIterations));
   std::vector<Mat3> keep;
+  detail::AndersonAccelerator anderson(static_cast<std::size_t>(im.options.accelerationWindow));
   while (report.iterations < im.options.maxIterations && !report.converged) {
     if (std::abs(e) <= floor) {
       report.converged = true;
       break;
     }
     keep = im.rotations;
-    Eigen::MatrixXd next = im.globalStep(t, dp);
-    const double eNext = im.localStep(next, t);
+    const Eigen::MatrixXd plain = im.globalStep(t, dp);
+    Eigen::MatrixXd next = plain;
+    next.reshaped() = anderson.next(dp.reshaped(), plain.reshaped());
+    double eNext = im.localStep(next, t);
+    if (!(eNext < e) && next != plain) {  // the extrapolation did not help: the plain step
+      anderson.reset();
+      next = plain;
+      eNext = im.localStep(next, t);
+    }
     if (eNext > e) {  // rounding: the exact steps cannot raise it
       im.rotations = keep;
       report.converged = true;

@@ -44,10 +44,13 @@ struct CageArapOptions {
   /// meaning does not depend on the mesh's size or resolution (default 100). Larger follows the
   /// handles more closely at the cost of rigidity where the cage cannot do both.
   double handleWeight = 100.0;
-  /// At most this many iterations per solve (default 30).
-  int maxIterations = 30;
+  /// At most this many iterations per solve (default 200; an iteration costs O(K·m + m²)).
+  int maxIterations = 200;
   /// Stop when an iteration lowers the energy by less than this fraction of it (default 1e-7).
   double relativeTolerance = 1e-7;
+  /// Anderson acceleration over this many previous iterations (default 5; 0: none), as
+  /// ArapOptions::accelerationWindow.
+  int accelerationWindow = 5;
   /// A handle vertex farther than this fraction of the model's bounding-box diagonal from its
   /// target after the solve is reported unreached (default 1e-3).
   double reachTolerance = 1e-3;

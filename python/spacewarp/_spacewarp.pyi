@@ -373,7 +373,8 @@ class CageArapEditor:
     its ARAP energy (`energy` as ArapEditor's) with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
     point, at least 64, at most n) plus soft handle constraints on `constrained` (k,) weighted by
     handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
-    below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
+    below relative_tolerance (Anderson acceleration over acceleration_window iterations, as
+    ArapEditor's); handles left farther than reach_tolerance x the model's diagonal are
     reported unreached. Building binds the model (stage "bind") and the subspace ("subspace");
     raises InvalidInput as LinearEditor does (and for options out of range, or matrices that would
     not fit in memory), SolverError when the subspace system cannot be factorised.
@@ -389,8 +390,9 @@ class CageArapEditor:
         energy: str = "spokes_and_rims",
         rotation_clusters: int = 0,
         handle_weight: float = 100.0,
-        max_iterations: int = 30,
+        max_iterations: int = 200,
         relative_tolerance: float = 1e-07,
+        acceleration_window: int = 5,
         reach_tolerance: float = 0.001,
         progress: _Progress = None,
     ) -> None: ...
@@ -1078,6 +1080,7 @@ def edit(
     weld_tolerance: float = 1e-09,
     energy: Optional[str] = None,
     max_iterations: Optional[int] = None,
+    acceleration_window: Optional[int] = None,
     relative_tolerance: Optional[float] = None,
     rotation_clusters: Optional[int] = None,
     handle_weight: Optional[float] = None,

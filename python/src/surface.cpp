@@ -541,32 +541,40 @@ positions (n, 3), triangles (t, 3)); the model follows through its binding, and 
 its ARAP energy (`energy` as ArapEditor's) with one rotation per cluster of vertices (rotation_clusters; 0: 4 per control
 point, at least 64, at most n) plus soft handle constraints on `constrained` (k,) weighted by
 handle_weight (relative to the ARAP stiffness). At most max_iterations iterations, stopping
-below relative_tolerance; handles left farther than reach_tolerance x the model's diagonal are
+below relative_tolerance (Anderson acceleration over acceleration_window iterations, as
+ArapEditor's); handles left farther than reach_tolerance x the model's diagonal are
 reported unreached. Building binds the model (stage "bind") and the subspace ("subspace");
 raises InvalidInput as LinearEditor does (and for options out of range, or matrices that would
 not fit in memory), SolverError when the subspace system cannot be factorised.)")
-      .def(
-          py::init([](py::handle positions, py::handle triangles, CoordinatesPtr coordinates,
-                      py::handle constrained, const std::string& energy,
-                      std::size_t rotationClusters, double handleWeight, int maxIterations,
-                      double relativeTolerance, double reachTolerance, const py::object& progress) {
-            const MeshInput mesh = toMesh(positions, triangles);
-            const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
-            const CageArapOptions options{arapEnergy(energy), rotationClusters,  handleWeight,
-                                          maxIterations,      relativeTolerance, reachTolerance};
-            std::shared_ptr<Editor> editor;
-            runCancellable(progress, [&](const ProgressCallback& callback) {
-              editor = std::make_shared<Editor>(CageArapEditor(mesh.positions.span, mesh.triangles,
-                                                               coordinates, c, options, callback));
-            });
-            return editor;
-          }),
-          "positions"_a, "triangles"_a, "coordinates"_a, "constrained"_a, py::kw_only(),
-          "energy"_a = arapEnergyName(defaults.energy),
-          "rotation_clusters"_a = defaults.rotationClusters,
-          "handle_weight"_a = defaults.handleWeight, "max_iterations"_a = defaults.maxIterations,
-          "relative_tolerance"_a = defaults.relativeTolerance,
-          "reach_tolerance"_a = defaults.reachTolerance, "progress"_a = py::none())
+      .def(py::init([](py::handle positions, py::handle triangles, CoordinatesPtr coordinates,
+                       py::handle constrained, const std::string& energy,
+                       std::size_t rotationClusters, double handleWeight, int maxIterations,
+                       double relativeTolerance, int accelerationWindow, double reachTolerance,
+                       const py::object& progress) {
+             const MeshInput mesh = toMesh(positions, triangles);
+             const std::vector<std::uint32_t> c = toIndices(constrained, "constrained");
+             CageArapOptions options;
+             options.energy = arapEnergy(energy);
+             options.rotationClusters = rotationClusters;
+             options.handleWeight = handleWeight;
+             options.maxIterations = maxIterations;
+             options.relativeTolerance = relativeTolerance;
+             options.accelerationWindow = accelerationWindow;
+             options.reachTolerance = reachTolerance;
+             std::shared_ptr<Editor> editor;
+             runCancellable(progress, [&](const ProgressCallback& callback) {
+               editor = std::make_shared<Editor>(CageArapEditor(mesh.positions.span, mesh.triangles,
+                                                                coordinates, c, options, callback));
+             });
+             return editor;
+           }),
+           "positions"_a, "triangles"_a, "coordinates"_a, "constrained"_a, py::kw_only(),
+           "energy"_a = arapEnergyName(defaults.energy),
+           "rotation_clusters"_a = defaults.rotationClusters,
+           "handle_weight"_a = defaults.handleWeight, "max_iterations"_a = defaults.maxIterations,
+           "relative_tolerance"_a = defaults.relativeTolerance,
+           "acceleration_window"_a = defaults.accelerationWindow,
+           "reach_tolerance"_a = defaults.reachTolerance, "progress"_a = py::none())
       .def(
           "solve",
           [](Editor& e, py::handle targets, const py::object& progress) {
@@ -623,6 +631,7 @@ SurfaceEditMethod editMethod(const std::string& name) {
 struct EditOptions {
   std::optional<std::string> energy;
   std::optional<int> maxIterations;
+  std::optional<int> accelerationWindow;
   std::optional<double> relativeTolerance;
   std::optional<std::size_t> rotationClusters;
   std::optional<double> handleWeight;
@@ -640,6 +649,7 @@ void checkApplicable(SurfaceEditMethod method, const std::string& name,
   };
   refuse(o.energy.has_value(), iterative, "energy");
   refuse(o.maxIterations.has_value(), iterative, "max_iterations");
+  refuse(o.accelerationWindow.has_value(), iterative, "acceleration_window");
   refuse(o.relativeTolerance.has_value(), iterative, "relative_tolerance");
   refuse(o.rotationClusters.has_value(), cage, "rotation_clusters");
   refuse(o.handleWeight.has_value(), cage, "handle_weight");
@@ -658,6 +668,8 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
   if (o.energy) options.arap.energy = options.cageArap.energy = arapEnergy(*o.energy);
   if (o.maxIterations)
     options.arap.maxIterations = options.cageArap.maxIterations = *o.maxIterations;
+  if (o.accelerationWindow)
+    options.arap.accelerationWindow = options.cageArap.accelerationWindow = *o.accelerationWindow;
   if (o.relativeTolerance)
     options.arap.relativeTolerance = options.cageArap.relativeTolerance = *o.relativeTolerance;
   options.cageArap.rotationClusters =
@@ -700,19 +712,20 @@ void bindEdit(py::module_& m) {
       "edit",
       [](const PolygonSoup& geometry, py::handle handles, const std::string& method,
          const CoordinatesPtr& coordinates, double weldTolerance, std::optional<std::string> energy,
-         std::optional<int> maxIterations, std::optional<double> relativeTolerance,
-         std::optional<std::size_t> rotationClusters, std::optional<double> handleWeight,
-         std::optional<double> reachTolerance, const py::object& progress) {
+         std::optional<int> maxIterations, std::optional<int> accelerationWindow,
+         std::optional<double> relativeTolerance, std::optional<std::size_t> rotationClusters,
+         std::optional<double> handleWeight, std::optional<double> reachTolerance,
+         const py::object& progress) {
         return editGeometry(geometry, handles, method, coordinates, weldTolerance,
-                            {energy, maxIterations, relativeTolerance, rotationClusters,
-                             handleWeight, reachTolerance},
+                            {energy, maxIterations, accelerationWindow, relativeTolerance,
+                             rotationClusters, handleWeight, reachTolerance},
                             progress);
       },
       "geometry"_a, "handles"_a, py::kw_only(), "method"_a = "arap", "coordinates"_a = nullptr,
       "weld_tolerance"_a = WeldOptions{}.relativeTolerance, "energy"_a = py::none(),
-      "max_iterations"_a = py::none(), "relative_tolerance"_a = py::none(),
-      "rotation_clusters"_a = py::none(), "handle_weight"_a = py::none(),
-      "reach_tolerance"_a = py::none(), "progress"_a = py::none(),
+      "max_iterations"_a = py::none(), "acceleration_window"_a = py::none(),
+      "relative_tolerance"_a = py::none(), "rotation_clusters"_a = py::none(),
+      "handle_weight"_a = py::none(), "reach_tolerance"_a = py::none(), "progress"_a = py::none(),
       R"(The Geometry edited by its surface, as `spacewarp edit` does: welded (weld_soup with
 weld_tolerance), the handle regions resolved (resolve_handles; vertex indices are the geometry's,
 as in the CLI's handles file) and carried to the mesh, solved by method "laplacian",
