@@ -29,10 +29,7 @@ from ._spacewarp import *  # noqa: F401,F403,E402  (the bindings are the API)
 from ._spacewarp import __version__  # noqa: F401,E402
 
 from . import _spacewarp as _ext  # noqa: E402
-from ._handles import load_handles  # noqa: E402
-
-__all__ = [name for name in dir(_ext) if not name.startswith("_")] + ["__version__", "testing",
-                                                                      "load_handles"]
+__all__ = [name for name in dir(_ext) if not name.startswith("_")] + ["__version__", "testing"]
 
 
 def __getattr__(name: str):

@@ -4,8 +4,7 @@ the extension's API (_spacewarp.pyi) and the property kit spacewarp.testing (typ
 from . import testing as testing
 from ._spacewarp import *
 from ._spacewarp import __version__ as __version__
-from ._handles import load_handles as load_handles
 from . import _spacewarp as _spacewarp
 
-__all__ = ["__version__", "testing", "load_handles"]
+__all__ = ["__version__", "testing"]
 __all__ += _spacewarp.__all__

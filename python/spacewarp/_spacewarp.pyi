@@ -69,6 +69,7 @@ __all__ = [
     "edit",
     "has_volumes",
     "interior_samples",
+    "load_handles",
     "load_rig",
     "mass_matrix_diagonal",
     "read",
@@ -1101,6 +1102,23 @@ def edit(
 
 def interior_samples(cage: Cage, count: int, *, seed: int = 1) -> _Float64Array:
     """`count` points (count, 3) uniformly inside the cage, deterministic for a seed."""
+
+
+def load_handles(path: _Path) -> list[dict[str, NDArray[Any]]]:
+    """The handle regions of a handles file, read as `spacewarp edit --handles` reads it (the same
+    C++ reader: the same checks and messages).
+
+    The file is JSON: {"handles": [REGION, ...]}, each region {"vertices": [i, ...], "matrix":
+    [[4 numbers] x 4 rows]} (the vertices move by that affine map, last row 0 0 0 1; the identity
+    pins them) or {"vertices": [i, ...], "targets": [[x, y, z], ...]} (one target per vertex, world
+    units). Indices are the model's vertices in file order.
+
+    Returns a list of dicts {"vertices": (k,) uint32, "matrix": (4, 4) float64} or {"vertices": (k,)
+    uint32, "targets": (k, 3) float64}, as edit() and resolve_handles() take them (which check the
+    indices against the model). Raises IoError when the file cannot be read or is not JSON (NaN,
+    duplicate keys), InvalidInput naming the file and the key path at fault
+    ("h.json: handles[2].vertices[5]: ...") for content that is not a handles file.
+    """
 
 
 def load_rig(path: _Path, *, progress: _Progress = None) -> Warp:

@@ -11,6 +11,7 @@
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/geometry.h>
+#include <spacewarp/rig/handles_file.h>
 #include <spacewarp/surface/arap.h>
 #include <spacewarp/surface/cage_arap.h>
 #include <spacewarp/surface/cotan_laplacian.h>
@@ -292,12 +293,43 @@ std::vector<HandleRegion> toRegions(py::handle regions, const std::string& name)
 }
 
 void bindHandles(py::module_& m) {
-  // load_handles (spacewarp/_handles.py) checks a file's regions here, so that a file and a list
-  // of dicts given to edit() are read by the same code and named the same way.
   m.def(
-      "_check_handle_regions",
-      [](py::handle regions, const std::string& name) { toRegions(regions, name); }, "regions"_a,
-      "name"_a, "Checks handle region dicts as edit() reads them; `name` starts the messages.");
+      "load_handles",
+      [](const py::object& path) {
+        const std::string file = py::str(py::module_::import("os").attr("fspath")(path));
+        std::vector<HandleRegion> regions;
+        withoutGil([&] { regions = readHandlesFile(file); });
+        py::list out;
+        for (const HandleRegion& r : regions) {
+          py::dict region;
+          region["vertices"] = indexArray<std::uint32_t>(r.vertices);
+          if (r.matrix) {
+            py::array_t<double> m({4, 4});
+            auto view = m.mutable_unchecked<2>();
+            for (int row = 0; row < 4; ++row)
+              for (int col = 0; col < 4; ++col) view(row, col) = (*r.matrix)[col][row];
+            region["matrix"] = m;
+          } else {
+            region["targets"] = copyPoints(r.targets);
+          }
+          out.append(region);
+        }
+        return out;
+      },
+      "path"_a,
+      R"(The handle regions of a handles file, read as `spacewarp edit --handles` reads it (the same
+C++ reader: the same checks and messages).
+
+The file is JSON: {"handles": [REGION, ...]}, each region {"vertices": [i, ...], "matrix":
+[[4 numbers] x 4 rows]} (the vertices move by that affine map, last row 0 0 0 1; the identity
+pins them) or {"vertices": [i, ...], "targets": [[x, y, z], ...]} (one target per vertex, world
+units). Indices are the model's vertices in file order.
+
+Returns a list of dicts {"vertices": (k,) uint32, "matrix": (4, 4) float64} or {"vertices": (k,)
+uint32, "targets": (k, 3) float64}, as edit() and resolve_handles() take them (which check the
+indices against the model). Raises IoError when the file cannot be read or is not JSON (NaN,
+duplicate keys), InvalidInput naming the file and the key path at fault
+("h.json: handles[2].vertices[5]: ...") for content that is not a handles file.)");
   m.def(
       "resolve_handles",
       [](py::handle regions, py::handle rest) {

@@ -10,8 +10,7 @@ it calls `handle` or `object` (array-likes, 3-vectors, callbacks) and the result
 should cover but do not is an error, so a new binding cannot slip into the stubs as `Any`
 unnoticed. --check compares the file with what would be written (exit 1 when it differs).
 
-__init__.pyi re-exports the extension's names, __version__, `testing` and the pure-Python
-load_handles (typed inline in _handles.py): the package's __all__.
+__init__.pyi re-exports the extension's names, __version__ and `testing`: the package's __all__.
 """
 
 from __future__ import annotations
@@ -36,7 +35,6 @@ the extension's API (_spacewarp.pyi) and the property kit spacewarp.testing (typ
 from . import testing as testing
 from ._spacewarp import *
 from ._spacewarp import __version__ as __version__
-from ._handles import load_handles as load_handles
 '''
 
 HEADER = '''"""Type stubs of spacewarp._spacewarp, written by python/tools/make_stubs.py from the
@@ -115,6 +113,8 @@ OVERRIDES = {
     "warp_volume.return": "list[dict[str, Any]]",
     "cotan_laplacian.return": "Any",
     "resolve_handles.regions": "Sequence[dict[str, Any]]",
+    "load_handles.path": "_Path",
+    "load_handles.return": "list[dict[str, NDArray[Any]]]",
     "resolve_handles.return": "tuple[NDArray[np.uint32], _Float64Array]",
     "edit.handles": "Sequence[dict[str, Any]]",
     "edit.coordinates": "Optional[Coordinates]",
@@ -387,7 +387,7 @@ def generate_package() -> str:
     # The extension's names come from its own stub's __all__ (type checkers follow `+=` of a
     # submodule's __all__), so the list is written once.
     return (PACKAGE_HEADER + "from . import _spacewarp as _spacewarp\n\n"
-            + '__all__ = ["__version__", "testing", "load_handles"]\n'
+            + '__all__ = ["__version__", "testing"]\n'
             + "__all__ += _spacewarp.__all__\n")
 
 

@@ -217,24 +217,26 @@ def test_load_handles_reads_the_cli_format(tmp_path, mesh):
     np.testing.assert_allclose(targets[:2], mesh.positions[:2] + [1, 2, 3])
 
 
+# The messages are those of `spacewarp edit --handles` (the same C++ reader).
 @pytest.mark.parametrize("content, error, match", [
     ('{"handles": [{"vertices": [0, 1, -2], "matrix": []}]}', spacewarp.InvalidInput,
-     r"h.json: handles\[0\].vertices\[2\]: index -2 is negative"),
+     r"h.json: handles\[0\].vertices\[2\]: must be a vertex index \(a whole number from 0\), "
+     "not -2"),
     ('{"handles": [{"vertices": [0], "targets": [[0, 0, 0]]}, {"vertices": [1, "a"], '
      '"targets": []}]}', spacewarp.InvalidInput,
-     r"handles\[1\].vertices\[1\]: 'a' is not an integer"),
+     r'handles\[1\].vertices\[1\]: must be a vertex index .*, not "a"'),
     ('{"handles": [{"vertices": [0], "matrix": [[1, 0, 0, 0]], "targets": [[0, 0, 0]]}]}',
-     spacewarp.InvalidInput, r"handles\[0\]: give 'matrix' or 'targets', not both"),
+     spacewarp.InvalidInput, r"handles\[0\]: has both 'matrix' and 'targets': give one"),
     ('{"handles": [{"vertices": [0], "matrix": [[1, 0, 0, 0]]}]}', spacewarp.InvalidInput,
-     r"handles\[0\].matrix must be 4 rows of 4 numbers"),
+     r"handles\[0\].matrix: must be an array of 4 rows of 4 numbers"),
     ('{"handles": [{"vertices": [0], "targets": [[0, 0]]}]}', spacewarp.InvalidInput,
-     r"handles\[0\].targets must have shape \(n, 3\), not \(1, 2\)"),
-    ('{"handles": []}', spacewarp.InvalidInput, "no handle region"),
-    ('{"handle": []}', spacewarp.InvalidInput, "unknown key 'handle'"),
+     r"handles\[0\].targets\[0\]: must be an array of 3 numbers"),
+    ('{"handles": []}', spacewarp.InvalidInput, "handles: must be a non-empty array"),
+    ('{"handle": []}', spacewarp.InvalidInput, r"handle: is not a key here \(the keys: handles\)"),
     ('{"handles": [{"vertices": [0], "targets": [[NaN, 0, 0]]}]}', spacewarp.IoError,
-     "not valid JSON: NaN"),
+     "h.json: not valid JSON: line 1, column 45"),
     ('{"handles": [', spacewarp.IoError, "h.json: not valid JSON: line 1"),
-    ('{"handles": [], "handles": []}', spacewarp.IoError, "'handles' is given twice"),
+    ('{"handles": [], "handles": []}', spacewarp.InvalidInput, "'handles' is given twice"),
 ])
 def test_load_handles_errors_name_the_file_and_key_path(tmp_path, content, error, match):
     path = tmp_path / "h.json"
@@ -244,7 +246,7 @@ def test_load_handles_errors_name_the_file_and_key_path(tmp_path, content, error
 
 
 def test_load_handles_of_a_missing_file_is_an_io_error(tmp_path):
-    with pytest.raises(spacewarp.IoError, match="missing.json: cannot read"):
+    with pytest.raises(spacewarp.IoError, match="missing.json: cannot open the handles file"):
         spacewarp.load_handles(tmp_path / "missing.json")
 
 
