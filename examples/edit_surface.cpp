@@ -15,6 +15,7 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/surface/arap.h>
+#include <spacewarp/surface/edit_mesh.h>
 #include <spacewarp/surface/handles.h>
 #include <spacewarp/surface/surface_mesh.h>
 
@@ -52,9 +53,8 @@ int main(int argc, char** argv) {
                 result.report.energies.front(), result.report.energies.back(),
                 result.report.converged ? "" : " (not converged)");
 
-    soup.positions = mesh.toSoupPositions(result.positions);
-    soup.normals.clear();  // stale after the edit; see the README for recomputing them
-    soup.cornerNormals = {};
+    // Back to the soup's own vertices, its normals recomputed (per vertex) or turned (per corner).
+    applyEdit(soup, mesh, result.positions);
     writeSoup(soup, argv[2]);  // atomic: a failure leaves no partial file
     return 0;
   } catch (const spacewarp::IoError& e) {

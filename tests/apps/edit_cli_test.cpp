@@ -126,6 +126,20 @@ class EditCliTest : public test::CliFixture {
     return worst;
   }
 
+  // deformed.obj (the bar deformed by a posed cage or lattice) equals `edited` to 1e-6 of the
+  // size, and the edit did something.
+  void expectDeformedAsEdited(const PolygonSoup& edited) {
+    const PolygonSoup deformed = readSoup(dir_ / "deformed.obj");
+    ASSERT_EQ(deformed.size(), edited.size());
+    double worst = 0.0, moved = 0.0;
+    for (std::size_t v = 0; v < edited.size(); ++v) {
+      worst = std::max(worst, glm::length(deformed.positions[v] - edited.positions[v]));
+      moved = std::max(moved, glm::length(edited.positions[v] - bar_.positions[v]));
+    }
+    EXPECT_LE(worst, 1e-6 * size_);
+    EXPECT_GT(moved, 0.1 * size_);
+  }
+
   // A failed run: exit `code`, one line containing `message`, no output (nor temporary) left.
   void expectFailure(const CliResult& r, int code, const std::string& message) {
     EXPECT_EQ(r.exitCode, code) << r.err;
@@ -302,15 +316,7 @@ TEST_F(EditCliTest, CageOutReproducesTheEditThroughDeform) {
                           " --pose " + (dir_ / "posed.obj").string() + " " +
                           (dir_ / "bar.obj").string() + " -o " + (dir_ / "deformed.obj").string());
   ASSERT_EQ(d.exitCode, 0) << d.err;
-  const PolygonSoup deformed = readSoup(dir_ / "deformed.obj");
-  ASSERT_EQ(deformed.size(), edited.size());
-  double worst = 0.0, moved = 0.0;
-  for (std::size_t v = 0; v < edited.size(); ++v) {
-    worst = std::max(worst, glm::length(deformed.positions[v] - edited.positions[v]));
-    moved = std::max(moved, glm::length(edited.positions[v] - bar_.positions[v]));
-  }
-  EXPECT_LE(worst, 1e-6 * size_);
-  EXPECT_GT(moved, 0.1 * size_);  // the edit did something
+  expectDeformedAsEdited(edited);
 }
 
 // A Bernstein lattice around the bar instead of a cage: a common translation is reproduced, and
@@ -347,15 +353,7 @@ TEST_F(EditCliTest, LatticeControlsTheSubspaceAndItsPoseReproducesTheEdit) {
   const CliResult d = run("deform --rig " + (dir_ / "posed.json").string() + " " +
                           (dir_ / "bar.obj").string() + " -o " + (dir_ / "deformed.obj").string());
   ASSERT_EQ(d.exitCode, 0) << d.err;
-  const PolygonSoup deformed = readSoup(dir_ / "deformed.obj");
-  ASSERT_EQ(deformed.size(), edited.size());
-  double worst = 0.0, moved = 0.0;
-  for (std::size_t v = 0; v < edited.size(); ++v) {
-    worst = std::max(worst, glm::length(deformed.positions[v] - edited.positions[v]));
-    moved = std::max(moved, glm::length(edited.positions[v] - bar_.positions[v]));
-  }
-  EXPECT_LE(worst, 1e-6 * size_);
-  EXPECT_GT(moved, 0.1 * size_);
+  expectDeformedAsEdited(edited);
   // --lattice replaces --cage and its options.
   fs::remove(dir_ / "out.obj");
   expectFailure(latticeEdit("--cage " + (dir_ / "cage.obj").string()), 2, "--lattice and --cage");
