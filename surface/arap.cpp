@@ -8,9 +8,9 @@
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
-#include <spacewarp/surface/detail/anderson.h>
 #include <spacewarp/surface/detail/arap_terms.h>
 #include <spacewarp/surface/detail/edit_problem.h>
+#include <spacewarp/surface/detail/local_global.h>
 
 namespace spacewarp {
 
@@ -189,49 +189,30 @@ ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Ve
     const std::int64_t s = p.slot[v];
     if (s < 0) result.positions[v] = Vec3(fixed(-s - 1, 0), fixed(-s - 1, 1), fixed(-s - 1, 2));
   }
-  ArapReport& report = result.report;
-  double e = im.localStep(result.positions);
-  report.energies.push_back(e);
+  const double e = im.localStep(result.positions);
   if (p.freeVertices.empty()) {
-    report.converged = true;
+    result.report.energies.push_back(e);
+    result.report.converged = true;
     return result;
   }
   ProgressTracker tracker(progress, "arap", static_cast<std::size_t>(im.options.maxIterations));
+  detail::LocalGlobalOptions o;
+  o.maxIterations = im.options.maxIterations;
+  o.relativeTolerance = im.options.relativeTolerance;
+  o.accelerationWindow = im.options.accelerationWindow;
   // The energy is zero to the rounding of its terms (a rigid motion): nothing left to move.
-  const double floor = 1e-14 * im.restSquaredTotal;
+  o.floor = 1e-14 * im.restSquaredTotal;
   std::vector<Mat3> keep;
-  detail::AndersonAccelerator anderson(static_cast<std::size_t>(im.options.accelerationWindow));
-  const auto flat = [](std::vector<Vec3>& x) {
-    return Eigen::Map<Eigen::VectorXd>(&x[0].x, static_cast<Eigen::Index>(3 * x.size()));
-  };
-  while (report.iterations < im.options.maxIterations && !report.converged) {
-    if (std::abs(e) <= floor) {
-      report.converged = true;
-      break;
-    }
-    keep = im.rotations;
-    std::vector<Vec3> plain = im.globalStep(fixed);
-    std::vector<Vec3> next = plain;
-    flat(next) = anderson.next(flat(result.positions), flat(plain));
-    double eNext = im.localStep(next);
-    if (!(eNext < e) && next != plain) {  // the extrapolation did not help: the plain step
-      anderson.reset();
-      next = std::move(plain);
-      eNext = im.localStep(next);
-    }
-    if (eNext > e) {  // rounding: the exact steps cannot raise it; keep the better state
-      im.rotations = keep;
-      report.converged = true;
-      break;
-    }
-    ++report.iterations;
-    report.converged = e - eNext <= im.options.relativeTolerance * std::abs(e);
-    result.positions = std::move(next);
-    e = eNext;
-    report.energies.push_back(e);
-    tracker.advance();
-  }
-  if (!report.converged && std::abs(e) <= floor) report.converged = true;
+  detail::LocalGlobalReport r = detail::minimiseLocalGlobal(
+      result.positions, e, o, tracker, [&](const std::vector<Vec3>& x) { return im.localStep(x); },
+      [&](const std::vector<Vec3>&) { return im.globalStep(fixed); }, [&] { keep = im.rotations; },
+      [&] { im.rotations = keep; },
+      [](std::vector<Vec3>& x) {
+        return Eigen::Map<Eigen::VectorXd>(&x[0].x, static_cast<Eigen::Index>(3 * x.size()));
+      });
+  result.report.energies = std::move(r.energies);
+  result.report.iterations = r.iterations;
+  result.report.converged = r.converged;
   return result;
 }
 

@@ -10,9 +10,9 @@
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
-#include <spacewarp/surface/detail/anderson.h>
 #include <spacewarp/surface/detail/arap_terms.h>
 #include <spacewarp/surface/detail/edit_problem.h>
+#include <spacewarp/surface/detail/local_global.h>
 #include <spacewarp/surface/detail/rotation_clusters.h>
 
 namespace spacewarp {
@@ -22,6 +22,17 @@ namespace {
 Eigen::Matrix3d transposeOf(const Mat3& m) { return toEigen(glm::transpose(m)); }
 
 }  // namespace
+
+void checkOptions(const CageArapOptions& o) {
+  if (!(o.handleWeight > 0.0) || !std::isfinite(o.handleWeight) || o.maxIterations < 0 ||
+      o.accelerationWindow < 0 || !(o.relativeTolerance >= 0.0) ||
+      !std::isfinite(o.relativeTolerance) || !(o.reachTolerance >= 0.0) ||
+      !std::isfinite(o.reachTolerance)) {
+    throw InvalidInput(
+        "CageArapEditor: handleWeight must be finite and > 0, maxIterations and "
+        "accelerationWindow >= 0, the tolerances finite and >= 0");
+  }
+}
 
 // Notation of the header: ΔP = P − P̄ (m × 3), W the model's weights (vertex columns), and per
 // term s = (a, b) of a vertex in cluster k the rest vector ē_s = x̄_a − x̄_b and weight w_s. Then
@@ -73,6 +84,63 @@ struct CageArapEditor::Impl {
            lambda * handleResidual.squaredNorm();
   }
 
+  // qt, the rest covariances and sums of the clusters' terms: everything the iterations need of
+  // the model's size, folded into 3K × m and m × 3 matrices.
+  void foldTerms(const detail::ArapTerms& terms, const std::vector<std::uint32_t>& cluster) {
+    // qt = G W with G (3K × n): rows 3k..3k+2 hold +w ē at column a and −w ē at column b of every
+    // term of a vertex in cluster k.
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(terms.vertexElements.size() * 18);
+    restCov.assign(clusters, Mat3(0.0));
+    for (std::size_t i = 0; i < terms.vertexCount(); ++i) {
+      const auto c = static_cast<int>(cluster[i]);
+      for (std::size_t k = terms.vertexOffsets[i]; k < terms.vertexOffsets[i + 1]; ++k) {
+        const detail::ArapElement& e = terms.elements[terms.vertexElements[k]];
+        for (int j = 0; j < e.count; ++j) {
+          const Vec3 we = e.weight[j] * e.rest[j];
+          for (int a = 0; a < 3; ++a) {
+            entries.emplace_back(3 * c + a, static_cast<int>(e.a[j]), we[a]);
+            entries.emplace_back(3 * c + a, static_cast<int>(e.b[j]), -we[a]);
+          }
+          restCov[cluster[i]] += glm::outerProduct(we, e.rest[j]);
+          restSquared += glm::dot(we, e.rest[j]);
+        }
+      }
+    }
+    Eigen::SparseMatrix<double, Eigen::RowMajor> g(3 * Eigen::Index(clusters), weights.rows());
+    g.setFromTriplets(entries.begin(), entries.end());
+    qt = g * weights;
+    restCross = Eigen::MatrixXd::Zero(weights.cols(), 3);
+    for (std::size_t c = 0; c < clusters; ++c)
+      restCross += qt.middleRows(3 * Eigen::Index(c), 3).transpose();
+  }
+
+  // The m × m matrices of the global step (ARAP stiffness, handle term, ridge), factorised.
+  void buildSystem(const detail::ArapTerms& terms, std::span<const Vec3> positions) {
+    stiffness = weights.transpose() * (terms.system * weights);
+    const auto h = static_cast<Eigen::Index>(constrained.size());
+    const auto m = weights.cols();
+    handleWeights.resize(h, m);
+    handleRest.resize(h, 3);
+    for (Eigen::Index r = 0; r < h; ++r) {
+      const std::uint32_t v = constrained[static_cast<std::size_t>(r)];
+      handleWeights.row(r) = weights.row(v);
+      handleRest.row(r) << positions[v].x, positions[v].y, positions[v].z;
+    }
+    handleGram = handleWeights.transpose() * handleWeights;
+    lambda = options.handleWeight * std::max(terms.totalWeight, 1e-300) / double(h);
+    Eigen::MatrixXd a = stiffness + lambda * handleGram;
+    // A tiny proximal ridge (towards the previous iterate) keeps control points the model does not
+    // feel (a lattice point outside its reach) where they are instead of making the system
+    // singular, without moving the minimiser.
+    mu = 1e-9 * a.trace() / double(m);
+    a.diagonal().array() += mu;
+    system.compute(a);
+    if (system.info() != Eigen::Success) {
+      throw SolverError("CageArapEditor: the subspace system is not positive definite");
+    }
+  }
+
   // The minimiser for the current rotations, with a proximal term μ |ΔP − current|² (see the
   // constructor): its fixed points are the energy's, and it lowers the energy as the exact step.
   Eigen::MatrixXd globalStep(const Eigen::MatrixXd& targets, const Eigen::MatrixXd& current) const {
@@ -95,14 +163,7 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
     : impl_(std::make_unique<Impl>()) {
   const std::string caller = "CageArapEditor";
   if (!coordinates) throw InvalidInput(caller + ": no coordinates");
-  if (!(options.handleWeight > 0.0) || !std::isfinite(options.handleWeight) ||
-      options.maxIterations < 0 || options.accelerationWindow < 0 ||
-      !(options.relativeTolerance >= 0.0) || !std::isfinite(options.relativeTolerance) ||
-      !(options.reachTolerance >= 0.0) || !std::isfinite(options.reachTolerance)) {
-    throw InvalidInput(caller +
-                       ": handleWeight must be finite and > 0, maxIterations and "
-                       "accelerationWindow >= 0, the tolerances finite and >= 0");
-  }
+  checkOptions(options);
   auto& im = *impl_;
   im.options = options;
   const detail::EditProblem problem =
@@ -140,56 +201,10 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
   im.rotations.assign(im.clusters, Mat3(1.0));
   tracker.advance();
 
-  // qt = G W with G (3K × n): rows 3k..3k+2 hold +w ē at column a and −w ē at column b of every
-  // term of a vertex in cluster k.
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(terms.vertexElements.size() * 18);
-  im.restCov.assign(im.clusters, Mat3(0.0));
-  for (std::size_t i = 0; i < terms.vertexCount(); ++i) {
-    const auto c = static_cast<int>(cluster[i]);
-    for (std::size_t k = terms.vertexOffsets[i]; k < terms.vertexOffsets[i + 1]; ++k) {
-      const detail::ArapElement& e = terms.elements[terms.vertexElements[k]];
-      for (int j = 0; j < e.count; ++j) {
-        const Vec3 we = e.weight[j] * e.rest[j];
-        for (int a = 0; a < 3; ++a) {
-          entries.emplace_back(3 * c + a, static_cast<int>(e.a[j]), we[a]);
-          entries.emplace_back(3 * c + a, static_cast<int>(e.b[j]), -we[a]);
-        }
-        im.restCov[cluster[i]] += glm::outerProduct(we, e.rest[j]);
-        im.restSquared += glm::dot(we, e.rest[j]);
-      }
-    }
-  }
-  const double totalWeight = terms.totalWeight;
-  Eigen::SparseMatrix<double, Eigen::RowMajor> g(3 * Eigen::Index(im.clusters), n);
-  g.setFromTriplets(entries.begin(), entries.end());
-  im.qt = g * im.weights;
-  im.restCross = Eigen::MatrixXd::Zero(m, 3);
-  for (std::size_t c = 0; c < im.clusters; ++c)
-    im.restCross += im.qt.middleRows(3 * Eigen::Index(c), 3).transpose();
+  im.foldTerms(terms, cluster);
   tracker.advance();
 
-  im.stiffness = im.weights.transpose() * (terms.system * im.weights);
-  const auto h = static_cast<Eigen::Index>(constrained.size());
-  im.handleWeights.resize(h, m);
-  im.handleRest.resize(h, 3);
-  for (Eigen::Index r = 0; r < h; ++r) {
-    const std::uint32_t v = constrained[static_cast<std::size_t>(r)];
-    im.handleWeights.row(r) = im.weights.row(v);
-    im.handleRest.row(r) << positions[v].x, positions[v].y, positions[v].z;
-  }
-  im.handleGram = im.handleWeights.transpose() * im.handleWeights;
-  im.lambda = options.handleWeight * std::max(totalWeight, 1e-300) / double(h);
-  Eigen::MatrixXd a = im.stiffness + im.lambda * im.handleGram;
-  // A tiny proximal ridge (towards the previous iterate) keeps control points the model does not
-  // feel (a lattice point outside its reach) where they are instead of making the system
-  // singular, without moving the minimiser.
-  im.mu = 1e-9 * a.trace() / double(m);
-  a.diagonal().array() += im.mu;
-  im.system.compute(a);
-  if (im.system.info() != Eigen::Success) {
-    throw SolverError(caller + ": the subspace system is not positive definite");
-  }
+  im.buildSystem(terms, positions);
   tracker.finish();
 }
 
@@ -258,42 +273,23 @@ CageArapResult CageArapEditor::solveFrom(std::span<const Vec3> startControlPoint
   Eigen::MatrixXd dp = detail::toMatrix(startControlPoints) - detail::toMatrix(im.restControls);
   CageArapResult result;
   CageArapReport& report = result.report;
-  double e = im.localStep(dp, t);
-  report.energies.push_back(e);
-  // Rounding level of the expanded energy: a few ulps of its largest terms.
-  const double scale = 2.0 * im.restSquared + im.lambda * (im.handleRest - t).squaredNorm();
-  const double floor = 1e-13 * scale;
   ProgressTracker tracker(progress, "cage-arap",
                           static_cast<std::size_t>(im.options.maxIterations));
+  detail::LocalGlobalOptions o;
+  o.maxIterations = im.options.maxIterations;
+  o.relativeTolerance = im.options.relativeTolerance;
+  o.accelerationWindow = im.options.accelerationWindow;
+  // Rounding level of the expanded energy: a few ulps of its largest terms.
+  o.floor = 1e-13 * (2.0 * im.restSquared + im.lambda * (im.handleRest - t).squaredNorm());
   std::vector<Mat3> keep;
-  detail::AndersonAccelerator anderson(static_cast<std::size_t>(im.options.accelerationWindow));
-  while (report.iterations < im.options.maxIterations && !report.converged) {
-    if (std::abs(e) <= floor) {
-      report.converged = true;
-      break;
-    }
-    keep = im.rotations;
-    const Eigen::MatrixXd plain = im.globalStep(t, dp);
-    Eigen::MatrixXd next = plain;
-    next.reshaped() = anderson.next(dp.reshaped(), plain.reshaped());
-    double eNext = im.localStep(next, t);
-    if (!(eNext < e) && next != plain) {  // the extrapolation did not help: the plain step
-      anderson.reset();
-      next = plain;
-      eNext = im.localStep(next, t);
-    }
-    if (eNext > e) {  // rounding: the exact steps cannot raise it
-      im.rotations = keep;
-      report.converged = true;
-      break;
-    }
-    ++report.iterations;
-    report.converged = e - eNext <= im.options.relativeTolerance * std::abs(e) + floor;
-    dp = std::move(next);
-    e = eNext;
-    report.energies.push_back(e);
-    tracker.advance();
-  }
+  detail::LocalGlobalReport r = detail::minimiseLocalGlobal(
+      dp, im.localStep(dp, t), o, tracker,
+      [&](const Eigen::MatrixXd& x) { return im.localStep(x, t); },
+      [&](const Eigen::MatrixXd& x) { return im.globalStep(t, x); }, [&] { keep = im.rotations; },
+      [&] { im.rotations = keep; }, [](Eigen::MatrixXd& x) { return x.reshaped(); });
+  report.energies = std::move(r.energies);
+  report.iterations = r.iterations;
+  report.converged = r.converged;
   const Eigen::MatrixXd x = detail::toMatrix(im.restModel) + im.weights * dp;
   result.positions.resize(im.restModel.size());
   for (std::size_t v = 0; v < result.positions.size(); ++v) {
