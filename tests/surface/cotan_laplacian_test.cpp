@@ -6,6 +6,7 @@
 
 #include <spacewarp/core/errors.h>
 
+#include "coords/coords_test_shapes.h"
 #include "surface/surface_test_shapes.h"
 
 namespace spacewarp {
@@ -70,6 +71,29 @@ TEST(CotanLaplacian, IsDimensionlessAndMassScalesWithArea) {
   EXPECT_NEAR(m1.sum(), 1.0, 1e-12);
   EXPECT_NEAR(m2.sum(), 1e8, 1e-1);
   EXPECT_GT(m1.minCoeff(), 0.0);
+}
+
+// On the unit sphere the Laplace-Beltrami operator of the position is the mean curvature
+// normal: Δx = −2 x, so M⁻¹ L x → 2 x as the sphere is refined; and the masses sum to 4π.
+TEST(CotanLaplacian, ConvergesToTheMeanCurvatureNormalOfASphere) {
+  double previous = 1.0;
+  for (int levels : {3, 4}) {
+    const SurfaceMesh mesh = weldSoup(test::icosphere(levels));
+    const auto l = cotanLaplacian(mesh.positions, mesh.triangles);
+    const Eigen::VectorXd mass = massMatrixDiagonal(mesh.positions, mesh.triangles);
+    const Eigen::MatrixXd x = [&] {
+      Eigen::MatrixXd m(Eigen::Index(mesh.vertexCount()), 3);
+      for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
+        m.row(Eigen::Index(v)) << mesh.positions[v].x, mesh.positions[v].y, mesh.positions[v].z;
+      return m;
+    }();
+    const Eigen::MatrixXd hn = mass.cwiseInverse().asDiagonal() * (l * x);
+    const double error = (hn - 2.0 * x).rowwise().norm().maxCoeff() / 2.0;
+    EXPECT_LT(error, 0.02) << "levels " << levels;
+    EXPECT_LT(error, previous);
+    previous = error;
+    EXPECT_NEAR(mass.sum(), 4.0 * M_PI, 0.02 * 4.0 * M_PI / std::pow(4.0, levels - 3));
+  }
 }
 
 TEST(MassMatrix, GivesAnObtuseTrianglesHalfAreaToTheObtuseCorner) {
