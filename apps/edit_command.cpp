@@ -127,11 +127,16 @@ void warnAboutTheMesh(const std::string& model, const SurfaceMesh& mesh,
                  "; the methods still run, but the result there may crease");
   }
   if (const std::size_t dropped = report.droppedPolygons.size(); dropped > 0) {
-    context.warn(model + ": " + counted(dropped, "face") +
-                 " without area or collapsed by welding (the first: face " +
-                 std::to_string(report.droppedPolygons.front()) + ") " +
-                 (dropped == 1 ? "takes" : "take") +
-                 " no part in the edit; written, moved with their vertices");
+    context.warn(
+        model + ": " + counted(dropped, "face") + " collapsed by welding (the first: face " +
+        std::to_string(report.droppedPolygons.front()) + ") " + (dropped == 1 ? "takes" : "take") +
+        " no part in the edit; written, moved with their vertices");
+  }
+  if (const std::size_t flat = report.degenerateTriangles.size(); flat > 0) {
+    context.warn(model + ": " + counted(flat, "triangle") + " without area (the first: of face " +
+                 std::to_string(mesh.triangleToPolygon[report.degenerateTriangles.front()]) + ") " +
+                 (flat == 1 ? "takes" : "take") +
+                 " no part in the edit; a vertex only on such triangles stays in place");
   }
 }
 
@@ -357,6 +362,22 @@ const CLI::Validator kFinitePositive(
     },
     "NUMBER > 0");
 
+const CLI::Validator kHandleWeight(
+    [](std::string& value) -> std::string {
+      double t = 0.0;
+      if (CLI::detail::lexical_cast(value, t) && t > 0.0 && t <= 1e6) return {};
+      return "'" + value + "' is not a number > 0 and at most 1e6";
+    },
+    "NUMBER in (0, 1e6]");
+
+const CLI::Validator kCount(
+    [](std::string& value) -> std::string {
+      long long n = 0;
+      if (CLI::detail::lexical_cast(value, n) && n >= 0) return {};
+      return "'" + value + "' is not a whole number >= 0";
+    },
+    "COUNT");
+
 }  // namespace
 
 Command addEditCommand(CLI::App& app, const CliContext& context) {
@@ -434,12 +455,13 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
                     "points, for `spacewarp deform --rig`");
     cmd->add_option("--clusters", args->clusters,
                     "cage-arap: rotation clusters (default 0: 4 per cage vertex, at least 64, at "
-                    "most the vertex count)");
+                    "most the vertex count)")
+        ->check(kCount);
     std::snprintf(text, sizeof text,
                   "cage-arap: weight of the handles against rigidity, relative to the mesh's "
-                  "stiffness (default %g)",
+                  "stiffness (default %g, at most 1e6)",
                   cageArap.handleWeight);
-    cmd->add_option("--handle-weight", args->handleWeight, text)->check(kFinitePositive);
+    cmd->add_option("--handle-weight", args->handleWeight, text)->check(kHandleWeight);
     std::snprintf(text, sizeof text,
                   "cage-arap: warn about handle vertices farther than this × the model's "
                   "bounding-box diagonal from their targets (default %g)",

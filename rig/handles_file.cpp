@@ -79,9 +79,10 @@ class HandlesReader {
     for (std::size_t k = 0; k < list.size(); ++k) {
       const std::string entry = at + ".vertices[" + std::to_string(k) + "]";
       const json& v = list[k];
-      if (!v.is_number_unsigned())  // negative and fractional numbers are not
+      // Whole numbers from 0 (-0 is one too); negative and fractional numbers are not.
+      if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<std::int64_t>() == 0))
         fail(entry, "must be a vertex index (a whole number from 0), not " + v.dump());
-      const auto index = v.get<std::uint64_t>();
+      const auto index = v.is_number_unsigned() ? v.get<std::uint64_t>() : std::uint64_t{0};
       if (index > std::numeric_limits<std::uint32_t>::max())
         fail(entry, std::to_string(index) + " is beyond the largest vertex index");
       if (index >= vertexCount_)

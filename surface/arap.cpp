@@ -1,5 +1,6 @@
 #include <spacewarp/surface/arap.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include <tbb/blocked_range.h>
@@ -8,6 +9,7 @@
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/detail/sparse_cholesky.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
 #include <spacewarp/surface/detail/arap_terms.h>
 #include <spacewarp/surface/detail/edit_problem.h>
 #include <spacewarp/surface/detail/local_global.h>
@@ -79,7 +81,18 @@ struct ArapEditor::Impl {
     });
     double total = 0.0;
     for (double e : vertexEnergy) total += e;
-    return total;
+    return std::max(total, 0.0);  // non-negative; below 0 only by rounding
+  }
+
+  // The steps run relative to the rest box's centre, so that coordinates far from the origin
+  // keep their digits through the global step (whose unknowns are then of the model's size).
+  Vec3 origin{0.0};
+
+  // The fixed vertices' positions relative to `origin`.
+  Eigen::MatrixXd relativeFixed(std::span<const Vec3> targets, const std::string& caller) const {
+    Eigen::MatrixXd fixed = problem.fixedPositions(targets, caller);
+    fixed.rowwise() -= Eigen::RowVector3d(origin.x, origin.y, origin.z);
+    return fixed;
   }
 
   // Positions minimising the energy for the current rotations, the fixed vertices at `fixed`.
@@ -121,6 +134,8 @@ ArapEditor::ArapEditor(std::span<const Vec3> positions,
   auto& im = *impl_;
   im.options = options;
   im.problem = detail::makeEditProblem(positions, triangles, constrained, "ArapEditor");
+  const BoundingBox box = boundingBox(positions);
+  im.origin = 0.5 * (box.min + box.max);
   im.terms = detail::makeArapTerms(options.energy, positions, triangles, im.problem.laplacian);
   im.freeFixed = im.problem.freeFixedBlock(im.terms.system);
   im.rotations.assign(positions.size(), Mat3(1.0));
@@ -147,11 +162,12 @@ ArapEditor& ArapEditor::operator=(ArapEditor&&) noexcept = default;
 ArapResult ArapEditor::solve(std::span<const Vec3> targets, const ProgressCallback& progress) {
   auto& im = *impl_;
   const auto& p = im.problem;
-  const Eigen::MatrixXd fixed = p.fixedPositions(targets, "ArapEditor::solve");
+  const Eigen::MatrixXd fixed = im.relativeFixed(targets, "ArapEditor::solve");
   // Start 1: Laplacian editing (harmonic displacement) — the rotations all the identity.
   std::fill(im.rotations.begin(), im.rotations.end(), Mat3(1.0));
   std::vector<Vec3> laplacian =
       p.freeVertices.empty() ? p.assemble(Eigen::MatrixXd(0, 3), fixed) : im.globalStep(fixed);
+  for (Vec3& x : laplacian) x += im.origin;
   // Start 2: the handles' common rigid motion, exact when there is one.
   const auto fit = detail::rigidFit(
       [&] {
@@ -174,7 +190,8 @@ ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Ve
                                  const ProgressCallback& progress) {
   auto& im = *impl_;
   const auto& p = im.problem;
-  const Eigen::MatrixXd fixed = p.fixedPositions(targets, "ArapEditor::solveFrom");
+  const Vec3 origin = im.origin;
+  const Eigen::MatrixXd fixed = im.relativeFixed(targets, "ArapEditor::solveFrom");
   if (start.size() != p.rest.size()) {
     throw InvalidInput("ArapEditor::solveFrom: " + std::to_string(start.size()) +
                        " start positions for " + std::to_string(p.rest.size()) + " vertices");
@@ -187,12 +204,23 @@ ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Ve
                          " is not finite");
     }
     const std::int64_t s = p.slot[v];
-    if (s < 0) result.positions[v] = Vec3(fixed(-s - 1, 0), fixed(-s - 1, 1), fixed(-s - 1, 2));
+    result.positions[v] =
+        s < 0 ? Vec3(fixed(-s - 1, 0), fixed(-s - 1, 1), fixed(-s - 1, 2)) : start[v] - origin;
   }
+  const auto toWorld = [&] {
+    for (std::size_t v = 0; v < result.positions.size(); ++v) {
+      const std::int64_t s = p.slot[v];
+      // Fixed vertices exactly at their targets (or rest), not at (target − origin) + origin.
+      result.positions[v] = s >= 0 ? result.positions[v] + origin
+                            : -s - 1 < std::int64_t(p.constrained.size()) ? targets[-s - 1]
+                                                                          : p.rest[v];
+    }
+  };
   const double e = im.localStep(result.positions);
   if (p.freeVertices.empty()) {
     result.report.energies.push_back(e);
     result.report.converged = true;
+    toWorld();
     return result;
   }
   ProgressTracker tracker(progress, "arap", static_cast<std::size_t>(im.options.maxIterations));
@@ -213,6 +241,7 @@ ArapResult ArapEditor::solveFrom(std::span<const Vec3> start, std::span<const Ve
   result.report.energies = std::move(r.energies);
   result.report.iterations = r.iterations;
   result.report.converged = r.converged;
+  toWorld();
   return result;
 }
 

@@ -24,12 +24,12 @@ Eigen::Matrix3d transposeOf(const Mat3& m) { return toEigen(glm::transpose(m)); 
 }  // namespace
 
 void checkOptions(const CageArapOptions& o) {
-  if (!(o.handleWeight > 0.0) || !std::isfinite(o.handleWeight) || o.maxIterations < 0 ||
+  if (!(o.handleWeight > 0.0) || !(o.handleWeight <= 1e6) || o.maxIterations < 0 ||
       o.accelerationWindow < 0 || !(o.relativeTolerance >= 0.0) ||
       !std::isfinite(o.relativeTolerance) || !(o.reachTolerance >= 0.0) ||
       !std::isfinite(o.reachTolerance)) {
     throw InvalidInput(
-        "CageArapEditor: handleWeight must be finite and > 0, maxIterations and "
+        "CageArapEditor: handleWeight must be > 0 and at most 1e6, maxIterations and "
         "accelerationWindow >= 0, the tolerances finite and >= 0");
   }
 }
@@ -79,37 +79,45 @@ struct CageArapEditor::Impl {
     double trace = 0.0;
     for (double g : gain) trace += g;
     const Eigen::MatrixXd handleResidual = handleRest + handleWeights * dp - targets;
-    return 2.0 * restSquared + 2.0 * (dp.cwiseProduct(restCross)).sum() +
-           (dp.cwiseProduct(stiffness * dp)).sum() - 2.0 * trace +
-           lambda * handleResidual.squaredNorm();
+    // Non-negative; below 0 only by the rounding of the expanded sum.
+    return std::max(0.0, 2.0 * restSquared + 2.0 * (dp.cwiseProduct(restCross)).sum() +
+                             (dp.cwiseProduct(stiffness * dp)).sum() - 2.0 * trace +
+                             lambda * handleResidual.squaredNorm());
   }
 
   // qt, the rest covariances and sums of the clusters' terms: everything the iterations need of
   // the model's size, folded into 3K × m and m × 3 matrices.
   void foldTerms(const detail::ArapTerms& terms, const std::vector<std::uint32_t>& cluster) {
-    // qt = G W with G (3K × n): rows 3k..3k+2 hold +w ē at column a and −w ē at column b of every
-    // term of a vertex in cluster k.
-    std::vector<Eigen::Triplet<double>> entries;
-    entries.reserve(terms.vertexElements.size() * 18);
+    // qt's rows 3k..3k+2 = Σ over the terms of the vertices of cluster k of w ē (W_a − W_b):
+    // per vertex, its terms' coefficients gathered by model vertex (a few each), then one rank-1
+    // update of the cluster's block per model vertex. Memory O(K·m), whatever the model's size.
+    qt = Eigen::MatrixXd::Zero(3 * Eigen::Index(clusters), weights.cols());
     restCov.assign(clusters, Mat3(0.0));
+    std::vector<std::pair<std::uint32_t, Vec3>> coefficients;
+    const auto add = [&](std::uint32_t v, const Vec3& c) {
+      for (auto& [u, sum] : coefficients)
+        if (u == v) {
+          sum += c;
+          return;
+        }
+      coefficients.emplace_back(v, c);
+    };
     for (std::size_t i = 0; i < terms.vertexCount(); ++i) {
-      const auto c = static_cast<int>(cluster[i]);
+      coefficients.clear();
       for (std::size_t k = terms.vertexOffsets[i]; k < terms.vertexOffsets[i + 1]; ++k) {
         const detail::ArapElement& e = terms.elements[terms.vertexElements[k]];
         for (int j = 0; j < e.count; ++j) {
           const Vec3 we = e.weight[j] * e.rest[j];
-          for (int a = 0; a < 3; ++a) {
-            entries.emplace_back(3 * c + a, static_cast<int>(e.a[j]), we[a]);
-            entries.emplace_back(3 * c + a, static_cast<int>(e.b[j]), -we[a]);
-          }
+          add(e.a[j], we);
+          add(e.b[j], -we);
           restCov[cluster[i]] += glm::outerProduct(we, e.rest[j]);
           restSquared += glm::dot(we, e.rest[j]);
         }
       }
+      auto block = qt.middleRows(3 * Eigen::Index(cluster[i]), 3);
+      for (const auto& [v, c] : coefficients)
+        block.noalias() += Eigen::Vector3d(c.x, c.y, c.z) * weights.row(v);
     }
-    Eigen::SparseMatrix<double, Eigen::RowMajor> g(3 * Eigen::Index(clusters), weights.rows());
-    g.setFromTriplets(entries.begin(), entries.end());
-    qt = g * weights;
     restCross = Eigen::MatrixXd::Zero(weights.cols(), 3);
     for (std::size_t c = 0; c < clusters; ++c)
       restCross += qt.middleRows(3 * Eigen::Index(c), 3).transpose();
@@ -180,11 +188,11 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
   if (k == 0) k = std::max<std::size_t>(64, 4 * im.m);
   k = std::min<std::size_t>(k, positions.size());
   // The binding and its vertex block (n × columns, n × m), qt (3K × m), the m × m matrices, the
-  // term matrix G (about 18 terms per vertex, 6 entries each).
+  // ARAP terms (one element of about 150 bytes per triangle).
   const double columns = double(coordinates->columnCount());
   detail::checkMemory(8.0 * (double(n) * (columns + double(m)) + 3.0 * double(k) * double(m) +
                              4.0 * double(m) * double(m)) +
-                          16.0 * 108.0 * double(n),
+                          400.0 * double(n),
                       caller + ": " + std::to_string(n) + " model vertices × " + std::to_string(m) +
                           " control points (" + std::to_string(k) + " rotation clusters)");
   {

@@ -41,7 +41,9 @@ struct CageArapOptions {
   std::size_t rotationClusters = 0;
   /// λ relative to the ARAP stiffness: the handle term's weight is handleWeight × (the sum of
   /// the energy's edge weights, Σ_i Σ_{T(i)} w) / (the number of handle vertices), so its
-  /// meaning does not depend on the mesh's size or resolution (default 100). Larger follows the
+  /// meaning does not depend on the mesh's size or resolution (default 100, at most 1e6: beyond,
+  /// the handle term swamps the ARAP energy in the system's rounding and the iteration stalls
+  /// far from the minimum). Larger follows the
   /// handles more closely at the cost of rigidity where the cage cannot do both.
   double handleWeight = 100.0;
   /// At most this many iterations per solve (default 200; an iteration costs O(K·m + m²)).

@@ -172,6 +172,12 @@ SurfaceMesh weldSoup(const PolygonSoup& soup, const WeldOptions& options) {
     if (kept == 0) mesh.report.droppedPolygons.push_back(p);
   }
   reportEdgesAndFans(mesh);
+  for (std::uint32_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    if (detail::isDegenerateTriangle(mesh.positions[tri[0]], mesh.positions[tri[1]],
+                                     mesh.positions[tri[2]]))
+      mesh.report.degenerateTriangles.push_back(t);
+  }
   mesh.vertexComponent =
       detail::vertexComponents(mesh.positions, mesh.triangles, mesh.report.componentCount);
   std::vector<bool> used(mesh.positions.size(), false);

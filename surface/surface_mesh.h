@@ -29,9 +29,13 @@ struct MeshReport {
   std::vector<std::array<std::uint32_t, 2>> nonManifoldEdges;
   /// Vertices whose triangles do not form one fan (two cones touching at a point).
   std::vector<std::uint32_t> nonManifoldVertices;
-  /// Polygons of the soup that welding collapsed (two corners became one vertex) or that have
-  /// no area: they are not in the mesh. Soup polygon indices.
+  /// Polygons of the soup that welding collapsed (every triangle of their fan had two corners
+  /// welded into one vertex): they are not in the mesh. Soup polygon indices.
   std::vector<std::uint32_t> droppedPolygons;
+  /// Mesh triangles without area (twice the area at most 1e-12 of the longest edge squared:
+  /// collinear corners). They are in the mesh but take no part in the surface energies, so a
+  /// vertex on such triangles only follows nothing.
+  std::vector<std::uint32_t> degenerateTriangles;
   /// Mesh vertices that no triangle uses (points of the soup outside any polygon).
   std::vector<std::uint32_t> isolatedVertices;
   /// Connected components of the triangles (isolated vertices not counted).

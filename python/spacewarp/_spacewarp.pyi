@@ -843,8 +843,12 @@ class MeshReport:
 
     @property
     def dropped_polygons(self) -> NDArray[np.uint32]:
-        """(k,) uint32: soup polygons that welding collapsed or that have no area (not in the
-        mesh).
+        """(k,) uint32: soup polygons that welding collapsed (not in the mesh)."""
+
+    @property
+    def degenerate_triangles(self) -> NDArray[np.uint32]:
+        """(k,) uint32: mesh triangles without area (collinear corners): in the mesh, but in no
+        energy.
         """
 
     @property

@@ -189,7 +189,8 @@ std::vector<std::uint32_t> toIndices(py::handle object, const std::string& name,
                        std::string(py::str(py::type::of(object).attr("__name__"))));
   for (py::handle item : object) {
     const std::size_t k = indices.size();
-    PyObject* integer = PyNumber_Index(item.ptr());
+    // True and False are ints to Python, but never meant as vertex 1 and 0.
+    PyObject* integer = PyBool_Check(item.ptr()) ? nullptr : PyNumber_Index(item.ptr());
     if (integer == nullptr) {
       PyErr_Clear();
       throw InvalidInput(name + "[" + std::to_string(k) + "]: " + std::string(py::repr(item)) +

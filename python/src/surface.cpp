@@ -95,8 +95,14 @@ indices; polygon indices of the soup). Arrays are read-only views.)")
           [](py::object self) {
             return vectorView(self.cast<const MeshReport&>().droppedPolygons, self);
           },
-          "(k,) uint32: soup polygons that welding collapsed or that have no area (not in the "
-          "mesh).")
+          "(k,) uint32: soup polygons that welding collapsed (not in the mesh).")
+      .def_property_readonly(
+          "degenerate_triangles",
+          [](py::object self) {
+            return vectorView(self.cast<const MeshReport&>().degenerateTriangles, self);
+          },
+          "(k,) uint32: mesh triangles without area (collinear corners): in the mesh, but in no "
+          "energy.")
       .def_property_readonly(
           "isolated_vertices",
           [](py::object self) {
@@ -724,6 +730,22 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
       warnings.push_back("ARAP did not converge in " + std::to_string(r->iterations) +
                          " iterations (energy " + shortNumber(r->energies.front()) + " -> " +
                          shortNumber(r->energies.back()) + ")");
+    if (const auto& r = edit.cageArapReport; r && !r->converged)
+      warnings.push_back("cage-subspace ARAP did not converge in " + std::to_string(r->iterations) +
+                         " iterations (energy " + shortNumber(r->energies.front()) + " -> " +
+                         shortNumber(r->energies.back()) + ")");
+    const MeshReport& report = mesh.report;
+    if (!report.nonManifoldEdges.empty() || !report.nonManifoldVertices.empty())
+      warnings.push_back(std::to_string(report.nonManifoldEdges.size()) +
+                         " non-manifold edges and " +
+                         std::to_string(report.nonManifoldVertices.size()) +
+                         " non-manifold vertices: the methods still run, but the result there "
+                         "may crease");
+    if (!report.droppedPolygons.empty() || !report.degenerateTriangles.empty())
+      warnings.push_back(std::to_string(report.droppedPolygons.size()) +
+                         " polygons collapsed by welding and " +
+                         std::to_string(report.degenerateTriangles.size()) +
+                         " triangles without area take no part in the edit");
     if (const auto& r = edit.cageArapReport; r && !r->unreached.empty())
       warnings.push_back(std::to_string(r->unreached.size()) +
                          " handle vertices are left farther than reach_tolerance from their "

@@ -8,7 +8,10 @@ namespace spacewarp::detail {
 
 namespace {
 
-// One element per edge of the Laplacian (upper triangle), owned by both end points.
+// One element per edge of the Laplacian (upper triangle), owned by both end points. A negative
+// weight (an edge whose opposite angles sum past 180°) would make the energy unbounded below:
+// stretching that edge would lower it, so not even the rest pose is a minimum. It is replaced by
+// 1e-3 of its magnitude, which keeps the energy non-negative and the edge in the system.
 void addSpokes(ArapTerms& t, std::span<const Vec3> rest, const Eigen::SparseMatrix<double>& l) {
   for (Eigen::Index j = 0; j < l.outerSize(); ++j)
     for (Eigen::SparseMatrix<double>::InnerIterator it(l, j); it; ++it) {
@@ -17,7 +20,7 @@ void addSpokes(ArapTerms& t, std::span<const Vec3> rest, const Eigen::SparseMatr
       e.count = 1;
       e.a[0] = static_cast<std::uint32_t>(it.row());
       e.b[0] = static_cast<std::uint32_t>(j);
-      e.weight[0] = -it.value();
+      e.weight[0] = -it.value() > 0.0 ? -it.value() : 1e-3 * it.value();
       e.rest[0] = rest[e.a[0]] - rest[e.b[0]];
       e.owner = {e.a[0], e.b[0], 0};
       e.ownerCount = 2;

@@ -399,19 +399,21 @@ TEST_F(EditCliTest, UnreachedPartsStayWithAWarning) {
 // What the surface methods should know about a model is a warning each, not an error; a bad
 // handles file on such a model is still one line.
 TEST_F(EditCliTest, MeshTroubleIsWarnedNotFatal) {
-  // Three triangles on the edge 0-1, a face collapsed by welding, two points in no face.
+  // Three triangles on the edge 0-1, a face collapsed by welding, two points in no face, a
+  // face without area (collinear corners; vertex 9 only on it).
   write("bar.obj",
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 0 -1 0\nv 5 5 5\nv 1 1 1\nv 0 1 0\n"
-        "f 1 2 3\nf 1 2 4\nf 1 2 5\nf 3 8 1\n");
+        "v 2 0 0\nv 3 0 0\nf 1 2 3\nf 1 2 4\nf 1 2 5\nf 3 8 1\nf 2 9 10\n");
   write("handles.json", R"({"handles": [{"vertices": [0, 1, 3], "targets": [[0, 0, 0], )"
                         R"([1, 0, 0], [0, 0, 1.2]]}]})");
   CliResult r = edit("laplacian");
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_THAT(r.err, HasSubstr("1 non-manifold edge (more than two faces), the first between "
                                "vertices 0 and 1"));
-  EXPECT_THAT(r.err, HasSubstr("1 face without area or collapsed by welding (the first: face 3)"));
+  EXPECT_THAT(r.err, HasSubstr("1 face collapsed by welding (the first: face 3)"));
+  EXPECT_THAT(r.err, HasSubstr("1 triangle without area (the first: of face 4)"));
   EXPECT_THAT(r.err, HasSubstr("2 isolated vertices; vertices 5, 6"));
-  EXPECT_EQ(readSoup(dir_ / "out.obj").polygonCount(), 4u);
+  EXPECT_EQ(readSoup(dir_ / "out.obj").polygonCount(), 5u);
   fs::remove(dir_ / "out.obj");
   write("handles.json", R"({"handles": [{"vertices": [0, 1, 30], "targets": []}]})");
   expectFailure(edit("laplacian"), 3, "handles[0].vertices[2]: 30 is out of range");

@@ -109,6 +109,19 @@ TEST(ArapEditor, SpokesAndRimsEnergyStaysNonNegativeOnObtuseTriangles) {
   const ArapResult r = editor.solve(targets);
   EXPECT_TRUE(nonIncreasing(r.report.energies));
   EXPECT_GE(r.report.energies.back(), 0.0);
+  // Both energies keep the rest pose when every handle stays: the spokes energy has its negative
+  // weights replaced, so the rest pose is its minimum too.
+  for (ArapEnergy energy : {ArapEnergy::SpokesAndRims, ArapEnergy::Spokes}) {
+    ArapEditor still(mesh.positions, mesh.triangles, handles,
+                     {.energy = energy, .maxIterations = 2000, .relativeTolerance = 1e-14});
+    std::vector<Vec3> shaken = mesh.positions;  // from a start off the rest pose
+    for (std::size_t v = 0; v < shaken.size(); ++v) shaken[v].z += 0.05 * std::sin(3.0 * double(v));
+    const ArapResult rest = still.solveFrom(
+        shaken, test::applied([](const Vec3& x) { return x; }, mesh.positions, handles));
+    EXPECT_LT(test::maxDistance(rest.positions, mesh.positions), 1e-4 * n)
+        << (energy == ArapEnergy::Spokes ? "spokes" : "rims");
+    EXPECT_TRUE(nonIncreasing(rest.report.energies));
+  }
 }
 
 // Anderson acceleration reaches the plain iteration's fixed point in fewer iterations, with the
@@ -144,7 +157,8 @@ TEST(ArapEditor, ContinuesFromAPreviousResultAndStopsOnTolerance) {
   EXPECT_EQ(first.report.iterations, 3);
   EXPECT_FALSE(first.report.converged);
   const ArapResult second = few.solveFrom(first.positions, bent.targets);
-  EXPECT_DOUBLE_EQ(second.report.energies.front(), first.report.energies.back());
+  EXPECT_NEAR(second.report.energies.front(), first.report.energies.back(),
+              1e-12 * first.report.energies.back());
   EXPECT_LT(second.report.energies.back(), first.report.energies.back());
 }
 
@@ -203,6 +217,31 @@ TEST(ArapEditor, EditsOpenAndNonManifoldMeshes) {
       [](const Vec3& x) { return x.x == 1.0 ? x + Vec3(0, 0, 0.5) : x; }, mesh.positions, handles));
   EXPECT_TRUE(nonIncreasing(bent.report.energies));
   for (const Vec3& x : bent.positions) EXPECT_TRUE(isFinite(x));
+}
+
+// Far from the origin the edit is the same, to a few units in the last place of the
+// coordinates: the solve runs relative to the model's centre.
+TEST(ArapEditor, KeepsItsDigitsFarFromTheOrigin) {
+  const SurfaceMesh mesh = test::thinBar(0.1, 40);
+  const test::BentBar bent = test::bentBar(mesh, 0.1);
+  const Vec3 offset(1e8, -3e8, 2e8);
+  // The same mesh in both places: the far coordinates rounded, the near ones their exact
+  // differences from the offset.
+  std::vector<Vec3> far = mesh.positions, farTargets = bent.targets;
+  for (Vec3& x : far) x += offset;
+  for (Vec3& x : farTargets) x += offset;
+  std::vector<Vec3> close = far, closeTargets = farTargets;
+  for (Vec3& x : close) x -= offset;
+  for (Vec3& x : closeTargets) x -= offset;
+  const ArapOptions converge{
+      .maxIterations = 50, .relativeTolerance = 0.0, .accelerationWindow = 0};
+  ArapEditor near(close, mesh.triangles, bent.constrained, converge);
+  ArapEditor away(far, mesh.triangles, bent.constrained, converge);
+  const auto a = near.solve(closeTargets).positions;
+  const auto b = away.solve(farTargets).positions;
+  double worst = 0.0;
+  for (std::size_t v = 0; v < a.size(); ++v) worst = std::max(worst, maxAbs(b[v] - offset - a[v]));
+  EXPECT_LT(worst, 16 * std::numeric_limits<double>::epsilon() * 3e8);
 }
 
 TEST(ArapEditor, RefusesBadInput) {

@@ -90,6 +90,18 @@ TEST(WeldSoup, DropsCollapsedPolygonsAndReportsIsolatedVertices) {
   EXPECT_EQ(mesh.triangles.size(), 2u);
   EXPECT_EQ(mesh.triangleToPolygon, (std::vector<std::uint32_t>{0, 2}));
   EXPECT_EQ(mesh.report.isolatedVertices, std::vector<std::uint32_t>{mesh.soupToMesh[4]});
+  EXPECT_TRUE(mesh.report.degenerateTriangles.empty());
+}
+
+TEST(WeldSoup, ReportsTrianglesWithoutArea) {
+  PolygonSoup soup;
+  soup.positions = {Vec3(0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(2, 0, 0), Vec3(3, 0, 0)};
+  soup.addPolygon({0, 1, 2});
+  soup.addPolygon({1, 3, 4});  // collinear corners: kept in the mesh, reported
+  const SurfaceMesh mesh = weldSoup(soup);
+  EXPECT_EQ(mesh.triangles.size(), 2u);
+  EXPECT_EQ(mesh.report.degenerateTriangles, std::vector<std::uint32_t>{1});
+  EXPECT_TRUE(mesh.report.droppedPolygons.empty());
 }
 
 TEST(WeldSoup, AnOpenSheetHasItsPerimeterAsBoundary) {
