@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <memory>
@@ -40,6 +41,7 @@ namespace spacewarp::cli {
 namespace {
 
 using nlohmann::json;
+namespace fs = std::filesystem;
 
 using EditArgs = EditRequest;
 
@@ -287,8 +289,8 @@ void writePosedLattice(const EditArgs& args, std::span<const Vec3> posed) {
 }
 
 // The posed cage: the rest cage file's soup (faces, attributes) with the cage vertices moved.
-void writePosedCage(const EditArgs& args, std::span<const Vec3> posed, const CliContext& context) {
-  PolygonSoup cage = readSoup(args.cage);
+void writePosedCage(const EditArgs& args, PolygonSoup cage, std::span<const Vec3> posed,
+                    const CliContext& context) {
   if (cage.positions.size() != posed.size())
     throw InvalidInput(args.cage + ": the cage has " + std::to_string(cage.positions.size()) +
                        " vertices but its coordinates " + std::to_string(posed.size()) +
@@ -299,12 +301,29 @@ void writePosedCage(const EditArgs& args, std::span<const Vec3> posed, const Cli
   writeSoupFile(cage, args.cageOut, false, context);
 }
 
+// Outputs are checked before the work: a folder that does not exist would otherwise be found
+// only when the result is ready to be written.
+void checkOutputFolders(std::initializer_list<std::string> outputs) {
+  for (const std::string& output : outputs) {
+    if (output.empty()) continue;
+    const fs::path folder = fs::path(output).parent_path();
+    std::error_code error;
+    if (!folder.empty() && !fs::is_directory(folder, error))
+      throw IoError(printable(output) + ": cannot write: the folder " + printable(folder.string()) +
+                    " does not exist");
+  }
+}
+
 }  // namespace
 
 void runEdit(const EditArgs& args, const CliContext& context) {
   const auto start = std::chrono::steady_clock::now();
   formatFromPath(args.output);
   if (!args.cageOut.empty()) formatFromPath(args.cageOut);
+  checkOutputFolders({args.output, args.cageOut, args.latticeOut});
+  // The rest cage as read now: the posed one is written from it, even when -o replaces the
+  // cage's file.
+  const PolygonSoup restCage = args.cageOut.empty() ? PolygonSoup{} : readSoup(args.cage);
   PolygonSoup soup = readSoup(args.model);
   WeldOptions weld;
   weld.relativeTolerance = args.weldTolerance;
@@ -322,7 +341,7 @@ void runEdit(const EditArgs& args, const CliContext& context) {
   writeSoupFile(soup, args.output, args.ascii, context);
   if (!args.latticeOut.empty()) writePosedLattice(args, edited.controlPoints);
   if (!args.cageOut.empty()) {
-    writePosedCage(args, edited.controlPoints, context);
+    writePosedCage(args, restCage, edited.controlPoints, context);
     // The edit keeps Green's face-normal columns at rest; a Green deform of the posed cage
     // recomputes them from it.
     if (args.coordinates == "green")
@@ -509,7 +528,14 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
     if (args->coordinates != "harmonic")
       rejectGiven(harmonic, "applies to --coordinates harmonic only, not to --coordinates " +
                                 args->coordinates);
-    if (!args->cageOut.empty()) checkConversion(args->cage, args->cageOut);
+    if (!args->cageOut.empty()) {
+      checkConversion(args->cage, args->cageOut);
+      std::error_code error;
+      if (fs::weakly_canonical(fs::absolute(args->output), error) ==
+          fs::weakly_canonical(fs::absolute(args->cageOut), error))
+        throw CLI::ValidationError("-o and --cage-out name the same file, " + args->output +
+                                   ": give the edited model and the posed cage a file each");
+    }
   });
   return {cmd, [args, &context] { runEdit(*args, context); }};
 }

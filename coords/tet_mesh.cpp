@@ -23,6 +23,7 @@
 
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -220,8 +221,13 @@ void run(const std::string& switches, tetgenio& in, tetgenio& out, const std::st
     ::close(data[1]);
     throw SolverError("tetrahedralising the cage: cannot create a pipe");
   }
+  const pid_t parent = ::getpid();
   const pid_t child = ::fork();
   if (child == 0) {
+    // Die with the parent, however it ends (a signal that ends it at once leaves no time to
+    // kill the child; an orphan would compute on, holding the caller's stdout and stderr).
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(1);
     ::close(data[0]);
     ::close(errors[0]);
     ::dup2(errors[1], STDERR_FILENO);

@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <string>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/rig/detail/json_file.h>
 #include <spacewarp/rig/rig.h>
 
 namespace spacewarp {
@@ -137,18 +136,6 @@ class HandlesReader {
   std::size_t vertexCount_;
 };
 
-// The whole of a small text file. Throws IoError naming it.
-std::string readText(const std::filesystem::path& path) {
-  std::error_code error;
-  if (std::filesystem::is_directory(path, error))
-    throw IoError(printable(path.string()) + ": is a directory, not a handles file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(printable(path.string()) + ": cannot open the handles file");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw IoError(printable(path.string()) + ": cannot read the handles file");
-  return text;
-}
-
 }  // namespace
 
 std::vector<HandleRegion> parseHandlesJson(const nlohmann::json& root, const std::string& where,
@@ -158,10 +145,10 @@ std::vector<HandleRegion> parseHandlesJson(const nlohmann::json& root, const std
 
 std::vector<HandleRegion> readHandlesFile(const std::filesystem::path& path,
                                           std::size_t vertexCount) {
-  const std::string where = printable(path.string());
-  // parseRigJson: the project's JSON reading (duplicate keys, nesting depth, positions of
-  // syntax errors), which is not specific to rigs.
-  return parseHandlesJson(parseRigJson(readText(path), where), where, vertexCount);
+  // The rig files' reading (blocks, NUL bytes, duplicate keys, nesting depth, syntax error
+  // positions), which is not specific to rigs.
+  return parseHandlesJson(detail::readJsonFile(path, "handles file", "a handles file"),
+                          printable(path.string()), vertexCount);
 }
 
 }  // namespace spacewarp

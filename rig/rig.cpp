@@ -17,6 +17,7 @@
 #include <spacewarp/rig/detail/ffd_rig.h>
 #include <spacewarp/rig/detail/graph_rig.h>
 #include <spacewarp/rig/detail/harmonic_rig.h>
+#include <spacewarp/rig/detail/json_file.h>
 #include <spacewarp/rig/detail/mls_rig.h>
 #include <spacewarp/rig/detail/rbf_rig.h>
 #include <spacewarp/rig/detail/rig_reader.h>
@@ -247,30 +248,7 @@ void checkRig(const json& rig, const std::filesystem::path& baseDir, const std::
 }
 
 json readRigFile(const std::filesystem::path& path) {
-  const std::string where = printable(path.string());
-  std::error_code error;
-  if (std::filesystem::is_directory(path, error))
-    throw IoError(where + ": is a directory, not a rig file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(where + ": cannot open the rig file");
-  // Read in blocks, so that binary or endless input (/dev/zero, a FIFO that never ends) is
-  // refused at its first block or at the size limit instead of growing without bound.
-  constexpr std::size_t kMaxRigBytes = std::size_t{1} << 30;
-  std::string text;
-  std::vector<char> block(std::size_t{1} << 16);
-  while (in) {
-    in.read(block.data(), static_cast<std::streamsize>(block.size()));
-    const std::string_view got(block.data(), static_cast<std::size_t>(in.gcount()));
-    if (const std::size_t nul = got.find('\0'); nul != std::string_view::npos) {
-      throw IoError(where + ": not a rig file: a NUL byte at byte offset " +
-                    std::to_string(text.size() + nul) + " (a rig is JSON text)");
-    }
-    if (text.size() + got.size() > kMaxRigBytes)
-      throw IoError(where + ": too large for a rig file (over 1 GiB)");
-    text.append(got);
-  }
-  if (in.bad()) throw IoError(where + ": cannot read the rig file");
-  return parseRigJson(text, where);
+  return detail::readJsonFile(path, "rig file", "a rig");
 }
 
 Rig loadRig(const std::filesystem::path& path, const ProgressCallback& progress) {

@@ -61,6 +61,10 @@ struct CageArapEditor::Impl {
   double lambda = 0.0, mu = 0.0;
   Eigen::LLT<Eigen::MatrixXd> system;
   double diagonal = 0.0;
+  /// Whether every model vertex's weights sum to 1, so that a common translation of the control
+  /// points translates the model: the solve then runs in the frame of the handles' mean
+  /// displacement, whose energies have no large terms to cancel.
+  bool translates = false;
 
   // Per-iteration state.
   std::vector<Mat3> rotations;
@@ -121,6 +125,13 @@ struct CageArapEditor::Impl {
     restCross = Eigen::MatrixXd::Zero(weights.cols(), 3);
     for (std::size_t c = 0; c < clusters; ++c)
       restCross += qt.middleRows(3 * Eigen::Index(c), 3).transpose();
+  }
+
+  // The handles' mean displacement, the origin of the solve's frame (0 when a translation of the
+  // controls does not translate the model).
+  Eigen::RowVector3d frameShift(const Eigen::MatrixXd& targets) const {
+    if (!translates) return Eigen::RowVector3d::Zero();
+    return (targets - handleRest).colwise().mean();
   }
 
   // The m × m matrices of the global step (ARAP stiffness, handle term, ridge), factorised.
@@ -200,6 +211,7 @@ CageArapEditor::CageArapEditor(std::span<const Vec3> positions,
     im.weights = binding.isSparse() ? Eigen::MatrixXd(binding.sparse()).leftCols(m)
                                     : Eigen::MatrixXd(binding.dense().leftCols(m));
   }
+  im.translates = ((im.weights.rowwise().sum().array() - 1.0).abs() <= 1e-9).all();
   ProgressTracker tracker(progress, "subspace", 3);
   const detail::ArapTerms terms =
       detail::makeArapTerms(options.energy, positions, triangles, problem.laplacian);
@@ -243,20 +255,27 @@ CageArapResult CageArapEditor::solve(std::span<const Vec3> targets,
                                      const ProgressCallback& progress) {
   auto& im = *impl_;
   const Eigen::MatrixXd t = targetMatrix(targets, im.constrained.size(), "CageArapEditor::solve");
-  // Start 1: the rotation-free (linear) solution.
+  // Both starts are compared in the frame of solveFrom (see there).
+  const Eigen::RowVector3d shift = im.frameShift(t);
+  const Eigen::MatrixXd shifted = t.rowwise() - shift;
+  // Start 1: the rotation-free (linear) solution, its proximal term towards the rest pose
+  // carried by the handles' mean displacement (0 in this frame).
   std::fill(im.rotations.begin(), im.rotations.end(), Mat3(1.0));
-  const Eigen::MatrixXd linear = im.globalStep(t, Eigen::MatrixXd::Zero(Eigen::Index(im.m), 3));
+  const Eigen::MatrixXd linear =
+      im.globalStep(shifted, Eigen::MatrixXd::Zero(Eigen::Index(im.m), 3));
   // Start 2: the handles' common rigid motion applied to the cage.
   std::vector<Vec3> handleRest;
   for (std::uint32_t v : im.constrained) handleRest.push_back(im.restModel[v]);
   const auto fit = detail::rigidFit(handleRest, targets);
   std::vector<Vec3> rigid(im.m);
   for (std::size_t c = 0; c < im.m; ++c) rigid[c] = fit.r * im.restControls[c] + fit.shift;
-  const Eigen::MatrixXd rigidDp = detail::toMatrix(rigid) - detail::toMatrix(im.restControls);
-  const bool startRigid = im.localStep(rigidDp, t) < im.localStep(linear, t);
+  Eigen::MatrixXd rigidDp = detail::toMatrix(rigid) - detail::toMatrix(im.restControls);
+  rigidDp.rowwise() -= shift;
+  const bool startRigid = im.localStep(rigidDp, shifted) < im.localStep(linear, shifted);
   std::vector<Vec3> start(im.m);
   for (std::size_t c = 0; c < im.m; ++c) {
-    const auto row = (startRigid ? rigidDp : linear).row(static_cast<Eigen::Index>(c));
+    const Eigen::RowVector3d row =
+        (startRigid ? rigidDp : linear).row(static_cast<Eigen::Index>(c)) + shift;
     start[c] = im.restControls[c] + Vec3(row(0), row(1), row(2));
   }
   CageArapResult result = solveFrom(start, targets, progress);
@@ -278,7 +297,14 @@ CageArapResult CageArapEditor::solveFrom(std::span<const Vec3> startControlPoint
     if (!isFinite(startControlPoints[c])) {
       throw InvalidInput(caller + ": control point " + std::to_string(c) + " is not finite");
     }
+  // In the frame of the handles' mean displacement c (when a common translation of the controls
+  // translates the model): ΔP' = ΔP − c and t' = t − c give the same energies, without the
+  // large terms of a far translation that the expanded energy would cancel (and whose rounding
+  // would set its floor).
+  const Eigen::RowVector3d shift = im.frameShift(t);
+  const Eigen::MatrixXd shifted = t.rowwise() - shift;
   Eigen::MatrixXd dp = detail::toMatrix(startControlPoints) - detail::toMatrix(im.restControls);
+  dp.rowwise() -= shift;
   CageArapResult result;
   CageArapReport& report = result.report;
   ProgressTracker tracker(progress, "cage-arap",
@@ -288,17 +314,20 @@ CageArapResult CageArapEditor::solveFrom(std::span<const Vec3> startControlPoint
   o.relativeTolerance = im.options.relativeTolerance;
   o.accelerationWindow = im.options.accelerationWindow;
   // Rounding level of the expanded energy: a few ulps of its largest terms.
-  o.floor = 1e-13 * (2.0 * im.restSquared + im.lambda * (im.handleRest - t).squaredNorm());
+  o.floor = 1e-13 * (2.0 * im.restSquared + im.lambda * (im.handleRest - shifted).squaredNorm());
   std::vector<Mat3> keep;
   detail::LocalGlobalReport r = detail::minimiseLocalGlobal(
-      dp, im.localStep(dp, t), o, tracker,
-      [&](const Eigen::MatrixXd& x) { return im.localStep(x, t); },
-      [&](const Eigen::MatrixXd& x) { return im.globalStep(t, x); }, [&] { keep = im.rotations; },
-      [&] { im.rotations = keep; }, [](Eigen::MatrixXd& x) { return x.reshaped(); });
+      dp, im.localStep(dp, shifted), o, tracker,
+      [&](const Eigen::MatrixXd& x) { return im.localStep(x, shifted); },
+      [&](const Eigen::MatrixXd& x) { return im.globalStep(shifted, x); },
+      [&] { keep = im.rotations; }, [&] { im.rotations = keep; },
+      [](Eigen::MatrixXd& x) { return x.reshaped(); });
   report.energies = std::move(r.energies);
   report.iterations = r.iterations;
   report.converged = r.converged;
-  const Eigen::MatrixXd x = detail::toMatrix(im.restModel) + im.weights * dp;
+  Eigen::MatrixXd x = detail::toMatrix(im.restModel) + im.weights * dp;
+  x.rowwise() += shift;
+  dp.rowwise() += shift;
   result.positions.resize(im.restModel.size());
   for (std::size_t v = 0; v < result.positions.size(); ++v) {
     const auto r = static_cast<Eigen::Index>(v);

@@ -54,8 +54,17 @@ std::vector<Vec3> LinearEditor::solve(std::span<const Vec3> targets) {
     freeRest.row(static_cast<Eigen::Index>(k)) << x.x, x.y, x.z;
   }
   if (p.freeVertices.empty()) return p.assemble(freeRest, fixed);
-  const Eigen::MatrixXd rhs = -(impl_->freeFixed * (fixed - impl_->restFixed));
-  return p.assemble(freeRest + impl_->factor.solve(rhs), fixed);
+  // The displacements relative to their mean over the constrained vertices: a common
+  // translation (a constant, which the operator maps to 0) is then carried exactly, not through
+  // the factor's rounding.
+  Eigen::MatrixXd displacement = fixed - impl_->restFixed;
+  const Eigen::RowVector3d mean =
+      displacement.topRows(Eigen::Index(p.constrained.size())).colwise().mean();
+  displacement.rowwise() -= mean;
+  const Eigen::MatrixXd rhs = -(impl_->freeFixed * displacement);
+  Eigen::MatrixXd free = impl_->factor.solve(rhs);
+  free.rowwise() += mean;
+  return p.assemble(freeRest + free, fixed);
 }
 
 std::span<const std::uint32_t> LinearEditor::heldVertices() const { return impl_->problem.held; }

@@ -421,6 +421,36 @@ TEST_F(EditCliTest, MeshTroubleIsWarnedNotFatal) {
 
 // --- errors --------------------------------------------------------------------------------
 
+// Outputs that collide: -o over the cage file still gets a posed cage built from the cage as it
+// was read; -o and --cage-out naming one file is a usage error; a missing output folder is
+// found before the work.
+TEST_F(EditCliTest, OutputsThatCollideOrCannotBeWrittenAreCaughtFirst) {
+  writeCapHandles(Mat4(1.0), glm::translate(Mat4(1.0), Vec3(0.3, 0.0, 0.0)));
+  const PolygonSoup cage = readSoup(dir_ / "cage.obj");
+  fs::copy_file(dir_ / "cage.obj", dir_ / "cage_copy.obj");
+  CliResult r =
+      run("edit --method cage-arap --cage " + (dir_ / "cage_copy.obj").string() + " --handles " +
+          (dir_ / "handles.json").string() + " " + (dir_ / "bar.obj").string() + " -o " +
+          (dir_ / "cage_copy.obj").string() + " --cage-out " + (dir_ / "posed.obj").string());
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(readSoup(dir_ / "posed.obj").size(), cage.size());
+  EXPECT_EQ(readSoup(dir_ / "cage_copy.obj").size(), bar_.size());
+  expectFailure(edit("cage-arap", "--cage-out " + (dir_ / "." / "out.obj").string()), 2,
+                "-o and --cage-out name the same file");
+  r = run("edit --method arap --handles " + (dir_ / "handles.json").string() + " " +
+          (dir_ / "bar.obj").string() + " -o " + (dir_ / "missing" / "out.obj").string());
+  EXPECT_EQ(r.exitCode, 3) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("does not exist"));
+  EXPECT_THAT(r.err, Not(HasSubstr("arap:")));  // refused before the solve
+}
+
+// Endless or binary input as the handles file is refused at its first block, as rigs are.
+TEST_F(EditCliTest, EndlessHandlesInputIsRefusedAtOnce) {
+  const CliResult r = run("edit --method arap --handles /dev/zero " + (dir_ / "bar.obj").string() +
+                          " -o " + (dir_ / "out.obj").string());
+  expectFailure(r, 3, "/dev/zero: not a handles file: a NUL byte at byte offset 0");
+}
+
 struct BadHandles {
   std::string name, json, message;
   friend void PrintTo(const BadHandles& b, std::ostream* out) { *out << b.json; }

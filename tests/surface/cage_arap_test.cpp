@@ -135,6 +135,27 @@ TEST(CageArapEditor, WithOneClusterPerVertexHasTheSurfaceArapEnergy) {
               1e-9 * result.report.energies.front());
 }
 
+// The same edit carried far away gives the same shape, carried: the solve runs in the frame of
+// the handles' mean displacement, so the expanded energy has no large terms to cancel.
+TEST(CageArapEditor, IsTheSameEditWhenTheTargetsAreTranslatedFarAway) {
+  const SurfaceMesh mesh = test::bar();
+  const test::BentBar bent = test::bentBar(mesh);
+  const auto mvc = std::make_shared<const MeanValueCoordinates>(barCage());
+  CageArapEditor editor(mesh.positions, mesh.triangles, mvc, bent.constrained);
+  const CageArapResult near = editor.solve(bent.targets);
+  for (double distance : {1e4, 1e7}) {
+    const Vec3 t(distance, -0.5 * distance, 0.0);
+    std::vector<Vec3> far = bent.targets;
+    for (Vec3& x : far) x += t;
+    const CageArapResult away = editor.solve(far);
+    double worst = 0.0;
+    for (std::size_t v = 0; v < mesh.vertexCount(); ++v)
+      worst = std::max(worst, glm::length(away.positions[v] - t - near.positions[v]));
+    EXPECT_LT(worst, 1e-14 * distance + 1e-10) << distance;
+    EXPECT_EQ(away.report.iterations, near.report.iterations) << distance;
+  }
+}
+
 TEST(CageArapEditor, RefusesBadInput) {
   const SurfaceMesh mesh = test::bar(2.0, 2);
   const std::vector<std::uint32_t> handles = {0, 1, 2};
