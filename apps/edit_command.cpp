@@ -338,6 +338,11 @@ void runEdit(const EditArgs& args, const CliContext& context) {
 
   const SurfaceEdit edited = editWith(args, mesh, constraints, context);
   applyEdit(soup, mesh, edited.positions);
+  if (args.method == "cage-arap" && args.lattice.empty() && args.coordinates == "green")
+    context.warn(
+        "--coordinates green: cage-arap moves Green's vertex terms only (the face "
+        "normals' terms stay at rest), so it does not reproduce rotations exactly; mvc "
+        "and harmonic do");
   writeSoupFile(soup, args.output, args.ascii, context);
   if (!args.latticeOut.empty()) writePosedLattice(args, edited.controlPoints);
   if (!args.cageOut.empty()) {

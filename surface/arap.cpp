@@ -251,6 +251,9 @@ double ArapEditor::energy(std::span<const Vec3> positions) const {
                        " positions for " + std::to_string(impl_->problem.rest.size()) +
                        " vertices");
   }
+  for (std::size_t v = 0; v < positions.size(); ++v)
+    if (!isFinite(positions[v]))
+      throw InvalidInput("ArapEditor::energy: position " + std::to_string(v) + " is not finite");
   // localStep writes scratch state only; the editor is documented as not thread-safe.
   return impl_->localStep(positions);
 }

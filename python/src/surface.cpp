@@ -8,6 +8,7 @@
 #include <mutex>
 #include <optional>
 
+#include <spacewarp/coords/green.h>
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/geometry.h>
@@ -752,6 +753,12 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
                          "targets (max residual " +
                          shortNumber(r->maxResidual) +
                          "): the cage cannot carry them there rigidly");
+    if (options.method == SurfaceEditMethod::CageArap &&
+        dynamic_cast<const GreenCoordinates*>(coordinates.get()) != nullptr)
+      warnings.push_back(
+          "cage-arap with Green coordinates moves their vertex terms only (the face normals' "
+          "terms stay at rest), so it does not reproduce rotations exactly; MeanValue and "
+          "Harmonic do");
     if (!edit.heldVertices.empty())
       warnings.push_back(std::to_string(edit.heldVertices.size()) +
                          " mesh vertices are in parts no handle reaches: they stay at rest");

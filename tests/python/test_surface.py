@@ -588,6 +588,8 @@ def test_edit_warns_of_unreached_handles_and_of_parts_no_handle_reaches():
                {"vertices": np.flatnonzero(x > 2.99), "matrix": bend}]
     with pytest.warns(UserWarning, match="handle vertices are left farther than reach_tolerance"):
         spacewarp.edit(soup, regions, method="cage-arap", coordinates=spacewarp.MeanValue(box))
+    with pytest.warns(UserWarning, match="does not reproduce rotations exactly"):
+        spacewarp.edit(soup, regions, method="cage-arap", coordinates=spacewarp.Green(box))
     # A second bar, apart, that no region touches.
     apart = spacewarp.Geometry(np.vstack([soup.positions, soup.positions + [10.0, 0, 0]]),
                                np.vstack([soup.faces, soup.faces + len(x)]))
