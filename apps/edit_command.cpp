@@ -150,20 +150,19 @@ void warnHeld(const std::string& model, const SurfaceMesh& mesh,
   const std::vector<std::uint32_t> soupOf = firstSoupVertex(mesh);
   std::set<std::uint32_t> parts;
   std::vector<std::uint32_t> soupVertices;
+  std::size_t isolated = 0;  // of the held ones (an isolated handle vertex is not held)
+  const auto& all = mesh.report.isolatedVertices;
   for (const std::uint32_t v : held) {
     parts.insert(mesh.vertexComponent[v]);
     soupVertices.push_back(soupOf[v]);
+    isolated += std::binary_search(all.begin(), all.end(), v);
   }
   context.warn(model + ": " + countedVertices(held.size(), "") + " in " +
                counted(parts.size(), "part") +
                " of the surface that no handle reaches stay in place (" +
-               (mesh.report.isolatedVertices.empty()
-                    ? std::string()
-                    : countedVertices(mesh.report.isolatedVertices.size(), "isolated ") + "; ") +
+               (isolated == 0 ? std::string() : countedVertices(isolated, "isolated ") + "; ") +
                "vertices " + someVertices(soupVertices) + ")");
 }
-
-// --- output normals ------------------------------------------------------------------------
 
 // --- the methods ---------------------------------------------------------------------------
 
