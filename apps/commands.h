@@ -2,6 +2,7 @@
 // The subcommands of the spacewarp tool, one file each (apps/<name>_command.cpp). Each adds
 // its options to the app and returns the work to run once the command line has parsed.
 
+#include <cmath>
 #include <cstddef>
 #include <functional>
 #include <string>
@@ -33,6 +34,23 @@ inline void rejectGiven(const std::vector<CLI::Option*>& options, const std::str
   for (const CLI::Option* option : options)
     if (option->count() > 0) throw CLI::ValidationError(option->get_name() + " " + why);
 }
+
+/// Finite numbers above 0 and from 0 (CLI11's PositiveNumber and NonNegativeNumber let "nan"
+/// through).
+inline const CLI::Validator kFinitePositive(
+    [](std::string& value) -> std::string {
+      double t = 0.0;
+      if (CLI::detail::lexical_cast(value, t) && std::isfinite(t) && t > 0.0) return {};
+      return "'" + value + "' is not a finite number > 0";
+    },
+    "NUMBER > 0");
+inline const CLI::Validator kFiniteNonNegative(
+    [](std::string& value) -> std::string {
+      double t = 0.0;
+      if (CLI::detail::lexical_cast(value, t) && std::isfinite(t) && t >= 0.0) return {};
+      return "'" + value + "' is not a finite number >= 0";
+    },
+    "NUMBER >= 0");
 
 Command addInfoCommand(CLI::App& app, const CliContext& context);
 Command addDeformCommand(CLI::App& app, const CliContext& context);

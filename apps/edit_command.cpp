@@ -368,23 +368,6 @@ void runEdit(const EditArgs& args, const CliContext& context) {
 
 namespace {
 
-// A finite number >= 0 (CLI11's NonNegativeNumber lets "nan" through).
-const CLI::Validator kFiniteNonNegative(
-    [](std::string& value) -> std::string {
-      double t = 0.0;
-      if (CLI::detail::lexical_cast(value, t) && std::isfinite(t) && t >= 0.0) return {};
-      return "'" + value + "' is not a finite number >= 0";
-    },
-    "NUMBER >= 0");
-
-const CLI::Validator kFinitePositive(
-    [](std::string& value) -> std::string {
-      double t = 0.0;
-      if (CLI::detail::lexical_cast(value, t) && std::isfinite(t) && t > 0.0) return {};
-      return "'" + value + "' is not a finite number > 0";
-    },
-    "NUMBER > 0");
-
 const CLI::Validator kHandleWeight(
     [](std::string& value) -> std::string {
       double t = 0.0;

@@ -25,15 +25,6 @@ struct InverseArgs {
   InverseOptions options;
 };
 
-// --tolerance: a finite number above 0 (CLI11's PositiveNumber lets "nan" through).
-const CLI::Validator kFinitePositive(
-    [](std::string& value) -> std::string {
-      double t = 0.0;
-      if (CLI::detail::lexical_cast(value, t) && std::isfinite(t) && t > 0.0) return {};
-      return "'" + value + "' is not a positive number";
-    },
-    "POSITIVE");
-
 }  // namespace
 
 Command addInverseCommand(CLI::App& app, const CliContext& context) {

@@ -7,6 +7,7 @@
 
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rig/detail/json_file.h>
+#include <spacewarp/rig/detail/rig_reader.h>
 #include <spacewarp/rig/rig.h>
 
 namespace spacewarp {
@@ -94,15 +95,7 @@ class HandlesReader {
   }
 
   std::vector<double> numbers(const json& v, const std::string& at, std::size_t n) const {
-    if (!v.is_array() || v.size() != n)
-      fail(at, "must be an array of " + std::to_string(n) + " numbers");
-    std::vector<double> out;
-    for (const json& e : v) {
-      if (!e.is_number() || !std::isfinite(e.get<double>()))
-        fail(at, "must contain finite numbers only");
-      out.push_back(e.get<double>());
-    }
-    return out;
+    return detail::finiteNumbers(v, n, [&](const std::string& what) { fail(at, what); });
   }
 
   // Row-major rows, as rigs take them; GLM is column-major.

@@ -69,6 +69,18 @@ struct RigPlace {
 
 // Reads the keys of one rig object with clear, located errors, and remembers which keys were
 // read so that unknown (usually misspelt) keys can be reported.
+/// The n finite numbers of the JSON array v; otherwise fail(what is wrong), which throws.
+template <class Fail>
+std::vector<double> finiteNumbers(const nlohmann::json& v, std::size_t n, const Fail& fail) {
+  if (!v.is_array() || v.size() != n) fail("must be an array of " + std::to_string(n) + " numbers");
+  std::vector<double> out;
+  for (const nlohmann::json& e : v) {
+    if (!e.is_number() || !std::isfinite(e.get<double>())) fail("must contain finite numbers only");
+    out.push_back(e.get<double>());
+  }
+  return out;
+}
+
 class RigReader {
  public:
   using json = nlohmann::json;
@@ -218,15 +230,7 @@ class RigReader {
   }
 
   std::vector<double> numbers(const json& v, const std::string& key, std::size_t n) const {
-    if (!v.is_array() || v.size() != n)
-      fail(key, "must be an array of " + std::to_string(n) + " numbers");
-    std::vector<double> out;
-    for (const json& e : v) {
-      if (!e.is_number() || !std::isfinite(e.get<double>()))
-        fail(key, "must contain finite numbers only");
-      out.push_back(e.get<double>());
-    }
-    return out;
+    return finiteNumbers(v, n, [&](const std::string& what) { fail(key, what); });
   }
 
   const json& object_;
