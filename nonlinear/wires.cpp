@@ -1,0 +1,486 @@
+#include <spacewarp/nonlinear/wires.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include <glm/gtc/quaternion.hpp>
+
+#include <spacewarp/core/errors.h>
+
+namespace spacewarp {
+
+namespace {
+
+using Quat = glm::dquat;
+
+constexpr int kCatmullRomSamples = 16;  // samples per span (frames and the grid's chords)
+constexpr std::size_t kMaxCells = std::size_t{1} << 20;  // per wire's grid, about
+constexpr int kNewtonSteps = 8;
+
+std::string wireName(std::size_t i) { return "WiresWarp: wire " + std::to_string(i); }
+
+// Any unit vector perpendicular to the unit vector t (crossed with the axis least along t).
+Vec3 anyPerpendicular(const Vec3& t) {
+  const Vec3 a = glm::abs(t);
+  const Vec3 axis = a.x <= a.y && a.x <= a.z ? Vec3(1, 0, 0)
+                    : a.y <= a.z             ? Vec3(0, 1, 0)
+                                             : Vec3(0, 0, 1);
+  return glm::normalize(glm::cross(t, axis));
+}
+
+// v turned by the smallest rotation taking the unit vector a to the unit vector b (a half turn
+// about a perpendicular of a when they are opposite).
+Vec3 minimalRotation(const Vec3& a, const Vec3& b, const Vec3& v) {
+  const double c = glm::dot(a, b);
+  if (c <= -1.0 + 1e-12) {
+    const Vec3 p = anyPerpendicular(a);
+    return 2.0 * glm::dot(p, v) * p - v;
+  }
+  const Vec3 k = glm::cross(a, b);  // Rodrigues with |k| = sin, written without the angle
+  return c * v + glm::cross(k, v) + (glm::dot(k, v) / (1.0 + c)) * k;
+}
+
+// A curve through its points, parameterised by span j ∈ [0, n − 2] and t ∈ [0, 1].
+struct Curve {
+  WireCurve type = WireCurve::Polyline;
+  std::vector<Vec3> p;
+  std::vector<std::array<Vec3, 4>> coef;  // Catmull-Rom: C(t) = c0 + c1 t + c2 t² + c3 t³
+
+  std::size_t spans() const { return p.size() - 1; }
+
+  Vec3 at(std::size_t j, double t) const {
+    if (type == WireCurve::Polyline) return p[j] + t * (p[j + 1] - p[j]);
+    const auto& c = coef[j];
+    return c[0] + t * (c[1] + t * (c[2] + t * c[3]));
+  }
+  Vec3 d1(std::size_t j, double t) const {
+    if (type == WireCurve::Polyline) return p[j + 1] - p[j];
+    const auto& c = coef[j];
+    return c[1] + t * (2.0 * c[2] + t * 3.0 * c[3]);
+  }
+  Vec3 d2(std::size_t j, double t) const {
+    if (type == WireCurve::Polyline) return Vec3(0.0);
+    const auto& c = coef[j];
+    return 2.0 * c[2] + (6.0 * t) * c[3];
+  }
+};
+
+Curve makeCurve(WireCurve type, const std::vector<Vec3>& pts) {
+  Curve c;
+  c.type = type;
+  c.p = pts;
+  if (type == WireCurve::CatmullRom) {
+    const std::size_t n = pts.size();
+    const auto point = [&](std::ptrdiff_t i) -> Vec3 {  // reflected beyond the ends
+      if (i < 0) return 2.0 * pts[0] - pts[1];
+      if (i >= static_cast<std::ptrdiff_t>(n)) return 2.0 * pts[n - 1] - pts[n - 2];
+      return pts[static_cast<std::size_t>(i)];
+    };
+    for (std::size_t j = 0; j + 1 < n; ++j) {
+      const auto s = static_cast<std::ptrdiff_t>(j);
+      const Vec3 a = point(s - 1), b = point(s), d = point(s + 1), e = point(s + 2);
+      c.coef.push_back({b, 0.5 * (d - a), 0.5 * (2.0 * a - 5.0 * b + 4.0 * d - e),
+                        0.5 * (3.0 * b - a - 3.0 * d + e)});
+    }
+  }
+  return c;
+}
+
+// The curve's samples: positions and unit tangents (for polylines the points, with the mean of
+// the neighbouring segments' directions as tangent; for Catmull-Rom kCatmullRomSamples per span).
+struct Samples {
+  std::vector<Vec3> x, t;
+};
+
+Samples sampleCurve(const Curve& c) {
+  Samples s;
+  if (c.type == WireCurve::Polyline) {
+    const std::size_t n = c.p.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      const Vec3 in = k > 0 ? glm::normalize(c.p[k] - c.p[k - 1]) : Vec3(0.0);
+      const Vec3 out = k + 1 < n ? glm::normalize(c.p[k + 1] - c.p[k]) : Vec3(0.0);
+      const Vec3 sum = in + out;
+      // A fold back (in = −out) has no mean direction: the outgoing one.
+      const Vec3 t = glm::length(sum) > 1e-8 ? glm::normalize(sum) : (k + 1 < n ? out : in);
+      s.x.push_back(c.p[k]);
+      s.t.push_back(t);
+    }
+    return s;
+  }
+  for (std::size_t j = 0; j < c.spans(); ++j) {
+    for (int i = 0; i < kCatmullRomSamples; ++i) {
+      const double t = static_cast<double>(i) / kCatmullRomSamples;
+      s.x.push_back(c.at(j, t));
+      s.t.push_back(glm::normalize(c.d1(j, t)));
+    }
+  }
+  s.x.push_back(c.p.back());
+  s.t.push_back(glm::normalize(c.d1(c.spans() - 1, 1.0)));
+  return s;
+}
+
+// Rotation-minimising frames [tangent, normal, binormal] at the samples from the first normal,
+// by double reflection (Wang, Jüttler, Zheng & Liu 2008): equivariant under rigid motions.
+std::vector<Mat3> transportFrames(const Samples& s, Vec3 normal) {
+  std::vector<Mat3> frames;
+  frames.reserve(s.x.size());
+  for (std::size_t k = 0; k < s.x.size(); ++k) {
+    if (k > 0) {
+      const Vec3 v1 = s.x[k] - s.x[k - 1];
+      const double c1 = glm::dot(v1, v1);
+      Vec3 r = normal, t = s.t[k - 1];
+      if (c1 > 0.0) {
+        r -= (2.0 / c1) * glm::dot(v1, r) * v1;
+        t -= (2.0 / c1) * glm::dot(v1, t) * v1;
+      }
+      const Vec3 v2 = s.t[k] - t;
+      const double c2 = glm::dot(v2, v2);
+      if (c2 > 0.0) r -= (2.0 / c2) * glm::dot(v2, r) * v2;
+      normal = r;
+    }
+    const Vec3& t = s.t[k];
+    normal = glm::normalize(normal - glm::dot(normal, t) * t);
+    frames.emplace_back(t, normal, glm::cross(t, normal));
+  }
+  return frames;
+}
+
+// The first normals of R and W: towards the first rest point off R's initial tangent line (the
+// same point of W for W), or, for a straight R (or a W straight where R is not), R's turned by the
+// smallest rotation between the initial tangents.
+std::pair<Vec3, Vec3> firstNormals(const Wire& w, const Samples& r, const Samples& d) {
+  const auto offLine = [](const std::vector<Vec3>& p, std::size_t k, const Vec3& t, Vec3& n) {
+    const Vec3 e = p[k] - p[0];
+    const Vec3 o = e - glm::dot(e, t) * t;
+    if (!(glm::length(o) > 1e-6 * glm::length(e))) return false;
+    n = glm::normalize(o);
+    return true;
+  };
+  for (std::size_t k = 1; k < w.rest.size(); ++k) {
+    Vec3 nr, nd;
+    if (!offLine(w.rest, k, r.t[0], nr)) continue;
+    if (offLine(w.deformed, k, d.t[0], nd)) return {nr, nd};
+    return {nr, minimalRotation(r.t[0], d.t[0], nr)};
+  }
+  const Vec3 nr = anyPerpendicular(r.t[0]);
+  return {nr, minimalRotation(r.t[0], d.t[0], nr)};
+}
+
+bool sameBits(const Mat3& a, const Mat3& b) {
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r)
+      if (a[c][r] != b[c][r]) return false;
+  return true;
+}
+
+double falloff(WireDropoff f, double x) {
+  if (f == WireDropoff::Linear) return 1.0 - x;
+  const double y = 1.0 - x * x;
+  return y * y;
+}
+
+void validate(const std::vector<Wire>& wires, const WiresOptions& options) {
+  if (wires.empty()) throw InvalidInput("WiresWarp: no wires");
+  if (!std::isfinite(options.locality) || !(options.locality >= 0.0))
+    throw InvalidInput("WiresWarp: locality must be finite and >= 0, not " +
+                       std::to_string(options.locality));
+  for (std::size_t i = 0; i < wires.size(); ++i) {
+    const Wire& w = wires[i];
+    const std::string who = wireName(i);
+    if (w.rest.size() < 2)
+      throw InvalidInput(who + ": rest needs at least 2 points, got " +
+                         std::to_string(w.rest.size()));
+    if (w.deformed.size() != w.rest.size())
+      throw InvalidInput(who + ": " + std::to_string(w.rest.size()) + " rest points but " +
+                         std::to_string(w.deformed.size()) + " deformed points");
+    for (const auto& [name, pts] :
+         {std::pair{"rest", &w.rest}, std::pair{"deformed", &w.deformed}}) {
+      Vec3 lo(std::numeric_limits<double>::infinity()), hi = -lo;
+      for (std::size_t k = 0; k < pts->size(); ++k) {
+        if (!isFinite((*pts)[k]))
+          throw InvalidInput(who + ": " + name + "[" + std::to_string(k) + "] is not finite");
+        lo = glm::min(lo, (*pts)[k]);
+        hi = glm::max(hi, (*pts)[k]);
+      }
+      const double tol = 1e-12 * glm::length(hi - lo);
+      for (std::size_t k = 1; k < pts->size(); ++k) {
+        if (glm::length((*pts)[k] - (*pts)[k - 1]) <= tol)
+          throw InvalidInput(who + ": " + name + "[" + std::to_string(k) + "] repeats " + name +
+                             "[" + std::to_string(k - 1) + "]");
+      }
+    }
+    if (!std::isfinite(w.radius) || !(w.radius > 0.0))
+      throw InvalidInput(who + ": radius must be finite and > 0, not " + std::to_string(w.radius));
+    if (!(w.innerRadius >= 0.0) || !(w.innerRadius < w.radius))
+      throw InvalidInput(who + ": innerRadius must be in [0, radius), not " +
+                         std::to_string(w.innerRadius));
+    if (!std::isfinite(w.scale) || !(w.scale > 0.0))
+      throw InvalidInput(who + ": scale must be finite and > 0, not " + std::to_string(w.scale));
+  }
+}
+
+}  // namespace
+
+std::string wireCurveName(WireCurve curve) {
+  return curve == WireCurve::Polyline ? "polyline" : "catmull-rom";
+}
+
+WireCurve wireCurveFromName(std::string_view name) {
+  if (name == "polyline") return WireCurve::Polyline;
+  if (name == "catmull-rom") return WireCurve::CatmullRom;
+  throw InvalidInput("wire curve '" + std::string(name) + "' is not one of: polyline, catmull-rom");
+}
+
+std::string wireDropoffName(WireDropoff dropoff) {
+  return dropoff == WireDropoff::Smooth ? "smooth" : "linear";
+}
+
+WireDropoff wireDropoffFromName(std::string_view name) {
+  if (name == "smooth") return WireDropoff::Smooth;
+  if (name == "linear") return WireDropoff::Linear;
+  throw InvalidInput("wire drop-off '" + std::string(name) + "' is not one of: smooth, linear");
+}
+
+// One wire, ready to query: both curves, the rotations at the samples, and a uniform grid over
+// the reference curve's sample chords.
+struct WiresWarp::Compiled {
+  Curve rest, deformed;
+  int perSpan = 1;           // samples per span
+  std::vector<Quat> turn;    // M at each sample
+  std::vector<Vec3> chordA;  // sample chords of R: a + t e, t ∈ [0, 1]
+  std::vector<Vec3> chordE;
+  std::vector<double> chordInv;                                // 1 / |e|²
+  double radius = 1.0, inner = 0.0, scale = 1.0, reach = 1.0;  // reach = r + chord deviation
+  WireDropoff dropoff = WireDropoff::Smooth;
+  Vec3 lo{0.0};
+  double cell = 1.0;
+  std::array<std::size_t, 3> dims{1, 1, 1};
+  std::vector<std::uint32_t> cellStart, items;
+
+  Compiled(const Wire& w, std::size_t index);
+
+  // x's move Δx by this wire; false (Δx untouched) when x is beyond its reach.
+  bool move(const Vec3& x, Vec3& delta) const;
+};
+
+WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
+    : rest(makeCurve(w.curve, w.rest)),
+      deformed(makeCurve(w.curve, w.deformed)),
+      perSpan(w.curve == WireCurve::CatmullRom ? kCatmullRomSamples : 1),
+      radius(w.radius),
+      inner(w.innerRadius),
+      scale(w.scale),
+      dropoff(w.dropoff) {
+  const Samples sr = sampleCurve(rest);
+  const Samples sd = sampleCurve(deformed);
+  const auto [nr, nd] = firstNormals(w, sr, sd);
+  const std::vector<Mat3> fr = transportFrames(sr, nr);
+  const std::vector<Mat3> fd = transportFrames(sd, nd);
+  for (std::size_t k = 0; k < fr.size(); ++k) {
+    // W = R here gives the identity exactly (so that a wire at rest moves nothing).
+    Quat q = sameBits(fr[k], fd[k]) ? Quat(1.0, 0.0, 0.0, 0.0)
+                                    : glm::normalize(glm::quat_cast(fd[k] * glm::transpose(fr[k])));
+    if (k > 0 && glm::dot(q, turn.back()) < 0.0)
+      q = -q;  // one hemisphere: slerp takes the short way
+    turn.push_back(q);
+  }
+
+  // How far a Catmull-Rom sub-span strays from its chord: |C''| Δt² / 8, |C''| largest at a span
+  // end (it is affine in t).
+  double deviation = 0.0;
+  if (w.curve == WireCurve::CatmullRom) {
+    const double dt = 1.0 / kCatmullRomSamples;
+    for (std::size_t j = 0; j < rest.spans(); ++j) {
+      const double c2 = std::max(glm::length(rest.d2(j, 0.0)), glm::length(rest.d2(j, 1.0)));
+      deviation = std::max(deviation, c2 * dt * dt / 8.0);
+    }
+  }
+  reach = radius + deviation;
+
+  Vec3 bl(std::numeric_limits<double>::infinity()), bh = -bl;
+  for (std::size_t k = 0; k + 1 < sr.x.size(); ++k) {
+    chordA.push_back(sr.x[k]);
+    chordE.push_back(sr.x[k + 1] - sr.x[k]);
+    chordInv.push_back(1.0 / glm::dot(chordE.back(), chordE.back()));
+    bl = glm::min(bl, sr.x[k]);
+    bh = glm::max(bh, sr.x[k]);
+  }
+  bl = glm::min(bl, sr.x.back());
+  bh = glm::max(bh, sr.x.back());
+  lo = bl - Vec3(reach);
+  const Vec3 ext = bh + Vec3(reach) - lo;
+  cell = std::max(reach, std::cbrt(ext.x * ext.y * ext.z / static_cast<double>(kMaxCells)));
+  for (int a = 0; a < 3; ++a)
+    dims[a] = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(ext[a] / cell)));
+  const std::size_t cells = dims[0] * dims[1] * dims[2];
+
+  // Each chord goes into the cells whose centre is within reach + half a cell diagonal of it:
+  // every point within reach of the chord then finds it in its own cell.
+  const double near = reach + 0.5 * std::sqrt(3.0) * cell;
+  std::vector<std::uint64_t> start(cells + 1, 0);
+  std::vector<std::pair<std::size_t, std::uint32_t>> pairs;
+  for (std::size_t k = 0; k < chordA.size(); ++k) {
+    const Vec3 a = chordA[k], b = a + chordE[k];
+    std::array<std::size_t, 3> c0{}, c1{};
+    for (int d = 0; d < 3; ++d) {
+      const double l = (std::min(a[d], b[d]) - reach - lo[d]) / cell;
+      const double h = (std::max(a[d], b[d]) + reach - lo[d]) / cell;
+      c0[d] = static_cast<std::size_t>(std::clamp(std::floor(l), 0.0, double(dims[d] - 1)));
+      c1[d] = static_cast<std::size_t>(std::clamp(std::floor(h), 0.0, double(dims[d] - 1)));
+    }
+    for (std::size_t z = c0[2]; z <= c1[2]; ++z)
+      for (std::size_t y = c0[1]; y <= c1[1]; ++y)
+        for (std::size_t x = c0[0]; x <= c1[0]; ++x) {
+          const Vec3 centre = lo + cell * Vec3(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
+          const double t = std::clamp(glm::dot(centre - a, chordE[k]) * chordInv[k], 0.0, 1.0);
+          if (glm::length(centre - (a + t * chordE[k])) > near) continue;
+          pairs.emplace_back((z * dims[1] + y) * dims[0] + x, static_cast<std::uint32_t>(k));
+        }
+  }
+  if (pairs.size() >= std::numeric_limits<std::uint32_t>::max())
+    throw InvalidInput(wireName(index) + ": too many points for its search grid");
+  for (const auto& [c, k] : pairs) ++start[c + 1];
+  for (std::size_t c = 0; c < cells; ++c) start[c + 1] += start[c];
+  cellStart.assign(start.begin(), start.end());
+  items.resize(pairs.size());
+  std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
+  for (const auto& [c, k] : pairs) items[fill[c]++] = k;  // chords in index order per cell
+}
+
+bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta) const {
+  const Vec3 g = (x - lo) / cell;
+  if (!(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0 && g.x < double(dims[0]) && g.y < double(dims[1]) &&
+        g.z < double(dims[2])))
+    return false;  // outside the grid (or not finite)
+  const std::size_t c =
+      (std::size_t(g.z) * dims[1] + std::size_t(g.y)) * dims[0] + std::size_t(g.x);
+  double best = reach * reach;
+  std::uint32_t bestK = 0;
+  double bestT = 0.0;
+  bool found = false;
+  for (std::uint32_t i = cellStart[c]; i < cellStart[c + 1]; ++i) {
+    const std::uint32_t k = items[i];
+    const Vec3 rel = x - chordA[k];
+    const double t = std::clamp(glm::dot(rel, chordE[k]) * chordInv[k], 0.0, 1.0);
+    const Vec3 off = rel - t * chordE[k];
+    const double d2 = glm::dot(off, off);
+    if (d2 < best) {
+      best = d2;
+      bestK = k;
+      bestT = t;
+      found = true;
+    }
+  }
+  if (!found) return false;
+
+  // The closest point of R: span j, t ∈ [0, 1].
+  std::size_t j = bestK / static_cast<std::uint32_t>(perSpan);
+  double t = bestT;
+  if (perSpan > 1) {
+    t = (static_cast<double>(bestK % static_cast<std::uint32_t>(perSpan)) + bestT) / perSpan;
+    const std::size_t last = rest.spans() - 1;
+    for (int step = 0; step < kNewtonSteps; ++step) {
+      const Vec3 off = rest.at(j, t) - x;
+      const Vec3 v = rest.d1(j, t);
+      const double slope = glm::dot(rest.d2(j, t), off) + glm::dot(v, v);
+      if (!(slope > 0.0)) break;
+      const double dt = glm::dot(v, off) / slope;
+      t -= dt;
+      if (t < 0.0 && j > 0) {
+        --j;
+        t += 1.0;
+      } else if (t > 1.0 && j < last) {
+        ++j;
+        t -= 1.0;
+      }
+      t = std::clamp(t, 0.0, 1.0);
+      if (std::abs(dt) <= 1e-14) break;
+    }
+  }
+  const Vec3 foot = rest.at(j, t);
+  const Vec3 v = x - foot;
+  const double d = glm::length(v);
+  if (!(d < radius)) return false;
+  const double f = d <= inner ? 1.0 : falloff(dropoff, (d - inner) / (radius - inner));
+
+  // The rotation at (j, t), interpolated between the samples, then its angle times F.
+  const double s = t * perSpan;
+  const std::size_t k =
+      std::min(j * static_cast<std::size_t>(perSpan) + static_cast<std::size_t>(std::floor(s)),
+               turn.size() - 2);
+  const double a =
+      static_cast<double>(j * static_cast<std::size_t>(perSpan)) + s - static_cast<double>(k);
+  Quat q = turn[k] == turn[k + 1] ? turn[k] : glm::slerp(turn[k], turn[k + 1], a);
+  if (f != 1.0) q = glm::slerp(Quat(1.0, 0.0, 0.0, 0.0), q, f);
+  const double grow = 1.0 + (scale - 1.0) * f;
+  // x' − x, written so that W = R, s = 1 gives exactly 0 (q is then the identity).
+  delta = (grow * (q * v) - v) + f * (deformed.at(j, t) - foot);
+  return true;
+}
+
+WiresWarp::WiresWarp(std::vector<Wire> wires, const WiresOptions& options)
+    : wires_(std::move(wires)), options_(options) {
+  validate(wires_, options_);
+  for (std::size_t i = 0; i < wires_.size(); ++i)
+    compiled_.push_back(std::make_unique<const Compiled>(wires_[i], i));
+}
+
+WiresWarp::~WiresWarp() = default;
+
+namespace {
+
+// x' from the moves of the wires (the paper's blend; a single wire's move as it is).
+template <class Wires>
+Vec3 blend(const Wires& compiled, double m, const Vec3& x) {
+  if (compiled.size() == 1) {
+    Vec3 delta;
+    return compiled[0]->move(x, delta) ? x + delta : x;
+  }
+  // Weights |Δx_i|^m normalised by the largest |Δx_i| (neither overflow nor underflow).
+  std::array<Vec3, 8> local;
+  std::array<double, 8> len{};
+  std::vector<Vec3> heapD;
+  std::vector<double> heapL;
+  Vec3* dx = local.data();
+  double* lx = len.data();
+  if (compiled.size() > local.size()) {
+    heapD.resize(compiled.size());
+    heapL.resize(compiled.size());
+    dx = heapD.data();
+    lx = heapL.data();
+  }
+  double largest = 0.0;
+  for (std::size_t i = 0; i < compiled.size(); ++i) {
+    dx[i] = Vec3(0.0);
+    compiled[i]->move(x, dx[i]);
+    lx[i] = glm::length(dx[i]);
+    largest = std::max(largest, lx[i]);
+  }
+  if (!(largest > 0.0)) return x;
+  Vec3 sum(0.0);
+  double weights = 0.0;
+  for (std::size_t i = 0; i < compiled.size(); ++i) {
+    if (!(lx[i] > 0.0)) continue;
+    const double w = m == 0.0 ? 1.0 : m == 1.0 ? lx[i] / largest : std::pow(lx[i] / largest, m);
+    sum += w * dx[i];
+    weights += w;
+  }
+  return x + sum / weights;
+}
+
+}  // namespace
+
+Vec3 WiresWarp::apply(const Vec3& x) const { return blend(compiled_, options_.locality, x); }
+
+UnmappedPoints WiresWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                     std::size_t begin, std::size_t end) const {
+  for (std::size_t i = begin; i != end; ++i) out[i] = blend(compiled_, options_.locality, in[i]);
+  return {};
+}
+
+}  // namespace spacewarp

@@ -1,0 +1,293 @@
+#include <spacewarp/nonlinear/wires.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <glm/gtc/quaternion.hpp>
+
+#include <spacewarp/core/errors.h>
+#include "test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr WireCurve kCurves[] = {WireCurve::Polyline, WireCurve::CatmullRom};
+
+// A bent, non-planar reference curve of about unit size.
+std::vector<Vec3> bentCurve() {
+  return {
+      {-1.0, 0.0, 0.0}, {-0.4, 0.25, 0.05}, {0.2, 0.3, -0.1}, {0.8, 0.1, 0.15}, {1.3, -0.3, 0.2}};
+}
+
+// The curve through `p` at span j, t ∈ [0, 1], from the matrix form of the uniform Catmull-Rom
+// spline (ends reflected), or the polyline.
+Vec3 curveAt(WireCurve curve, const std::vector<Vec3>& p, std::size_t j, double t) {
+  if (curve == WireCurve::Polyline) return (1.0 - t) * p[j] + t * p[j + 1];
+  const std::size_t n = p.size();
+  const Vec3 a = j == 0 ? 2.0 * p[0] - p[1] : p[j - 1];
+  const Vec3 d = j + 2 >= n ? 2.0 * p[n - 1] - p[n - 2] : p[j + 2];
+  const double t2 = t * t, t3 = t2 * t;
+  return 0.5 * ((-t3 + 2 * t2 - t) * a + (3 * t3 - 5 * t2 + 2) * p[j] +
+                (-3 * t3 + 4 * t2 + t) * p[j + 1] + (t3 - t2) * d);
+}
+
+// Distance from x to the curve by dense sampling (an upper bound, within 1e-4 of the truth here).
+double distanceTo(WireCurve curve, const std::vector<Vec3>& p, const Vec3& x) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t j = 0; j + 1 < p.size(); ++j)
+    for (int i = 0; i <= 400; ++i)
+      best = std::min(best, glm::length(x - curveAt(curve, p, j, i / 400.0)));
+  return best;
+}
+
+Wire wireOf(WireCurve curve, std::vector<Vec3> rest, std::vector<Vec3> deformed, double radius) {
+  Wire w;
+  w.curve = curve;
+  w.rest = std::move(rest);
+  w.deformed = std::move(deformed);
+  w.radius = radius;
+  return w;
+}
+
+std::vector<Vec3> moved(const std::vector<Vec3>& p, const Mat3& q, const Vec3& t) {
+  std::vector<Vec3> out;
+  for (const Vec3& x : p) out.push_back(q * x + t);
+  return out;
+}
+
+Mat3 rotationAbout(const Vec3& axis, double angle) {
+  return glm::mat3_cast(glm::angleAxis(angle, glm::normalize(axis)));
+}
+
+// A bend of the reference curve: each point moved by a smooth offset times `amount`.
+std::vector<Vec3> bent(const std::vector<Vec3>& p, double amount = 1.0) {
+  std::vector<Vec3> out;
+  for (const Vec3& x : p) out.push_back(x + amount * Vec3(0.1 * x.y, 0.3 * x.x * x.x, -0.2 * x.x));
+  return out;
+}
+
+TEST(WiresWarp, NamesRoundTripAndDefaults) {
+  for (WireCurve c : kCurves) EXPECT_EQ(wireCurveFromName(wireCurveName(c)), c);
+  for (WireDropoff f : {WireDropoff::Smooth, WireDropoff::Linear})
+    EXPECT_EQ(wireDropoffFromName(wireDropoffName(f)), f);
+  EXPECT_THAT(test::messageOf<InvalidInput>([] { wireCurveFromName("bezier"); }),
+              HasSubstr("'bezier' is not one of: polyline, catmull-rom"));
+  EXPECT_THAT(test::messageOf<InvalidInput>([] { wireDropoffFromName("cubic"); }),
+              HasSubstr("'cubic' is not one of: smooth, linear"));
+  const Wire w;
+  EXPECT_EQ(w.scale, 1.0);
+  EXPECT_EQ(w.innerRadius, 0.0);
+  EXPECT_EQ(w.dropoff, WireDropoff::Smooth);
+  EXPECT_EQ(w.curve, WireCurve::Polyline);
+  EXPECT_EQ(WiresOptions{}.locality, 1.0);
+}
+
+TEST(WiresWarp, PointsOnTheRestWireGoOntoTheDeformedWire) {
+  const std::vector<Vec3> rest = bentCurve();
+  const std::vector<Vec3> deformed = bent(rest);
+  for (WireCurve curve : kCurves) {
+    const WiresWarp warp({wireOf(curve, rest, deformed, 0.4)});
+    for (std::size_t j = 0; j + 1 < rest.size(); ++j) {
+      for (double t : {0.0, 0.1, 0.37, 0.5, 0.93, 1.0}) {
+        const Vec3 x = curveAt(curve, rest, j, t);
+        const Vec3 expected = curveAt(curve, deformed, j, t);
+        EXPECT_LE(glm::length(warp.apply(x) - expected), 1e-12)
+            << wireCurveName(curve) << " span " << j << " t " << t;
+      }
+    }
+  }
+}
+
+TEST(WiresWarp, PointsBeyondTheRadiusDoNotMove) {
+  std::mt19937 rng(1);
+  const std::vector<Vec3> rest = bentCurve();
+  for (WireCurve curve : kCurves) {
+    const WiresWarp warp({wireOf(curve, rest, bent(rest), 0.3)});
+    std::size_t far = 0, nearby = 0;
+    for (const Vec3& x : test::randomPoints(rng, 3000, -1.6, 1.6)) {
+      const double d = distanceTo(curve, rest, x);
+      const Vec3 y = warp.apply(x);
+      if (d > 0.3) {
+        ++far;
+        EXPECT_TRUE(test::bitEqual(y, x)) << test::toString(x) << " at distance " << d;
+      } else if (d < 0.29) {
+        ++nearby;
+        EXPECT_FALSE(y == x) << test::toString(x) << " at distance " << d;
+      }
+    }
+    EXPECT_GT(far, 1000u);
+    EXPECT_GT(nearby, 50u);
+  }
+}
+
+TEST(WiresWarp, WireAtRestIsTheIdentity) {
+  std::mt19937 rng(2);
+  const std::vector<Vec3> rest = bentCurve();
+  for (WireCurve curve : kCurves) {
+    for (WireDropoff f : {WireDropoff::Smooth, WireDropoff::Linear}) {
+      Wire w = wireOf(curve, rest, rest, 0.5);
+      w.dropoff = f;
+      w.innerRadius = 0.1;
+      const WiresWarp warp({w, wireOf(curve, rest, rest, 0.8)});
+      EXPECT_TRUE(test::leavesPointsUnchanged(warp, test::randomPoints(rng, 2000, -1.5, 1.5)));
+    }
+  }
+}
+
+TEST(WiresWarp, RigidMotionOfTheWireMovesItsInnerTubeRigidly) {
+  std::mt19937 rng(3);
+  const std::vector<Vec3> rest = bentCurve();
+  const Mat3 q = rotationAbout({0.3, -1.0, 0.5}, 0.9);
+  const Vec3 shift(0.4, -0.2, 0.7);
+  for (WireCurve curve : kCurves) {
+    Wire w = wireOf(curve, rest, moved(rest, q, shift), 0.5);
+    w.innerRadius = 0.25;
+    const WiresWarp warp({w});
+    std::size_t inside = 0;
+    for (const Vec3& x : test::randomPoints(rng, 4000, -1.5, 1.5)) {
+      if (!(distanceTo(curve, rest, x) < 0.24)) continue;
+      ++inside;
+      EXPECT_LE(glm::length(warp.apply(x) - (q * x + shift)), 1e-12)
+          << wireCurveName(curve) << " " << test::toString(x);
+    }
+    EXPECT_GT(inside, 50u);
+
+    // Paper's drop-off, no inner radius: F = 1 and ∇F = 0 on the wire, so J = Q there.
+    const WiresWarp onWire({wireOf(curve, rest, moved(rest, q, shift), 0.5)});
+    for (std::size_t j = 0; j + 1 < rest.size(); ++j) {
+      const Vec3 x = curveAt(curve, rest, j, 0.4);
+      const Mat3 jac = onWire.jacobian(x);
+      EXPECT_LE(test::relativeError(jac, q), 1e-6)
+          << wireCurveName(curve) << " " << test::toString(jac) << " vs " << test::toString(q);
+    }
+  }
+}
+
+TEST(WiresWarp, ScaleMovesPointsAwayFromTheCurveByTheDropOff) {
+  // A straight wire along x: the closest point is the foot on the axis, d the distance to it.
+  const std::vector<Vec3> rest = {{-1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}};
+  const double r = 0.6, r0 = 0.2, s = 1.7;
+  for (WireDropoff dropoff : {WireDropoff::Smooth, WireDropoff::Linear}) {
+    Wire w = wireOf(WireCurve::Polyline, rest, rest, r);
+    w.scale = s;
+    w.innerRadius = r0;
+    w.dropoff = dropoff;
+    const WiresWarp warp({w});
+    for (double d : {0.0, 0.1, 0.2, 0.3, 0.45, 0.59, 0.61}) {
+      const Vec3 dir = glm::normalize(Vec3(0.0, 0.6, -0.8));
+      const Vec3 x = Vec3(0.3, 0.0, 0.0) + d * dir;
+      const double u = std::clamp((d - r0) / (r - r0), 0.0, 1.0);
+      const double f = d <= r0                          ? 1.0
+                       : d >= r                         ? 0.0
+                       : dropoff == WireDropoff::Linear ? 1.0 - u
+                                                        : (1 - u * u) * (1 - u * u);
+      const Vec3 expected = Vec3(0.3, 0.0, 0.0) + (1.0 + (s - 1.0) * f) * d * dir;
+      EXPECT_LE(glm::length(warp.apply(x) - expected), 1e-15) << d;
+    }
+  }
+}
+
+TEST(WiresWarp, SeveralWiresCombineAsInThePaper) {
+  std::mt19937 rng(4);
+  const std::vector<Vec3> a = bentCurve();
+  std::vector<Vec3> b;
+  for (const Vec3& x : a) b.push_back(Vec3(x.z + 0.2, x.x, -x.y));  // crosses a
+  const Wire wa = wireOf(WireCurve::CatmullRom, a, bent(a), 0.6);
+  const Wire wb = wireOf(WireCurve::Polyline, b, moved(b, rotationAbout({1, 1, 0}, 0.3), {}), 0.5);
+  const WiresWarp alone[] = {WiresWarp({wa}), WiresWarp({wb})};
+  for (double m : {0.0, 1.0, 2.5}) {
+    const WiresWarp both({wa, wb}, WiresOptions{m});
+    std::size_t overlap = 0;
+    for (const Vec3& x : test::randomPoints(rng, 2000, -1.2, 1.2)) {
+      const Vec3 da = alone[0].apply(x) - x;
+      const Vec3 db = alone[1].apply(x) - x;
+      const double la = glm::length(da), lb = glm::length(db);
+      const double wa_ = la > 0 ? std::pow(la, m) : 0.0;
+      const double wb_ = lb > 0 ? std::pow(lb, m) : 0.0;
+      const Vec3 expected = wa_ + wb_ > 0 ? x + (wa_ * da + wb_ * db) / (wa_ + wb_) : x;
+      overlap += la > 0 && lb > 0;
+      EXPECT_LE(glm::length(both.apply(x) - expected), 1e-14) << "m " << m << test::toString(x);
+    }
+    EXPECT_GT(overlap, 30u);
+  }
+}
+
+TEST(WiresWarp, JacobianMatchesFiniteDifferencesAwayFromTheMedialAxis) {
+  std::mt19937 rng(5);
+  const std::vector<Vec3> rest = bentCurve();
+  const WiresWarp warp({wireOf(WireCurve::CatmullRom, rest, bent(rest), 0.5)});
+  std::vector<Vec3> points;
+  for (const Vec3& x : test::randomPoints(rng, 400, -1.0, 1.2))
+    if (distanceTo(WireCurve::CatmullRom, rest, x) < 0.2) points.push_back(x);
+  ASSERT_GT(points.size(), 10u);
+  EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(warp, points, 1e-5));
+  // A gentler bend does not fold space: inverse() recovers the points, normals stay normal.
+  const WiresWarp gentle({wireOf(WireCurve::CatmullRom, rest, bent(rest, 0.3), 0.5)});
+  EXPECT_TRUE(test::inverseRecovers(gentle, points));
+  EXPECT_TRUE(test::normalsStayPerpendicular(gentle, points, rng, 1e-9));
+}
+
+TEST(WiresWarp, BatchIsDeterministicAndEqualsApply) {
+  std::mt19937 rng(6);
+  const std::vector<Vec3> a = bentCurve();
+  std::vector<Vec3> b;
+  for (const Vec3& x : a) b.push_back(x + Vec3(0.0, 0.3, 0.1));
+  const WiresWarp warp({wireOf(WireCurve::CatmullRom, a, bent(a), 0.4),
+                        wireOf(WireCurve::Polyline, b, bent(b), 0.3)},
+                       WiresOptions{2.0});
+  EXPECT_TRUE(test::batchIsDeterministic(warp, test::randomPoints(rng, 20000, -1.5, 1.5)));
+  test::expectBatchRejectsMismatchedSizes(warp, 3, 4);
+}
+
+std::string errorOf(std::vector<Wire> wires, WiresOptions options = {}) {
+  return test::messageOf<InvalidInput>([&] { WiresWarp(std::move(wires), options); });
+}
+
+TEST(WiresWarp, RejectsBadParameters) {
+  const std::vector<Vec3> p = bentCurve();
+  const Wire good = wireOf(WireCurve::Polyline, p, p, 0.5);
+  EXPECT_THAT(errorOf({}), HasSubstr("WiresWarp: no wires"));
+  Wire w = good;
+  w.deformed.pop_back();
+  EXPECT_THAT(errorOf({good, w}), HasSubstr("wire 1: 5 rest points but 4 deformed points"));
+  w = wireOf(WireCurve::Polyline, {p[0]}, {p[0]}, 0.5);
+  EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: rest needs at least 2 points, got 1"));
+  w = good;
+  w.rest[2] = w.rest[1];
+  EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: rest[2] repeats rest[1]"));
+  w = good;
+  w.deformed[3] = w.deformed[2] + Vec3(1e-15, 0, 0);
+  EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: deformed[3] repeats deformed[2]"));
+  w = good;
+  w.rest[4].y = std::nan("");
+  EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: rest[4] is not finite"));
+  for (double r : {0.0, -1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    w = good;
+    w.radius = r;
+    EXPECT_THAT(errorOf({good, w}), HasSubstr("wire 1: radius must be finite and > 0")) << r;
+  }
+  for (double r0 : {-0.1, 0.5, 0.7, std::nan("")}) {
+    w = good;
+    w.innerRadius = r0;
+    EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: innerRadius must be in [0, radius)")) << r0;
+  }
+  for (double s : {0.0, -2.0, std::nan("")}) {
+    w = good;
+    w.scale = s;
+    EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: scale must be finite and > 0")) << s;
+  }
+  for (double m : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()})
+    EXPECT_THAT(errorOf({good}, WiresOptions{m}), HasSubstr("locality must be finite and >= 0"));
+  EXPECT_EQ(errorOf({good}), "");
+}
+
+}  // namespace
+}  // namespace spacewarp
