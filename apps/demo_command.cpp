@@ -149,6 +149,20 @@ std::map<std::string, json> demoRigs(const DemoControls& controls) {
         {"handles", points(controls.handles)},
         {"targets", points(controls.targets)}}},
   };
+  // A wire along the bar's axis, swayed; the bar lies within its inner radius, so each slice
+  // of the bar follows the wire rigidly.
+  std::vector<Vec3> axis, swayedAxis;
+  for (int k = 0; k <= 8; ++k) {
+    axis.emplace_back(0.0, 0.0, -2.25 + 4.5 * k / 8.0);
+    swayedAxis.push_back(sway(axis.back()));
+  }
+  rigs["wires"] = {{"method", "wires"},
+                   {"wires",
+                    {{{"rest", points(axis)},
+                      {"deformed", points(swayedAxis)},
+                      {"curve", "catmull-rom"},
+                      {"radius", 1.5},
+                      {"innerRadius", 0.75}}}}};
   for (const std::string& method : cageMethods())
     rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
   // The volume's inverse is seeded from a coarse lattice that may reach past the cage; 100k

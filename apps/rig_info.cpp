@@ -70,6 +70,14 @@ class Describer {
       line("alpha", get("alpha", "1"));
       line("does", "moves each point by its own best " + get("mode", "rigid") +
                        " transform of the handles onto the targets, weighted by distance");
+    } else if (method == "wires") {
+      line("method", "wires (Singh & Fiume)");
+      line("wires", count(rig_, "wires"));
+      line("locality", get("locality", "1"));
+      line("does",
+           "moves the points within each wire's radius of its rest curve as the curve moves to "
+           "its deformed one (scaled, turned and shifted about the closest rest point, fading "
+           "with the distance), blending several wires by the size of their moves");
     } else if (method == "compose") {
       compose();
     } else {
