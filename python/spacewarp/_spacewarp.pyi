@@ -60,6 +60,8 @@ __all__ = [
     "Taper",
     "Twist",
     "Warp",
+    "Wire",
+    "Wires",
     "cage_coordinates",
     "cage_methods",
     "coordinate_properties",
@@ -1006,6 +1008,74 @@ class Twist(Warp):
         lo: float = ...,
         hi: float = ...,
     ) -> None: ...
+
+
+class Wire:
+    """One wire of spacewarp.Wires: the reference curve `rest` (n, 3) and the
+    deformed curve `deformed` (n, 3), n >= 2, world units, point k of each at parameter k;
+    `radius` (> 0, world units) of influence; `inner_radius` in [0, radius): full influence
+    within it (a rigid motion of the wire moves that tube rigidly); `scale` (> 0) about the curve;
+    `dropoff` "smooth" ((1 - x^2)^2, default) or "linear"; `curve` "polyline" (default) or
+    "catmull-rom". Checked when a Wires is built from it.
+    """
+
+    def __init__(
+        self,
+        rest: _Points,
+        deformed: _Points,
+        radius: float,
+        *,
+        inner_radius: float = 0.0,
+        scale: float = 1.0,
+        dropoff: Literal["smooth", "linear"] = "smooth",
+        curve: Literal["polyline", "catmull-rom"] = "polyline",
+    ) -> None: ...
+
+    @property
+    def rest(self) -> _Float64Array:
+        """The reference curve (n, 3)."""
+
+    @property
+    def deformed(self) -> _Float64Array:
+        """The deformed curve (n, 3)."""
+
+    @property
+    def radius(self) -> float:
+        """Radius of influence, world units."""
+
+    @property
+    def inner_radius(self) -> float:
+        """Radius of full influence, world units."""
+
+    @property
+    def scale(self) -> float:
+        """Scale about the curve."""
+
+    @property
+    def dropoff(self) -> str:
+        """The drop-off: "smooth" or "linear"."""
+
+    @property
+    def curve(self) -> str:
+        """The curve: "polyline" or "catmull-rom"."""
+
+
+class Wires(Warp):
+    """Wires (Singh & Fiume 1998): points within a wire's radius of its rest curve follow the
+    curve to its deformed one (scaled, turned and moved about their closest rest point, fading
+    out at the radius); several wires blend as x + sum(d_i |d_i|^m) / sum(|d_i|^m), m =
+    `locality` (>= 0, default 1). `wires`: a sequence of spacewarp.Wire.
+    """
+
+    def __init__(self, wires: Sequence[Wire], *, locality: float = 1.0) -> None: ...
+
+    @property
+    def wires(self) -> list[Wire]:
+        """The wires (a list of spacewarp.Wire)."""
+
+    @property
+    def locality(self) -> float:
+        """The blend's exponent m."""
 
 
 def cage_coordinates(

@@ -131,6 +131,11 @@ for _where in ("Geometry.set_vertex_attribute", "Geometry.set_face_attribute"):
     OVERRIDES[f"{_where}.dtype"] = "_Dtype"
 OVERRIDES.update({
     "Mls.__init__.mode": 'Literal["rigid", "similarity", "affine"]',
+    "Wire.__init__.deformed": "_Points",
+    "Wires.__init__.wires": "Sequence[Wire]",
+    "Wires.wires": "list[Wire]",
+    "Wire.__init__.dropoff": 'Literal["smooth", "linear"]',
+    "Wire.__init__.curve": 'Literal["polyline", "catmull-rom"]',
     "DeformationGraph.__init__.sampling": 'Literal["voxel", "poisson"]',
     "Lattice.__init__.outside": 'Literal["identity", "clamp", "falloff"]',
     "Harmonic.__init__.outside": 'Literal["raise", "nearest"]',
