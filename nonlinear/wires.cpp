@@ -178,6 +178,17 @@ bool sameBits(const Mat3& a, const Mat3& b) {
   return true;
 }
 
+// The rotation q about the same axis by f times its angle (q and −q alike: the short way).
+Quat power(const Quat& q, double f) {
+  const Vec3 v(q.x, q.y, q.z);
+  const double s = glm::length(v);
+  if (!(s > 0.0)) return Quat(1.0, 0.0, 0.0, 0.0);
+  const double half = f * std::atan2(s, std::abs(q.w));
+  const Vec3 axis = (q.w < 0.0 ? -1.0 : 1.0) * v / s;
+  const Vec3 u = std::sin(half) * axis;
+  return Quat(std::cos(half), u.x, u.y, u.z);
+}
+
 double falloff(WireDropoff f, double x) {
   if (f == WireDropoff::Linear) return 1.0 - x;
   const double y = 1.0 - x * x;
@@ -314,16 +325,26 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
   bh = glm::max(bh, sr.x.back());
   lo = bl - Vec3(reach);
   const Vec3 ext = bh + Vec3(reach) - lo;
-  cell = std::max(reach, std::cbrt(ext.x * ext.y * ext.z / static_cast<double>(kMaxCells)));
+  // Cells of an eighth of the reach keep few chords per cell (see below), within kMaxCells.
+  cell = std::max(0.125 * reach, std::cbrt(ext.x * ext.y * ext.z / static_cast<double>(kMaxCells)));
   for (int a = 0; a < 3; ++a)
     dims[a] = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(ext[a] / cell)));
   const std::size_t cells = dims[0] * dims[1] * dims[2];
 
-  // Each chord goes into the cells whose centre is within reach + half a cell diagonal of it:
-  // every point within reach of the chord then finds it in its own cell.
-  const double near = reach + 0.5 * std::sqrt(3.0) * cell;
+  // A cell lists the chords that can be the closest one (within reach) to a point x of it. With
+  // c the cell's centre, h half its diagonal and d_k = dist(c, chord k), dist(x, chord k) lies
+  // in [d_k − h, d_k + h]; so chord k can be the closest only if d_k − h <= min_j d_j + h, and
+  // within reach only if d_k − h <= reach.
+  const double half = 0.5 * std::sqrt(3.0) * cell;
+  const double near = reach + half;
   std::vector<std::uint64_t> start(cells + 1, 0);
-  std::vector<std::pair<std::size_t, std::uint32_t>> pairs;
+  struct Pair {
+    std::size_t cell;
+    std::uint32_t chord;
+    double distance;
+  };
+  std::vector<Pair> pairs;
+  std::vector<double> nearest(cells, std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k < chordA.size(); ++k) {
     const Vec3 a = chordA[k], b = a + chordE[k];
     std::array<std::size_t, 3> c0{}, c1{};
@@ -338,18 +359,22 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
         for (std::size_t x = c0[0]; x <= c1[0]; ++x) {
           const Vec3 centre = lo + cell * Vec3(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
           const double t = std::clamp(glm::dot(centre - a, chordE[k]) * chordInv[k], 0.0, 1.0);
-          if (glm::length(centre - (a + t * chordE[k])) > near) continue;
-          pairs.emplace_back((z * dims[1] + y) * dims[0] + x, static_cast<std::uint32_t>(k));
+          const double d = glm::length(centre - (a + t * chordE[k]));
+          if (d > near) continue;
+          const std::size_t c = (z * dims[1] + y) * dims[0] + x;
+          pairs.push_back({c, static_cast<std::uint32_t>(k), d});
+          nearest[c] = std::min(nearest[c], d);
         }
   }
+  std::erase_if(pairs, [&](const Pair& p) { return p.distance > nearest[p.cell] + 2.0 * half; });
   if (pairs.size() >= std::numeric_limits<std::uint32_t>::max())
     throw InvalidInput(wireName(index) + ": too many points for its search grid");
-  for (const auto& [c, k] : pairs) ++start[c + 1];
+  for (const Pair& p : pairs) ++start[p.cell + 1];
   for (std::size_t c = 0; c < cells; ++c) start[c + 1] += start[c];
   cellStart.assign(start.begin(), start.end());
   items.resize(pairs.size());
   std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
-  for (const auto& [c, k] : pairs) items[fill[c]++] = k;  // chords in index order per cell
+  for (const Pair& p : pairs) items[fill[p.cell]++] = p.chord;  // in index order per cell
 }
 
 bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta) const {
@@ -415,8 +440,10 @@ bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta) const {
                turn.size() - 2);
   const double a =
       static_cast<double>(j * static_cast<std::size_t>(perSpan)) + s - static_cast<double>(k);
-  Quat q = turn[k] == turn[k + 1] ? turn[k] : glm::slerp(turn[k], turn[k + 1], a);
-  if (f != 1.0) q = glm::slerp(Quat(1.0, 0.0, 0.0, 0.0), q, f);
+  // Neighbouring samples' rotations are close (one hemisphere): normalised lerp is slerp to
+  // within their angle squared, and cheaper.
+  Quat q = turn[k] == turn[k + 1] ? turn[k] : glm::normalize((1.0 - a) * turn[k] + a * turn[k + 1]);
+  if (f != 1.0) q = power(q, f);
   const double grow = 1.0 + (scale - 1.0) * f;
   // x' − x, written so that W = R, s = 1 gives exactly 0 (q is then the identity).
   delta = (grow * (q * v) - v) + f * (deformed.at(j, t) - foot);
