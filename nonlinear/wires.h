@@ -81,14 +81,20 @@ struct WiresOptions {
 /// reference wire has no such point (a turn about its axis would be invisible): W's first frame
 /// is then R's turned by the smallest rotation from R'(0) to W'(0).
 ///
-/// Frames and tangents are computed at sample points and M is interpolated between them (slerp):
-/// for polylines the samples are the points, with the tangent the mean of the two segment
+/// Frames and tangents are computed at sample points and M is interpolated between them
+/// (normalised lerp of the quaternions, which is slerp to within the square of the samples'
+/// angle): for polylines the samples are the points, with the tangent the mean of the two segment
 /// directions (so M is continuous along the curve); for Catmull-Rom 16 samples per span, exact
 /// spline tangents. Closest points: exact for polylines; for Catmull-Rom the nearest of the
 /// samples' chords refined by Newton's method on the cubic (to rounding, away from the curve's
-/// medial axis, where the closest point jumps anyway). A uniform grid over R's segments (cells
-/// ≥ r, at most 2^20 per wire) finds the candidates; points outside every wire's grid or farther
-/// than r are returned unchanged (bit for bit).
+/// medial axis, where the closest point jumps anyway). A uniform grid over R's chords (cells of
+/// r/8, or larger to stay near 2^20 cells per wire) lists per cell only the chords that can be
+/// the closest one to a point of the cell; points outside every wire's grid or farther than r are
+/// returned unchanged (bit for bit).
+///
+/// Cost: about 60 ns per point (one thread) for a polyline wire, 115 ns for a Catmull-Rom wire,
+/// with a third of the points within r (bench/nonlinear_bench_wires.cpp); building is a grid
+/// per wire, milliseconds.
 ///
 /// Several wires: x' = x + Σ Δx_i w_i / Σ w_i with Δx_i the move of wire i alone and
 /// w_i = |Δx_i|^m (0 for Δx_i = 0). One wire: x' is that wire's x' exactly.
