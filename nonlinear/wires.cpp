@@ -504,6 +504,25 @@ Vec3 blend(const Wires& compiled, double m, const Vec3& x) {
 
 Vec3 WiresWarp::apply(const Vec3& x) const { return blend(compiled_, options_.locality, x); }
 
+Mat3 WiresWarp::jacobian(const Vec3& x) const {
+  double radius = wires_[0].radius;
+  for (const Wire& w : wires_) radius = std::min(radius, w.radius);
+  // Balances truncation, ~ (h / r)², against rounding, ~ eps |x| / h.
+  const double h = std::cbrt(std::numeric_limits<double>::epsilon() * std::max(maxAbs(x), radius) *
+                             radius * radius);
+  Mat3 j;
+  for (int axis = 0; axis < 3; ++axis) {
+    Vec3 step(0.0);
+    step[axis] = h;
+    const Vec3 plus = x + step;
+    const Vec3 minus = x - step;
+    // A step below x's resolution (a wire far smaller than its distance from the origin).
+    if (!(plus[axis] > minus[axis])) return Warp::jacobian(x);
+    j[axis] = (apply(plus) - apply(minus)) / (plus[axis] - minus[axis]);
+  }
+  return j;
+}
+
 UnmappedPoints WiresWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
                                      std::size_t begin, std::size_t end) const {
   for (std::size_t i = begin; i != end; ++i) out[i] = blend(compiled_, options_.locality, in[i]);

@@ -171,6 +171,33 @@ TEST(WiresWarp, RigidMotionOfTheWireMovesItsInnerTubeRigidly) {
   }
 }
 
+// The rigid-motion property with the rig scaled by 1e-4 and moved 1e3 away (where doubles resolve
+// only 1e-9 of the wire's radius) and scaled by 1e3: the Jacobian's step follows the wire's
+// radius and the placement, the grid the wire's extent.
+TEST(WiresWarp, RigidMotionHoldsAtAnyPlacement) {
+  std::mt19937 rng(7);
+  const Mat3 q = rotationAbout({1.0, 0.2, -0.4}, 0.7);
+  for (const auto& [scale, offset] :
+       {std::pair{1e-4, Vec3(1e3, -2e3, 5e2)}, std::pair{1e3, Vec3(-4e5, 1e5, 0.0)}}) {
+    std::vector<Vec3> rest;
+    for (const Vec3& p : bentCurve()) rest.push_back(offset + scale * p);
+    Wire w = wireOf(WireCurve::CatmullRom, rest, moved(rest, q, scale * Vec3(0.3, 0.1, -0.2)),
+                    0.5 * scale);
+    w.innerRadius = 0.25 * scale;
+    const WiresWarp warp({w});
+    std::size_t inside = 0;
+    for (const Vec3& u : test::randomPoints(rng, 4000, -1.5, 1.5)) {
+      const Vec3 x = offset + scale * u;
+      if (!(distanceTo(WireCurve::CatmullRom, bentCurve(), u) < 0.24)) continue;
+      ++inside;
+      const Vec3 expected = q * x + (warp.apply(rest[0]) - q * rest[0]);
+      EXPECT_LE(glm::length(warp.apply(x) - expected), 1e-12 * glm::length(offset)) << scale;
+      EXPECT_LE(test::relativeError(warp.jacobian(x), q), 1e-5) << scale;
+    }
+    EXPECT_GT(inside, 50u);
+  }
+}
+
 TEST(WiresWarp, ScaleMovesPointsAwayFromTheCurveByTheDropOff) {
   // A straight wire along x: the closest point is the foot on the axis, d the distance to it.
   const std::vector<Vec3> rest = {{-1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}};
