@@ -19,7 +19,8 @@ namespace {
 using Quat = glm::dquat;
 
 constexpr int kCatmullRomSamples = 16;  // samples per span (frames and the grid's chords)
-constexpr std::size_t kMaxCells = std::size_t{1} << 20;  // per wire's grid, about
+constexpr std::size_t kMaxCells = std::size_t{1} << 20;  // per wire's grid
+constexpr double kMaxVisits = 0x1p24;  // cells visited while listing the chords, per wire
 constexpr int kNewtonSteps = 8;
 
 std::string wireName(std::size_t i) { return "WiresWarp: wire " + std::to_string(i); }
@@ -218,6 +219,9 @@ void validate(const std::vector<Wire>& wires, const WiresOptions& options) {
         lo = glm::min(lo, (*pts)[k]);
         hi = glm::max(hi, (*pts)[k]);
       }
+      // Squared lengths must stay finite (a span beyond ~1e154 would overflow them).
+      if (!std::isfinite(glm::length(hi - lo)))
+        throw InvalidInput(who + ": " + name + " spans too far for double precision");
       const double tol = 1e-12 * glm::length(hi - lo);
       for (std::size_t k = 1; k < pts->size(); ++k) {
         if (glm::length((*pts)[k] - (*pts)[k - 1]) <= tol)
@@ -325,10 +329,29 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
   bh = glm::max(bh, sr.x.back());
   lo = bl - Vec3(reach);
   const Vec3 ext = bh + Vec3(reach) - lo;
-  // Cells of an eighth of the reach keep few chords per cell (see below), within kMaxCells.
-  cell = std::max(0.125 * reach, std::cbrt(ext.x * ext.y * ext.z / static_cast<double>(kMaxCells)));
-  for (int a = 0; a < 3; ++a)
-    dims[a] = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(ext[a] / cell)));
+  if (!isFinite(lo) || !isFinite(ext))
+    throw InvalidInput(wireName(index) + ": radius reaches beyond the range of doubles");
+  // Cells of an eighth of the reach keep few chords per cell (see below); doubled while the grid
+  // would exceed kMaxCells or listing the chords' boxes would take more than kMaxVisits steps
+  // (long chords far longer than the reach), so the build stays bounded for any input.
+  const auto cellsOf = [&](double size, std::size_t axis) {
+    return std::max(1.0, std::ceil(ext[static_cast<int>(axis)] / size));
+  };
+  const auto rangeOf = [&](double size, std::size_t k, int d) {
+    const double a = chordA[k][d], b = a + chordE[k][d];
+    return std::floor((std::max(a, b) + reach - lo[d]) / size) -
+           std::floor((std::min(a, b) - reach - lo[d]) / size) + 1.0;
+  };
+  cell = std::max(0.125 * reach, std::max({ext.x, ext.y, ext.z}) / 1024.0);
+  for (;;) {
+    const double count = cellsOf(cell, 0) * cellsOf(cell, 1) * cellsOf(cell, 2);
+    double visits = 0.0;
+    for (std::size_t k = 0; k < chordA.size() && visits <= kMaxVisits; ++k)
+      visits += rangeOf(cell, k, 0) * rangeOf(cell, k, 1) * rangeOf(cell, k, 2);
+    if (count <= static_cast<double>(kMaxCells) && visits <= kMaxVisits) break;
+    cell *= 2.0;
+  }
+  for (std::size_t a = 0; a < 3; ++a) dims[a] = static_cast<std::size_t>(cellsOf(cell, a));
   const std::size_t cells = dims[0] * dims[1] * dims[2];
 
   // A cell lists the chords that can be the closest one (within reach) to a point x of it. With

@@ -87,10 +87,10 @@ struct WiresOptions {
 /// directions (so M is continuous along the curve); for Catmull-Rom 16 samples per span, exact
 /// spline tangents. Closest points: exact for polylines; for Catmull-Rom the nearest of the
 /// samples' chords refined by Newton's method on the cubic (to rounding, away from the curve's
-/// medial axis, where the closest point jumps anyway). A uniform grid over R's chords (cells of
-/// r/8, or larger to stay near 2^20 cells per wire) lists per cell only the chords that can be
-/// the closest one to a point of the cell; points outside every wire's grid or farther than r are
-/// returned unchanged (bit for bit).
+/// medial axis, where the closest point jumps anyway). A uniform grid over R's chords lists per
+/// cell only the chords that can be the closest one to a point of the cell; its cells are r/8,
+/// doubled as needed to keep at most 2^20 cells and 2^24 steps to build per wire. Points outside
+/// every wire's grid or farther than r are returned unchanged (bit for bit).
 ///
 /// Cost: about 60 ns per point (one thread) for a polyline wire, 115 ns for a Catmull-Rom wire,
 /// with a third of the points within r (bench/nonlinear_bench_wires.cpp); building is a grid
@@ -115,7 +115,8 @@ class WiresWarp final : public Warp {
   /// Throws InvalidInput naming the wire (its index) and the parameter for: no wires, fewer than
   /// 2 points, mismatched counts, non-finite points, repeated consecutive points, a radius that is
   /// not finite and > 0, an inner radius outside [0, r), a scale that is not finite and > 0, or a
-  /// locality that is not finite and ≥ 0.
+  /// locality that is not finite and ≥ 0; also for a curve that spans too far for squared
+  /// lengths to be finite (~1e154) or a radius that takes the grid beyond doubles.
   explicit WiresWarp(std::vector<Wire> wires, const WiresOptions& options = {});
   ~WiresWarp() override;
 

@@ -314,6 +314,27 @@ TEST(WiresWarp, RejectsBadParameters) {
   for (double m : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()})
     EXPECT_THAT(errorOf({good}, WiresOptions{m}), HasSubstr("locality must be finite and >= 0"));
   EXPECT_EQ(errorOf({good}), "");
+  // Coordinates whose squared differences overflow, and a radius that takes the grid past doubles.
+  w = wireOf(WireCurve::Polyline, {{-1e308, 0, 0}, {1e308, 0, 0}}, {{0, 0, 0}, {1, 0, 0}}, 1.0);
+  EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: rest spans too far for double precision"));
+  w = wireOf(WireCurve::Polyline, {{0, 0, 0}, {1, 0, 0}}, {{0, 0, 0}, {1, 0, 0}}, 1.7e308);
+  EXPECT_THAT(errorOf({w}), HasSubstr("wire 0: radius reaches beyond the range of doubles"));
+}
+
+// 2000 segments each crossing the whole box, radius 1e-7: every segment's box covers the whole
+// grid, so r / 8 cells (capped at 2^20) would take 2e9 steps to list; the grid coarsens so that
+// the build stays bounded, and the warp still works.
+TEST(WiresWarp, ManyLongSegmentsWithATinyRadiusBuildQuickly) {
+  std::vector<Vec3> rest, deformed;
+  for (int k = 0; k < 2000; ++k) {
+    rest.push_back(double(k % 2) * Vec3(1.0, 1.0, 1.0) + Vec3(1e-3 * k, 0.0, 0.0));
+    deformed.push_back(rest.back() + Vec3(0.0, 0.0, 1e-8));
+  }
+  const WiresWarp warp({wireOf(WireCurve::Polyline, rest, deformed, 1e-7)});
+  const Vec3 onWire = 0.5 * (rest[10] + rest[11]);
+  EXPECT_LE(glm::length(warp.apply(onWire) - (onWire + Vec3(0.0, 0.0, 1e-8))), 1e-15);
+  const Vec3 off(0.5, 0.2, 0.9);
+  EXPECT_TRUE(test::bitEqual(warp.apply(off), off));
 }
 
 }  // namespace
