@@ -360,44 +360,41 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
   // within reach only if d_k − h <= reach.
   const double half = 0.5 * std::sqrt(3.0) * cell;
   const double near = reach + half;
-  std::vector<std::uint64_t> start(cells + 1, 0);
-  struct Pair {
-    std::size_t cell;
-    std::uint32_t chord;
-    double distance;
-  };
-  std::vector<Pair> pairs;
-  std::vector<double> nearest(cells, std::numeric_limits<double>::infinity());
-  for (std::size_t k = 0; k < chordA.size(); ++k) {
-    const Vec3 a = chordA[k], b = a + chordE[k];
-    std::array<std::size_t, 3> c0{}, c1{};
-    for (int d = 0; d < 3; ++d) {
-      const double l = (std::min(a[d], b[d]) - reach - lo[d]) / cell;
-      const double h = (std::max(a[d], b[d]) + reach - lo[d]) / cell;
-      c0[d] = static_cast<std::size_t>(std::clamp(std::floor(l), 0.0, double(dims[d] - 1)));
-      c1[d] = static_cast<std::size_t>(std::clamp(std::floor(h), 0.0, double(dims[d] - 1)));
+  // Three passes over the (cell, chord) pairs rather than storing them (up to kMaxVisits):
+  // each cell's nearest chord, then the count of kept chords per cell, then the lists.
+  const auto forEachPair = [&](const auto& visit) {
+    for (std::size_t k = 0; k < chordA.size(); ++k) {
+      const Vec3 a = chordA[k], b = a + chordE[k];
+      std::array<std::size_t, 3> c0{}, c1{};
+      for (int d = 0; d < 3; ++d) {
+        const double l = (std::min(a[d], b[d]) - reach - lo[d]) / cell;
+        const double h = (std::max(a[d], b[d]) + reach - lo[d]) / cell;
+        c0[d] = static_cast<std::size_t>(std::clamp(std::floor(l), 0.0, double(dims[d] - 1)));
+        c1[d] = static_cast<std::size_t>(std::clamp(std::floor(h), 0.0, double(dims[d] - 1)));
+      }
+      for (std::size_t z = c0[2]; z <= c1[2]; ++z)
+        for (std::size_t y = c0[1]; y <= c1[1]; ++y)
+          for (std::size_t x = c0[0]; x <= c1[0]; ++x) {
+            const Vec3 centre = lo + cell * Vec3(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
+            const double t = std::clamp(glm::dot(centre - a, chordE[k]) * chordInv[k], 0.0, 1.0);
+            const double d = glm::length(centre - (a + t * chordE[k]));
+            if (d <= near) visit((z * dims[1] + y) * dims[0] + x, static_cast<std::uint32_t>(k), d);
+          }
     }
-    for (std::size_t z = c0[2]; z <= c1[2]; ++z)
-      for (std::size_t y = c0[1]; y <= c1[1]; ++y)
-        for (std::size_t x = c0[0]; x <= c1[0]; ++x) {
-          const Vec3 centre = lo + cell * Vec3(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
-          const double t = std::clamp(glm::dot(centre - a, chordE[k]) * chordInv[k], 0.0, 1.0);
-          const double d = glm::length(centre - (a + t * chordE[k]));
-          if (d > near) continue;
-          const std::size_t c = (z * dims[1] + y) * dims[0] + x;
-          pairs.push_back({c, static_cast<std::uint32_t>(k), d});
-          nearest[c] = std::min(nearest[c], d);
-        }
-  }
-  std::erase_if(pairs, [&](const Pair& p) { return p.distance > nearest[p.cell] + 2.0 * half; });
-  if (pairs.size() >= std::numeric_limits<std::uint32_t>::max())
-    throw InvalidInput(wireName(index) + ": too many points for its search grid");
-  for (const Pair& p : pairs) ++start[p.cell + 1];
-  for (std::size_t c = 0; c < cells; ++c) start[c + 1] += start[c];
-  cellStart.assign(start.begin(), start.end());
-  items.resize(pairs.size());
-  std::vector<std::uint64_t> fill(start.begin(), start.end() - 1);
-  for (const Pair& p : pairs) items[fill[p.cell]++] = p.chord;  // in index order per cell
+  };
+  std::vector<double> nearest(cells, std::numeric_limits<double>::infinity());
+  forEachPair(
+      [&](std::size_t c, std::uint32_t, double d) { nearest[c] = std::min(nearest[c], d); });
+  cellStart.assign(cells + 1, 0);
+  forEachPair([&](std::size_t c, std::uint32_t, double d) {
+    if (d <= nearest[c] + 2.0 * half) ++cellStart[c + 1];
+  });
+  for (std::size_t c = 0; c < cells; ++c) cellStart[c + 1] += cellStart[c];
+  items.resize(cellStart[cells]);  // at most kMaxVisits: fits the 32-bit offsets
+  std::vector<std::uint32_t> fill(cellStart.begin(), cellStart.end() - 1);
+  forEachPair([&](std::size_t c, std::uint32_t k, double d) {
+    if (d <= nearest[c] + 2.0 * half) items[fill[c]++] = k;  // in index order per cell
+  });
 }
 
 bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta) const {
