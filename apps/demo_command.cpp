@@ -149,8 +149,9 @@ std::map<std::string, json> demoRigs(const DemoControls& controls) {
         {"handles", points(controls.handles)},
         {"targets", points(controls.targets)}}},
   };
-  // A wire along the bar's axis, swayed; the bar lies within its inner radius, so each slice
-  // of the bar follows the wire rigidly.
+  // A wire along the bar's axis, swayed; the bar and its level set's narrow band lie within the
+  // inner radius, so each slice follows the wire rigidly, and the wide drop-off band beyond
+  // does not fold space (the volume's backward mapping finds every preimage).
   std::vector<Vec3> axis, swayedAxis;
   for (int k = 0; k <= 8; ++k) {
     axis.emplace_back(0.0, 0.0, -2.25 + 4.5 * k / 8.0);
@@ -161,8 +162,8 @@ std::map<std::string, json> demoRigs(const DemoControls& controls) {
                     {{{"rest", points(axis)},
                       {"deformed", points(swayedAxis)},
                       {"curve", "catmull-rom"},
-                      {"radius", 1.5},
-                      {"innerRadius", 0.75}}}}};
+                      {"radius", 2.5},
+                      {"innerRadius", 0.9}}}}};
   for (const std::string& method : cageMethods())
     rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
   // The volume's inverse is seeded from a coarse lattice that may reach past the cage; 100k
