@@ -190,6 +190,34 @@ Quat power(const Quat& q, double f) {
   return Quat(std::cos(half), u.x, u.y, u.z);
 }
 
+// The rotation vector (axis times angle, angle in [0, π]) of the unit quaternion q.
+Vec3 rotationVector(const Quat& q) {
+  const Vec3 v(q.x, q.y, q.z);
+  const double s = glm::length(v);
+  if (!(s > 0.0)) return Vec3(0.0);
+  const double angle = 2.0 * std::atan2(s, std::abs(q.w));
+  return ((q.w < 0.0 ? -angle : angle) / s) * v;
+}
+
+// SO(3)'s left Jacobian at the rotation vector p applied to y: (I + (1 − cos θ)/θ² [p]× +
+// (θ − sin θ)/θ³ [p]×²) y, θ = |p| (series below 1e-4, where the closed forms cancel).
+Vec3 leftJacobian(const Vec3& p, const Vec3& y) {
+  const double t2 = glm::dot(p, p), t = std::sqrt(t2);
+  const double a = t < 1e-4 ? 0.5 - t2 / 24.0 : (1.0 - std::cos(t)) / t2;
+  const double b = t < 1e-4 ? 1.0 / 6.0 - t2 / 120.0 : (t - std::sin(t)) / (t2 * t);
+  const Vec3 py = glm::cross(p, y);
+  return y + a * py + b * glm::cross(p, py);
+}
+
+// Its inverse applied to y: (I − [p]×/2 + (1/θ² − (1 + cos θ)/(2 θ sin θ)) [p]×²) y.
+Vec3 leftJacobianInverse(const Vec3& p, const Vec3& y) {
+  const double t2 = glm::dot(p, p), t = std::sqrt(t2);
+  const double c =
+      t < 1e-4 ? 1.0 / 12.0 + t2 / 720.0 : 1.0 / t2 - (1.0 + std::cos(t)) / (2.0 * t * std::sin(t));
+  const Vec3 py = glm::cross(p, y);
+  return y - 0.5 * py + c * glm::cross(p, py);
+}
+
 double falloff(WireDropoff f, double x) {
   if (f == WireDropoff::Linear) return 1.0 - x;
   const double y = 1.0 - x * x;
@@ -279,8 +307,9 @@ struct WiresWarp::Compiled {
 
   Compiled(const Wire& w, std::size_t index);
 
-  // x's move Δx by this wire; false (Δx untouched) when x is beyond its reach.
-  bool move(const Vec3& x, Vec3& delta) const;
+  // x's move Δx by this wire, and with `jacobian` its derivative dΔx/dx; false (both untouched)
+  // when x is beyond its reach.
+  bool move(const Vec3& x, Vec3& delta, Mat3* jacobian = nullptr) const;
 };
 
 WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
@@ -397,7 +426,7 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
   });
 }
 
-bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta) const {
+bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta, Mat3* jacobian) const {
   const Vec3 g = (x - lo) / cell;
   if (!(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0 && g.x < double(dims[0]) && g.y < double(dims[1]) &&
         g.z < double(dims[2])))
@@ -462,11 +491,56 @@ bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta) const {
       static_cast<double>(j * static_cast<std::size_t>(perSpan)) + s - static_cast<double>(k);
   // Neighbouring samples' rotations are close (one hemisphere): normalised lerp is slerp to
   // within their angle squared, and cheaper.
-  Quat q = turn[k] == turn[k + 1] ? turn[k] : glm::normalize((1.0 - a) * turn[k] + a * turn[k + 1]);
-  if (f != 1.0) q = power(q, f);
+  const Quat full =
+      turn[k] == turn[k + 1] ? turn[k] : glm::normalize((1.0 - a) * turn[k] + a * turn[k + 1]);
+  const Quat q = f != 1.0 ? power(full, f) : full;
   const double grow = 1.0 + (scale - 1.0) * f;
   // x' − x, written so that W = R, s = 1 gives exactly 0 (q is then the identity).
-  delta = (grow * (q * v) - v) + f * (deformed.at(j, t) - foot);
+  const Vec3 turned = q * v;
+  const Vec3 shift = deformed.at(j, t) - foot;
+  delta = (grow * turned - v) + f * shift;
+  if (!jacobian) return true;
+
+  // dΔ/dx through t(x) (the closest point), F(x) and v = x − R(t):
+  //   Δ = S P v − v + F (W(t) − R(t)), S = 1 + (s − 1) F, P = exp(F φ(t)), φ = log M(t),
+  //   ∇t = R' / (|R'|² − R''·v) (0 where the closest point is an end of R or a polyline
+  //   vertex), ∇F = f'(·) / (r − r₀) v / d, dP/dF v = φ × P v, dP/dt v = (J_l(Fφ) F φ̇) × P v
+  //   with φ̇ = J_l(φ)⁻¹ ω, ω the angular velocity of M along t (J_l: SO(3)'s left Jacobian).
+  const Vec3 r1 = rest.d1(j, t);
+  Vec3 gradT(0.0);
+  const bool atVertex = perSpan == 1
+                            ? (t == 0.0 || t == 1.0)
+                            : ((j == 0 && t == 0.0) || (j + 1 == rest.spans() && t == 1.0));
+  if (!atVertex) {
+    const double denominator = glm::dot(r1, r1) - glm::dot(rest.d2(j, t), v);
+    if (denominator > 0.0) gradT = r1 / denominator;
+  }
+  Vec3 gradF(0.0);
+  if (d > inner) {
+    const double u = (d - inner) / (radius - inner);
+    const double slope = dropoff == WireDropoff::Linear ? -1.0 : -4.0 * u * (1.0 - u * u);
+    gradF = (slope / ((radius - inner) * d)) * v;
+  }
+  Vec3 omega(0.0);  // angular velocity of M(t), world frame: dM/dt = [ω]× M
+  if (!(turn[k] == turn[k + 1])) {
+    const Quat blendQ = (1.0 - a) * turn[k] + a * turn[k + 1];
+    const double n = glm::length(blendQ);
+    const Quat dBlend = static_cast<double>(perSpan) * (turn[k + 1] - turn[k]);
+    const Quat dq = (dBlend - glm::dot(full, dBlend) * full) / n;
+    const Quat w = dq * glm::conjugate(full);
+    omega = 2.0 * Vec3(w.x, w.y, w.z);
+  }
+  const Vec3 phi = rotationVector(full);
+  const Vec3 psi = f * phi;
+  const Vec3 dTurnedDt = glm::cross(leftJacobian(psi, f * leftJacobianInverse(phi, omega)), turned);
+  const Vec3 dTurnedDf = glm::cross(phi, turned);
+  const Mat3 rotation = glm::mat3_cast(q);
+  const Mat3 alongT = Mat3(1.0) - glm::outerProduct(r1, gradT);  // dv/dx
+  *jacobian = glm::outerProduct(turned, (scale - 1.0) * gradF) +
+              grow * (glm::outerProduct(dTurnedDt, gradT) + glm::outerProduct(dTurnedDf, gradF) +
+                      rotation * alongT) -
+              alongT + glm::outerProduct(shift, gradF) +
+              f * glm::outerProduct(deformed.d1(j, t) - r1, gradT);
   return true;
 }
 
@@ -525,22 +599,37 @@ Vec3 blend(const Wires& compiled, double m, const Vec3& x) {
 Vec3 WiresWarp::apply(const Vec3& x) const { return blend(compiled_, options_.locality, x); }
 
 Mat3 WiresWarp::jacobian(const Vec3& x) const {
-  double radius = wires_[0].radius;
-  for (const Wire& w : wires_) radius = std::min(radius, w.radius);
-  // Balances truncation, ~ (h / r)², against rounding, ~ eps |x| / h.
-  const double h = std::cbrt(std::numeric_limits<double>::epsilon() * std::max(maxAbs(x), radius) *
-                             radius * radius);
-  Mat3 j;
-  for (int axis = 0; axis < 3; ++axis) {
-    Vec3 step(0.0);
-    step[axis] = h;
-    const Vec3 plus = x + step;
-    const Vec3 minus = x - step;
-    // A step below x's resolution (a wire far smaller than its distance from the origin).
-    if (!(plus[axis] > minus[axis])) return Warp::jacobian(x);
-    j[axis] = (apply(plus) - apply(minus)) / (plus[axis] - minus[axis]);
+  if (compiled_.size() == 1) {
+    Vec3 delta;
+    Mat3 j(0.0);
+    compiled_[0]->move(x, delta, &j);
+    return Mat3(1.0) + j;
   }
-  return j;
+  // The blend x + Σ w_i Δ_i / Σ w_i with w_i = |Δ_i|^m: dw_i = m w_i Δ_iᵀ dΔ_i / |Δ_i|², and
+  // the weights may be scaled by any common factor (here 1 / the largest |Δ_i|).
+  const double m = options_.locality;
+  std::vector<Vec3> deltas(compiled_.size(), Vec3(0.0));
+  std::vector<Mat3> jacobians(compiled_.size(), Mat3(0.0));
+  double largest = 0.0;
+  for (std::size_t i = 0; i < compiled_.size(); ++i) {
+    compiled_[i]->move(x, deltas[i], &jacobians[i]);
+    largest = std::max(largest, glm::length(deltas[i]));
+  }
+  if (!(largest > 0.0)) return Mat3(1.0);
+  Vec3 sum(0.0), sumGradW(0.0);
+  Mat3 sumTerms(0.0);
+  double weights = 0.0;
+  for (std::size_t i = 0; i < compiled_.size(); ++i) {
+    const double l = glm::length(deltas[i]);
+    if (!(l > 0.0)) continue;
+    const double w = std::pow(l / largest, m);
+    const Vec3 gradW = (m * w / (l * l)) * (glm::transpose(jacobians[i]) * deltas[i]);
+    sum += w * deltas[i];
+    weights += w;
+    sumGradW += gradW;
+    sumTerms += w * jacobians[i] + glm::outerProduct(deltas[i], gradW);
+  }
+  return Mat3(1.0) + sumTerms / weights - glm::outerProduct(sum, sumGradW) / (weights * weights);
 }
 
 UnmappedPoints WiresWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,

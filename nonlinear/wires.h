@@ -101,13 +101,11 @@ struct WiresOptions {
 ///
 /// Properties: R(u) goes to W(u) (to rounding); W = R and s = 1 is the identity bit for bit. The
 /// map is continuous wherever the closest point of R is (it jumps on R's medial axis within r, as
-/// in the paper: keep r below the curve's radius of curvature). Jacobian: central differences with
-/// the step h = cbrt(eps max(|x|∞, r) r²), r the smallest radius, which balances truncation
-/// (~ (h / r)²) against rounding (~ eps |x| / h) at any scale and placement of the rig (about
-/// 1e-10 relative error for a unit rig near the origin; Warp::jacobian's step, cbrt(eps)
-/// max(1, |x|), is meant for unit-sized warps). Not analytic: the rotation is interpolated
-/// between sampled frames and raised to the power F, whose derivative
-/// is long to write and test, and u(x) is not differentiable on the medial axis. applyBatch runs in
+/// in the paper: keep r below the curve's radius of curvature). Jacobian: analytic, through the
+/// closest point's parameter (dt/dx = R' / (|R'|² − R''·(x − R))), the drop-off and the rotation
+/// (SO(3)'s left Jacobian for the power F of the interpolated rotation), and the blend's
+/// weights; where u(x) is not differentiable (the medial axis, a polyline's vertices' bisector
+/// planes) it is one side's. applyBatch runs in
 /// parallel; every result is bit-identical to apply() for any thread count. Non-finite x is
 /// returned unchanged.
 class WiresWarp final : public Warp {
