@@ -13,6 +13,13 @@ namespace {
 
 // One wire object, read with a reader of its own so that its errors name it ("wires[1]").
 Wire readWire(const nlohmann::json& object, const RigReader& r, std::size_t index) {
+  if (!object.is_object()) {
+    // Appended piece by piece (GCC 12 warns falsely, -Wrestrict, about "[" + a string).
+    std::string what = "[";
+    what += std::to_string(index);
+    what += "] must be a JSON object (a wire)";
+    r.fail("wires", what);
+  }
   RigReader w(object, r.baseDir(), r.where() + ": wires[" + std::to_string(index) + "]");
   w.allowOnly({"rest", "deformed", "radius", "innerRadius", "scale", "dropoff", "curve"}, "a wire",
               "a wire");

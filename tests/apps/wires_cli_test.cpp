@@ -137,6 +137,8 @@ INSTANTIATE_TEST_SUITE_P(
                      3, "wires[1]: 'raduis' is not a key of a wire"},
         test::BadRig{"NegativeLocality", wireRig("", R"("locality": -1, )"), 3,
                      "'locality' must be >= 0"},
+        test::BadRig{"WireNotAnObject", wireRig("[1, 2]"), 3,
+                     "'wires' [1] must be a JSON object (a wire)"},
         test::BadRig{"NoWires", R"({"method": "wires", "wires": []})", 3,
                      "'wires' must be a non-empty array"}),
     ::spacewarp::test::badRigName);
