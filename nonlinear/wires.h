@@ -92,9 +92,9 @@ struct WiresOptions {
 /// doubled as needed to keep at most 2^20 cells and 2^24 steps to build per wire. Points outside
 /// every wire's grid or farther than r are returned unchanged (bit for bit).
 ///
-/// Cost: about 60 ns per point (one thread) for a polyline wire, 115 ns for a Catmull-Rom wire,
-/// with a third of the points within r (bench/nonlinear_bench_wires.cpp); building is a grid
-/// per wire, milliseconds.
+/// Cost: about 65 ns of CPU per point for one polyline wire, 125 ns for one Catmull-Rom wire, with
+/// a third of the points within r (a two-wire rig in bench/nonlinear_bench_wires.cpp); building
+/// is a grid per wire, milliseconds.
 ///
 /// Several wires: x' = x + Σ Δx_i w_i / Σ w_i with Δx_i the move of wire i alone and
 /// w_i = |Δx_i|^m (0 for Δx_i = 0). One wire: x' is that wire's x' exactly.
