@@ -1,0 +1,407 @@
+#include <spacewarp/nonlinear/shepard.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include <nanoflann.hpp>
+
+#include <spacewarp/core/errors.h>
+#include <spacewarp/nonlinear/detail/graph_index.h>
+
+namespace spacewarp {
+
+namespace {
+
+using Tree = detail::KdTree;  // nanoflann over a vector of points (nonlinear/detail)
+
+// The non-zero weights of one point, by increasing handle index, with what the gradients need.
+struct Scratch {
+  std::vector<std::uint32_t> index;
+  std::vector<double> u;   // u_i normalised by the nearest handle's (largest 1)
+  std::vector<double> d2;  // squared distances
+  std::vector<std::pair<std::uint32_t, double>> found;
+  std::size_t nearest = 0;  // position of the nearest handle in `index`
+  bool exact = false;       // x is at that handle (squared distance 0)
+  double sum = 0.0;         // Σ u
+  double scale = 1.0;       // the differences behind d2 were multiplied by it (overflow)
+};
+
+inline double powHalf(double ratio2, double power) {  // ratio2^(power / 2)
+  if (power == 2.0) return ratio2;
+  if (power == 1.0) return std::sqrt(ratio2);
+  return std::pow(ratio2, 0.5 * power);
+}
+
+inline double powOf(double ratio, double power) {
+  if (power == 2.0) return ratio * ratio;
+  if (power == 1.0) return ratio;
+  return std::pow(ratio, power);
+}
+
+}  // namespace
+
+struct ShepardCoordinates::Impl {
+  std::vector<Vec3> p;
+  ShepardOptions options;
+  bool local = false;
+  detail::NodeCloud cloud;
+  std::unique_ptr<Tree> tree;
+  std::size_t maxNonZeros = 0;
+
+  // The non-zero weights of x into s (unnormalised u and their sum); false when no handle is
+  // within the radius.
+  bool weigh(const Vec3& x, Scratch& s) const {
+    s.index.clear();
+    s.u.clear();
+    s.d2.clear();
+    s.exact = false;
+    s.nearest = 0;
+    s.scale = 1.0;
+    if (local) {
+      gatherLocal(x, s);
+      if (s.index.empty()) return false;
+    } else {
+      gatherAll(x, s);
+    }
+    double min2 = s.d2[0];
+    for (std::size_t k = 1; k < s.d2.size(); ++k) {
+      if (s.d2[k] < min2) {
+        min2 = s.d2[k];
+        s.nearest = k;
+      }
+    }
+    const double power = options.power;
+    s.u.resize(s.index.size());
+    if (min2 == 0.0) {
+      s.exact = true;
+      std::fill(s.u.begin(), s.u.end(), 0.0);
+      s.u[s.nearest] = 1.0;
+      s.sum = 1.0;
+      return true;
+    }
+    double sum = 0.0;
+    if (local) {
+      const double r = options.radius;
+      const double dk = std::sqrt(min2);
+      const double scale = dk / (r - dk);
+      for (std::size_t k = 0; k < s.u.size(); ++k) {
+        const double d = std::sqrt(s.d2[k]);
+        s.u[k] = k == s.nearest ? 1.0 : std::min(1.0, powOf((r - d) / d * scale, power));
+        sum += s.u[k];
+      }
+    } else {
+      for (std::size_t k = 0; k < s.u.size(); ++k) {
+        s.u[k] = k == s.nearest ? 1.0 : powHalf(min2 / s.d2[k], power);
+        sum += s.u[k];
+      }
+    }
+    s.sum = sum;
+    return true;
+  }
+
+  // Every handle; squared distances computed on scaled differences when they overflow (points
+  // ~1e154 away), which leaves their ratios unchanged.
+  void gatherAll(const Vec3& x, Scratch& s) const {
+    const std::size_t n = p.size();
+    s.index.resize(n);
+    s.d2.resize(n);
+    bool overflow = false;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 d = x - p[i];
+      s.index[i] = static_cast<std::uint32_t>(i);
+      s.d2[i] = glm::dot(d, d);
+      overflow = overflow || !std::isfinite(s.d2[i]);
+    }
+    if (!overflow) return;
+    double big = 0.0;
+    for (std::size_t i = 0; i < n; ++i) big = std::max(big, maxAbs(x - p[i]));
+    const double inv = 1.0 / big;
+    s.scale = inv;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 d = (x - p[i]) * inv;
+      s.d2[i] = glm::dot(d, d);
+    }
+  }
+
+  // The handles strictly within the radius, by increasing index.
+  void gatherLocal(const Vec3& x, Scratch& s) const {
+    const double r = options.radius;
+    // Widened against rounding; the exact test d < R below decides.
+    const double r2 = std::min(r * r * (1.0 + 1e-9), std::numeric_limits<double>::max());
+    const double q[3] = {x.x, x.y, x.z};
+    s.found.clear();
+    tree->radiusSearch(q, r2, s.found, nanoflann::SearchParams(32, 0.0f, false));
+    std::sort(s.found.begin(), s.found.end());
+    for (const auto& f : s.found) {
+      const Vec3 d = x - p[f.first];
+      const double d2 = glm::dot(d, d);
+      if (!(std::sqrt(d2) < r)) continue;
+      s.index.push_back(f.first);
+      s.d2.push_back(d2);
+    }
+  }
+
+  // Gradients of the normalised weights at the non-zero ones of s (after weigh): into g, one per
+  // entry of s.index. False where they are not defined (at a handle for p <= 1).
+  bool gradients(const Vec3& x, const Scratch& s, std::vector<Vec3>& g) const {
+    const std::size_t m = s.index.size();
+    g.assign(m, Vec3(0.0));
+    const double power = options.power;
+    if (s.exact) return power > 1.0;
+    // ∇u_i = −p u_i (x − p_i) c_i with c_i = 1 / d_i² (global) or R / (d_i² (R − d_i)) (local);
+    // ∇w_i = (∇u_i (1 − w_i) − w_i Σ_{j≠i} ∇u_j) / Σ u, with the nearest handle's 1 − w and
+    // Σ_{j≠i} summed over the others (no cancellation when it dominates).
+    const double r = options.radius;
+    Vec3 others(0.0);
+    double otherU = 0.0;
+    for (std::size_t k = 0; k < m; ++k) {
+      const Vec3 d = (x - p[s.index[k]]) * (s.scale * s.scale);  // d / |d|² = s² d / |s d|²
+      double c = 1.0 / s.d2[k];
+      if (local) c *= r / (r - std::sqrt(s.d2[k]));
+      g[k] = (-power * s.u[k] * c) * d;
+      if (k != s.nearest) {
+        others += g[k];
+        otherU += s.u[k];
+      }
+    }
+    const Vec3 gk = g[s.nearest];
+    const double inv = 1.0 / s.sum;
+    for (std::size_t k = 0; k < m; ++k) {
+      const double w = s.u[k] * inv;
+      if (k == s.nearest) {
+        g[k] = (gk * (otherU * inv) - w * others) * inv;
+      } else {
+        g[k] = (g[k] * (1.0 - w) - w * (others - g[k] + gk)) * inv;
+      }
+    }
+    return true;
+  }
+
+  [[noreturn]] void throwOutside(const std::string& who, const Vec3& x) const {
+    throw InvalidInput(who + ": the point " + detail::describePoint(x) +
+                       " is farther than the radius " + std::to_string(options.radius) +
+                       " from every handle (it has no weights)");
+  }
+};
+
+ShepardCoordinates::ShepardCoordinates(std::vector<Vec3> handles, const ShepardOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  impl->p = std::move(handles);
+  impl->options = options;
+  const std::string who = "ShepardCoordinates";
+  if (!std::isfinite(options.power) || !(options.power > 0.0))
+    throw InvalidInput(who + ": power must be finite and > 0, not " +
+                       std::to_string(options.power));
+  if (std::isnan(options.radius) || !(options.radius > 0.0))
+    throw InvalidInput(who + ": radius must be > 0 (or infinite for global weights), not " +
+                       std::to_string(options.radius));
+  impl->local = std::isfinite(options.radius);
+  const std::vector<Vec3>& p = impl->p;
+  if (p.empty()) throw InvalidInput(who + ": needs at least 1 handle, got 0");
+  if (p.size() > std::numeric_limits<std::uint32_t>::max())
+    throw InvalidInput(who + ": too many handles (" + std::to_string(p.size()) + ")");
+  Vec3 lo = p[0], hi = p[0];
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!isFinite(p[i]) || !detail::withinReach(p[i]))
+      throw InvalidInput(who + ": handle " + std::to_string(i) +
+                         " is not finite (or beyond 1e150, where distances overflow)");
+    lo = glm::min(lo, p[i]);
+    hi = glm::max(hi, p[i]);
+  }
+  impl->cloud.points = &impl->p;
+  impl->tree =
+      std::make_unique<Tree>(3, impl->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  // Coincident handles: any other handle within 1e-12 of the bounding-box diagonal.
+  const double tol = 1e-12 * glm::length(hi - lo);
+  const double tol2 = std::max(tol * tol, std::numeric_limits<double>::denorm_min());
+  std::vector<std::pair<std::uint32_t, double>> found;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double q[3] = {p[i].x, p[i].y, p[i].z};
+    found.clear();
+    impl->tree->radiusSearch(q, tol2, found, nanoflann::SearchParams(32, 0.0f, false));
+    for (const auto& f : found) {
+      if (f.first == i) continue;
+      throw InvalidInput(who + ": handles " + std::to_string(std::min<std::size_t>(i, f.first)) +
+                         " and " + std::to_string(std::max<std::size_t>(i, f.first)) + " coincide");
+    }
+  }
+  impl->maxNonZeros = p.size();
+  if (impl->local) {
+    // A point within R of handles i and j has them within 2R of each other.
+    const double r2 = std::min(4.0 * options.radius * options.radius * (1.0 + 1e-9),
+                               std::numeric_limits<double>::max());
+    std::size_t most = 1;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const double q[3] = {p[i].x, p[i].y, p[i].z};
+      found.clear();
+      impl->tree->radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
+      most = std::max(most, found.size());
+    }
+    impl->maxNonZeros = std::min(most, p.size());
+  }
+  impl_ = std::move(impl);
+}
+
+ShepardCoordinates::~ShepardCoordinates() = default;
+
+std::size_t ShepardCoordinates::controlPointCount() const { return impl_->p.size(); }
+std::span<const Vec3> ShepardCoordinates::restControlPoints() const { return impl_->p; }
+std::size_t ShepardCoordinates::maxNonZeros() const { return impl_->maxNonZeros; }
+const ShepardOptions& ShepardCoordinates::options() const { return impl_->options; }
+bool ShepardCoordinates::local() const { return impl_->local; }
+
+void ShepardCoordinates::weights(const Vec3& x, std::span<double> row) const {
+  checkWeightsArguments(x, row.size());
+  Scratch s;
+  if (!impl_->weigh(x, s)) impl_->throwOutside("ShepardCoordinates", x);
+  std::fill(row.begin(), row.end(), 0.0);
+  for (std::size_t k = 0; k < s.index.size(); ++k) row[s.index[k]] = s.u[k] / s.sum;
+}
+
+std::size_t ShepardCoordinates::sparseWeights(const Vec3& x, std::span<SparseWeight> out) const {
+  if (!isFinite(x)) throw InvalidInput("ShepardCoordinates: the query point is not finite");
+  Scratch s;
+  if (!impl_->weigh(x, s)) impl_->throwOutside("ShepardCoordinates", x);
+  std::size_t count = 0;
+  for (std::size_t k = 0; k < s.index.size(); ++k) {
+    const double w = s.u[k] / s.sum;
+    if (w == 0.0) continue;
+    if (count == out.size())
+      throw InvalidInput("ShepardCoordinates: more non-zero weights than the sparse row holds");
+    out[count++] = {s.index[k], w};
+  }
+  return count;
+}
+
+bool ShepardCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
+  if (!isFinite(x)) throw InvalidInput("ShepardCoordinates: the query point is not finite");
+  if (out.size() != columnCount())
+    throw InvalidInput("ShepardCoordinates: the gradient output has the wrong size");
+  Scratch s;
+  if (!impl_->weigh(x, s)) impl_->throwOutside("ShepardCoordinates", x);
+  std::vector<Vec3> g;
+  if (!impl_->gradients(x, s, g)) return false;
+  std::fill(out.begin(), out.end(), Vec3(0.0));
+  for (std::size_t k = 0; k < s.index.size(); ++k) out[s.index[k]] = g[k];
+  return true;
+}
+
+UnmappedPoints ShepardCoordinates::weightsRange(std::span<const Vec3> points,
+                                                std::span<double> rows, std::size_t begin,
+                                                std::size_t end) const {
+  const std::size_t m = columnCount();
+  UnmappedPoints outside;
+  Scratch s;
+  for (std::size_t i = begin; i != end; ++i) {
+    const std::span<double> row = rows.subspan(i * m, m);
+    std::fill(row.begin(), row.end(), 0.0);
+    if (!impl_->weigh(points[i], s)) {
+      outside.add(i);
+      continue;
+    }
+    for (std::size_t k = 0; k < s.index.size(); ++k) row[s.index[k]] = s.u[k] / s.sum;
+  }
+  return outside;
+}
+
+void ShepardCoordinates::throwUnmapped(const UnmappedPoints& unmapped,
+                                       std::span<const Vec3> points) const {
+  throw InvalidInput("ShepardCoordinates: " + std::to_string(unmapped.count) + " of " +
+                     std::to_string(points.size()) + " points are farther than the radius " +
+                     std::to_string(impl_->options.radius) +
+                     " from every handle (the first is point " + std::to_string(unmapped.first) +
+                     " at " + detail::describePoint(points[unmapped.first]) + ")");
+}
+
+std::shared_ptr<const Warp> ShepardCoordinates::makeWarpFor(std::shared_ptr<const Coordinates> self,
+                                                            std::span<const Vec3> posed) const {
+  return std::make_shared<ShepardWarp>(
+      std::static_pointer_cast<const ShepardCoordinates>(std::move(self)), posed);
+}
+
+ShepardWarp::ShepardWarp(std::shared_ptr<const ShepardCoordinates> coordinates,
+                         std::span<const Vec3> targets)
+    : coordinates_(std::move(coordinates)) {
+  if (!coordinates_) throw InvalidInput("ShepardWarp: the coordinates are null");
+  const std::span<const Vec3> p = coordinates_->restControlPoints();
+  if (targets.size() != p.size()) {
+    throw InvalidInput("ShepardWarp: " + std::to_string(p.size()) + " handles but " +
+                       std::to_string(targets.size()) + " targets");
+  }
+  displacement_.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!isFinite(targets[i]))
+      throw InvalidInput("ShepardWarp: target " + std::to_string(i) + " is not finite");
+    displacement_[i] = targets[i] - p[i];
+  }
+}
+
+ShepardWarp::ShepardWarp(std::vector<Vec3> handles, std::span<const Vec3> targets,
+                         const ShepardOptions& options)
+    : ShepardWarp(std::make_shared<const ShepardCoordinates>(std::move(handles), options),
+                  targets) {}
+
+namespace {
+
+// x + Σ w_i D_i in handle order: the sum CoordinateWarp forms from the same weights.
+inline Vec3 displaced(const Vec3& x, const Scratch& s, const std::vector<Vec3>& displacement) {
+  Vec3 sum(0.0);
+  for (std::size_t k = 0; k < s.index.size(); ++k)
+    sum += (s.u[k] / s.sum) * displacement[s.index[k]];
+  return x + sum;
+}
+
+}  // namespace
+
+Vec3 ShepardWarp::apply(const Vec3& x) const {
+  if (!isFinite(x)) throw InvalidInput("ShepardWarp: the point is not finite");
+  Scratch s;
+  if (!coordinates_->impl_->weigh(x, s)) coordinates_->impl_->throwOutside("ShepardWarp", x);
+  return displaced(x, s, displacement_);
+}
+
+UnmappedPoints ShepardWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
+                                       std::size_t begin, std::size_t end) const {
+  UnmappedPoints outside;
+  Scratch s;
+  for (std::size_t i = begin; i != end; ++i) {
+    const Vec3 x = in[i];
+    if (!isFinite(x) || !coordinates_->impl_->weigh(x, s)) {
+      out[i] = x;
+      outside.add(i);
+      continue;
+    }
+    out[i] = displaced(x, s, displacement_);
+  }
+  return outside;
+}
+
+void ShepardWarp::throwUnmapped(const UnmappedPoints& unmapped, std::span<const Vec3> in) const {
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    if (!isFinite(in[i]))
+      throw InvalidInput("ShepardWarp: point " + std::to_string(i) + " is not finite");
+  }
+  throw InvalidInput("ShepardWarp: " + std::to_string(unmapped.count) + " of " +
+                     std::to_string(in.size()) + " points are farther than the radius " +
+                     std::to_string(coordinates_->options().radius) +
+                     " from every handle (the first is point " + std::to_string(unmapped.first) +
+                     " at " + detail::describePoint(in[unmapped.first]) + ")");
+}
+
+Mat3 ShepardWarp::jacobian(const Vec3& x) const {
+  if (!isFinite(x)) throw InvalidInput("ShepardWarp: the point is not finite");
+  const auto& impl = *coordinates_->impl_;
+  Scratch s;
+  if (!impl.weigh(x, s)) impl.throwOutside("ShepardWarp", x);
+  std::vector<Vec3> g;
+  if (!impl.gradients(x, s, g)) return Warp::jacobian(x);
+  Mat3 j(1.0);
+  for (std::size_t k = 0; k < s.index.size(); ++k)
+    for (int c = 0; c < 3; ++c) j[c] += displacement_[s.index[k]] * g[k][c];
+  return j;
+}
+
+}  // namespace spacewarp
