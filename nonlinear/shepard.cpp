@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <utility>
 
@@ -28,6 +29,13 @@ struct Scratch {
   double sum = 0.0;         // Σ u
   double scale = 1.0;       // the differences behind d2 were multiplied by it (overflow)
 };
+
+// A number as a user wrote it ("0.8", not to_string's "0.800000").
+std::string numberText(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
 
 inline double powHalf(double ratio2, double power) {  // ratio2^(power / 2)
   if (power == 2.0) return ratio2;
@@ -182,7 +190,7 @@ struct ShepardCoordinates::Impl {
 
   [[noreturn]] void throwOutside(const std::string& who, const Vec3& x) const {
     throw InvalidInput(who + ": the point " + detail::describePoint(x) +
-                       " is farther than the radius " + std::to_string(options.radius) +
+                       " is farther than the radius " + numberText(options.radius) +
                        " from every handle (it has no weights)");
   }
 };
@@ -193,11 +201,10 @@ ShepardCoordinates::ShepardCoordinates(std::vector<Vec3> handles, const ShepardO
   impl->options = options;
   const std::string who = "ShepardCoordinates";
   if (!std::isfinite(options.power) || !(options.power > 0.0))
-    throw InvalidInput(who + ": power must be finite and > 0, not " +
-                       std::to_string(options.power));
+    throw InvalidInput(who + ": power must be finite and > 0, not " + numberText(options.power));
   if (std::isnan(options.radius) || !(options.radius > 0.0))
     throw InvalidInput(who + ": radius must be > 0 (or infinite for global weights), not " +
-                       std::to_string(options.radius));
+                       numberText(options.radius));
   impl->local = std::isfinite(options.radius);
   const std::vector<Vec3>& p = impl->p;
   if (p.empty()) throw InvalidInput(who + ": needs at least 1 handle, got 0");
@@ -311,9 +318,9 @@ void ShepardCoordinates::throwUnmapped(const UnmappedPoints& unmapped,
                                        std::span<const Vec3> points) const {
   throw InvalidInput("ShepardCoordinates: " + std::to_string(unmapped.count) + " of " +
                      std::to_string(points.size()) + " points are farther than the radius " +
-                     std::to_string(impl_->options.radius) +
-                     " from every handle (the first is point " + std::to_string(unmapped.first) +
-                     " at " + detail::describePoint(points[unmapped.first]) + ")");
+                     numberText(impl_->options.radius) + " from every handle (the first is point " +
+                     std::to_string(unmapped.first) + " at " +
+                     detail::describePoint(points[unmapped.first]) + ")");
 }
 
 std::shared_ptr<const Warp> ShepardCoordinates::makeWarpFor(std::shared_ptr<const Coordinates> self,
@@ -386,7 +393,7 @@ void ShepardWarp::throwUnmapped(const UnmappedPoints& unmapped, std::span<const 
   }
   throw InvalidInput("ShepardWarp: " + std::to_string(unmapped.count) + " of " +
                      std::to_string(in.size()) + " points are farther than the radius " +
-                     std::to_string(coordinates_->options().radius) +
+                     numberText(coordinates_->options().radius) +
                      " from every handle (the first is point " + std::to_string(unmapped.first) +
                      " at " + detail::describePoint(in[unmapped.first]) + ")");
 }
