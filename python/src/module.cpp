@@ -15,4 +15,6 @@ PYBIND11_MODULE(_spacewarp, m) {
   spacewarp::python::bindVolume(m);
   spacewarp::python::bindSurface(m);
   spacewarp::python::bindBenchHooks(m);
+  spacewarp::python::bindShepard(m);
+  spacewarp::python::bindKelvinlet(m);
 }
