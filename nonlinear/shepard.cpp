@@ -1,7 +1,9 @@
 #include <spacewarp/nonlinear/shepard.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -21,12 +23,12 @@ using Tree = detail::KdTree;  // nanoflann over a vector of points (nonlinear/de
 // The non-zero weights of one point, by increasing handle index, with what the gradients need.
 struct Scratch {
   std::vector<std::uint32_t> index;
-  std::vector<double> u;   // u_i normalised by the nearest handle's (largest 1)
-  std::vector<double> d2;  // squared distances
-  std::vector<std::pair<std::uint32_t, double>> found;
+  std::vector<double> u;    // u_i normalised by the nearest handle's (largest 1)
+  std::vector<double> d2;   // squared distances
   std::size_t nearest = 0;  // position of the nearest handle in `index`
   bool exact = false;       // x is at that handle (squared distance 0)
   double sum = 0.0;         // Σ u
+  double inv = 1.0;         // 1 / Σ u: w_i = u_i · inv everywhere (weights, warp, gradients)
   double scale = 1.0;       // the differences behind d2 were multiplied by it (overflow)
 };
 
@@ -55,20 +57,68 @@ struct ShepardCoordinates::Impl {
   std::vector<Vec3> p;
   ShepardOptions options;
   bool local = false;
-  detail::NodeCloud cloud;
-  std::unique_ptr<Tree> tree;
   std::size_t maxNonZeros = 0;
+  // Local support: a uniform grid of cells of size >= R over the handles' box padded by one
+  // cell; each cell lists, by increasing index, the handles of its 3 × 3 × 3 block, which hold
+  // every handle within R of any point of the cell. So a point reads one list, already in the
+  // order its sums are formed in (no search, no sort).
+  Vec3 gridLo{0.0};
+  double cell = 1.0;
+  std::array<std::int64_t, 3> dims{0, 0, 0};
+  std::vector<std::uint32_t> cellStart, cellHandles;
+
+  // The cell of x, or -1 outside the grid (then no handle is within R).
+  std::int64_t cellOf(const Vec3& x) const {
+    std::int64_t index = 0;
+    for (int a = 2; a >= 0; --a) {
+      const double f = std::floor((x[a] - gridLo[a]) / cell);
+      if (!(f >= 0.0) || !(f < static_cast<double>(dims[std::size_t(a)]))) return -1;
+      index = index * dims[std::size_t(a)] + static_cast<std::int64_t>(f);
+    }
+    return index;
+  }
+
+  void buildGrid(const Vec3& lo, const Vec3& hi) {
+    const double extent = maxAbs(hi - lo);
+    // At most ~64 cells per axis: more would cost memory for no speed-up.
+    cell = std::max(options.radius, extent / 64.0) * (1.0 + 1e-9);
+    gridLo = lo - Vec3(cell);
+    for (int a = 0; a < 3; ++a)
+      dims[std::size_t(a)] = static_cast<std::int64_t>(std::floor((hi[a] - gridLo[a]) / cell)) + 2;
+    const std::size_t cells = std::size_t(dims[0] * dims[1] * dims[2]);
+    std::vector<std::uint32_t> count(cells + 1, 0);
+    const auto forNeighbours = [&](std::size_t h, auto&& f) {
+      const std::int64_t c = cellOf(p[h]);
+      const std::int64_t cx = c % dims[0], cy = (c / dims[0]) % dims[1],
+                         cz = c / (dims[0] * dims[1]);
+      for (std::int64_t z = std::max<std::int64_t>(cz - 1, 0); z <= std::min(cz + 1, dims[2] - 1);
+           ++z)
+        for (std::int64_t y = std::max<std::int64_t>(cy - 1, 0); y <= std::min(cy + 1, dims[1] - 1);
+             ++y)
+          for (std::int64_t x = std::max<std::int64_t>(cx - 1, 0);
+               x <= std::min(cx + 1, dims[0] - 1); ++x)
+            f(std::size_t((z * dims[1] + y) * dims[0] + x));
+    };
+    for (std::size_t h = 0; h < p.size(); ++h)
+      forNeighbours(h, [&](std::size_t c) { ++count[c + 1]; });
+    cellStart.assign(cells + 1, 0);
+    for (std::size_t c = 0; c < cells; ++c) cellStart[c + 1] = cellStart[c] + count[c + 1];
+    cellHandles.resize(cellStart[cells]);
+    std::vector<std::uint32_t> fill(cellStart.begin(), cellStart.end() - 1);
+    for (std::size_t h = 0; h < p.size(); ++h)
+      forNeighbours(h,
+                    [&](std::size_t c) { cellHandles[fill[c]++] = static_cast<std::uint32_t>(h); });
+  }
 
   // The non-zero weights of x into s (unnormalised u and their sum); false when no handle is
   // within the radius.
   bool weigh(const Vec3& x, Scratch& s) const {
-    s.index.clear();
-    s.u.clear();
-    s.d2.clear();
     s.exact = false;
     s.nearest = 0;
     s.scale = 1.0;
     if (local) {
+      s.index.clear();
+      s.d2.clear();
       gatherLocal(x, s);
       if (s.index.empty()) return false;
     } else {
@@ -88,6 +138,7 @@ struct ShepardCoordinates::Impl {
       std::fill(s.u.begin(), s.u.end(), 0.0);
       s.u[s.nearest] = 1.0;
       s.sum = 1.0;
+      s.inv = 1.0;
       return true;
     }
     double sum = 0.0;
@@ -107,6 +158,7 @@ struct ShepardCoordinates::Impl {
       }
     }
     s.sum = sum;
+    s.inv = 1.0 / sum;
     return true;
   }
 
@@ -114,12 +166,14 @@ struct ShepardCoordinates::Impl {
   // ~1e154 away), which leaves their ratios unchanged.
   void gatherAll(const Vec3& x, Scratch& s) const {
     const std::size_t n = p.size();
-    s.index.resize(n);
+    if (s.index.size() != n) {
+      s.index.resize(n);
+      for (std::size_t i = 0; i < n; ++i) s.index[i] = static_cast<std::uint32_t>(i);
+    }
     s.d2.resize(n);
     bool overflow = false;
     for (std::size_t i = 0; i < n; ++i) {
       const Vec3 d = x - p[i];
-      s.index[i] = static_cast<std::uint32_t>(i);
       s.d2[i] = glm::dot(d, d);
       overflow = overflow || !std::isfinite(s.d2[i]);
     }
@@ -136,18 +190,16 @@ struct ShepardCoordinates::Impl {
 
   // The handles strictly within the radius, by increasing index.
   void gatherLocal(const Vec3& x, Scratch& s) const {
+    const std::int64_t c = cellOf(x);
+    if (c < 0) return;
     const double r = options.radius;
-    // Widened against rounding; the exact test d < R below decides.
-    const double r2 = std::min(r * r * (1.0 + 1e-9), std::numeric_limits<double>::max());
-    const double q[3] = {x.x, x.y, x.z};
-    s.found.clear();
-    tree->radiusSearch(q, r2, s.found, nanoflann::SearchParams(32, 0.0f, false));
-    std::sort(s.found.begin(), s.found.end());
-    for (const auto& f : s.found) {
-      const Vec3 d = x - p[f.first];
+    const double r2 = r * r * (1.0 + 1e-9);  // a cheap reject before the exact test d < R
+    for (std::uint32_t k = cellStart[std::size_t(c)]; k != cellStart[std::size_t(c) + 1]; ++k) {
+      const std::uint32_t h = cellHandles[k];
+      const Vec3 d = x - p[h];
       const double d2 = glm::dot(d, d);
-      if (!(std::sqrt(d2) < r)) continue;
-      s.index.push_back(f.first);
+      if (!(d2 < r2) || !(std::sqrt(d2) < r)) continue;
+      s.index.push_back(h);
       s.d2.push_back(d2);
     }
   }
@@ -176,7 +228,7 @@ struct ShepardCoordinates::Impl {
       }
     }
     const Vec3 gk = g[s.nearest];
-    const double inv = 1.0 / s.sum;
+    const double inv = s.inv;
     for (std::size_t k = 0; k < m; ++k) {
       const double w = s.u[k] * inv;
       if (k == s.nearest) {
@@ -218,17 +270,17 @@ ShepardCoordinates::ShepardCoordinates(std::vector<Vec3> handles, const ShepardO
     lo = glm::min(lo, p[i]);
     hi = glm::max(hi, p[i]);
   }
-  impl->cloud.points = &impl->p;
-  impl->tree =
-      std::make_unique<Tree>(3, impl->cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  detail::NodeCloud cloud;
+  cloud.points = &impl->p;
+  const Tree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  std::vector<std::pair<std::uint32_t, double>> found;
   // Coincident handles: any other handle within 1e-12 of the bounding-box diagonal.
   const double tol = 1e-12 * glm::length(hi - lo);
   const double tol2 = std::max(tol * tol, std::numeric_limits<double>::denorm_min());
-  std::vector<std::pair<std::uint32_t, double>> found;
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double q[3] = {p[i].x, p[i].y, p[i].z};
     found.clear();
-    impl->tree->radiusSearch(q, tol2, found, nanoflann::SearchParams(32, 0.0f, false));
+    tree.radiusSearch(q, tol2, found, nanoflann::SearchParams(32, 0.0f, false));
     for (const auto& f : found) {
       if (f.first == i) continue;
       throw InvalidInput(who + ": handles " + std::to_string(std::min<std::size_t>(i, f.first)) +
@@ -244,10 +296,11 @@ ShepardCoordinates::ShepardCoordinates(std::vector<Vec3> handles, const ShepardO
     for (std::size_t i = 0; i < p.size(); ++i) {
       const double q[3] = {p[i].x, p[i].y, p[i].z};
       found.clear();
-      impl->tree->radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
+      tree.radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
       most = std::max(most, found.size());
     }
     impl->maxNonZeros = std::min(most, p.size());
+    impl->buildGrid(lo, hi);
   }
   impl_ = std::move(impl);
 }
@@ -265,7 +318,7 @@ void ShepardCoordinates::weights(const Vec3& x, std::span<double> row) const {
   Scratch s;
   if (!impl_->weigh(x, s)) impl_->throwOutside("ShepardCoordinates", x);
   std::fill(row.begin(), row.end(), 0.0);
-  for (std::size_t k = 0; k < s.index.size(); ++k) row[s.index[k]] = s.u[k] / s.sum;
+  for (std::size_t k = 0; k < s.index.size(); ++k) row[s.index[k]] = s.u[k] * s.inv;
 }
 
 std::size_t ShepardCoordinates::sparseWeights(const Vec3& x, std::span<SparseWeight> out) const {
@@ -274,7 +327,7 @@ std::size_t ShepardCoordinates::sparseWeights(const Vec3& x, std::span<SparseWei
   if (!impl_->weigh(x, s)) impl_->throwOutside("ShepardCoordinates", x);
   std::size_t count = 0;
   for (std::size_t k = 0; k < s.index.size(); ++k) {
-    const double w = s.u[k] / s.sum;
+    const double w = s.u[k] * s.inv;
     if (w == 0.0) continue;
     if (count == out.size())
       throw InvalidInput("ShepardCoordinates: more non-zero weights than the sparse row holds");
@@ -309,7 +362,7 @@ UnmappedPoints ShepardCoordinates::weightsRange(std::span<const Vec3> points,
       outside.add(i);
       continue;
     }
-    for (std::size_t k = 0; k < s.index.size(); ++k) row[s.index[k]] = s.u[k] / s.sum;
+    for (std::size_t k = 0; k < s.index.size(); ++k) row[s.index[k]] = s.u[k] * s.inv;
   }
   return outside;
 }
@@ -357,7 +410,7 @@ namespace {
 inline Vec3 displaced(const Vec3& x, const Scratch& s, const std::vector<Vec3>& displacement) {
   Vec3 sum(0.0);
   for (std::size_t k = 0; k < s.index.size(); ++k)
-    sum += (s.u[k] / s.sum) * displacement[s.index[k]];
+    sum += (s.u[k] * s.inv) * displacement[s.index[k]];
   return x + sum;
 }
 

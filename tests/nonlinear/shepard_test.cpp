@@ -223,6 +223,36 @@ TEST(ShepardCoordinates, LocalSupportIsZeroBeyondTheRadius) {
   EXPECT_NEAR(w[0], u0 / (u0 + u1), 1e-15);
 }
 
+TEST(ShepardCoordinates, LocalWeightsMatchABruteForceSum) {
+  // The grid that finds the handles within reach, against the formula over every handle: with
+  // cells of the radius (dense handles) and of 1/64 of the extent (sparse handles, radius much
+  // smaller than their spread).
+  std::mt19937 rng(9);
+  for (const auto& [spread, radius] : {std::pair{1.0, 0.3}, std::pair{100.0, 0.7}}) {
+    const std::vector<Vec3> handles = test::randomPoints(rng, 3000, -spread, spread);
+    const double power = 1.5;
+    const ShepardCoordinates coords(handles, withPower(power, radius));
+    std::size_t checked = 0;
+    for (std::size_t t = 0; t < 400; ++t) {
+      // Points within reach of handle t.
+      const Vec3 x = handles[t] + test::randomPoint(rng, -0.5 * radius, 0.5 * radius);
+      std::vector<double> u(handles.size(), 0.0);
+      double sum = 0.0;
+      for (std::size_t i = 0; i < handles.size(); ++i) {
+        const double d = glm::length(x - handles[i]);
+        if (d < radius) u[i] = std::pow((radius - d) / (radius * d), power);
+        sum += u[i];
+      }
+      if (sum == 0.0) continue;
+      const std::vector<double> w = weightsOf(coords, x);
+      for (std::size_t i = 0; i < handles.size(); ++i)
+        ASSERT_NEAR(w[i], u[i] / sum, 1e-13) << "spread " << spread << " handle " << i;
+      ++checked;
+    }
+    EXPECT_EQ(checked, 400u);
+  }
+}
+
 TEST(ShepardCoordinates, PointsOutsideEverySupportAreReportedNotGuessed) {
   const std::vector<Vec3> handles = {Vec3(0.0), Vec3(1.0, 0.0, 0.0)};
   auto coords = std::make_shared<ShepardCoordinates>(handles, withPower(2.0, 0.5));
