@@ -48,10 +48,8 @@ Mat3 crossMatrix(const Vec3& y) {  // [y]x v = y × v
 
 KelvinletWarp::KelvinletWarp(const KelvinletOptions& o) : options_(o) {
   if (!isFinite(o.center)) fail("center must be finite");
-  if (!std::isfinite(o.radius) || !(o.radius > 0.0))
-    fail("radius must be finite and > 0");
-  if (!(o.poisson >= 0.0 && o.poisson <= 0.5))
-    fail("poisson must be in [0, 0.5]");
+  if (!std::isfinite(o.radius) || !(o.radius > 0.0)) fail("radius must be finite and > 0");
+  if (!(o.poisson >= 0.0 && o.poisson <= 0.5)) fail("poisson must be in [0, 0.5]");
   if (o.steps < 1 || o.steps > 10000)
     fail("steps must be in 1..10000, not " + std::to_string(o.steps));
   const double n = static_cast<double>(o.steps);
@@ -73,8 +71,7 @@ KelvinletWarp::KelvinletWarp(const KelvinletOptions& o) : options_(o) {
       break;
     }
     case KelvinletBrush::Scale:
-      if (!std::isfinite(o.factor) || !(o.factor > 0.0))
-        fail("factor must be finite and > 0");
+      if (!std::isfinite(o.factor) || !(o.factor > 0.0)) fail("factor must be finite and > 0");
       // factor^(1/n) per step, so that the centre scales by exactly `factor` for any steps.
       amount_ = std::pow(o.factor, 1.0 / n) - 1.0;
       break;
