@@ -254,8 +254,12 @@ ShepardCoordinates::ShepardCoordinates(std::vector<Vec3> handles, const ShepardO
   const std::string who = "ShepardCoordinates";
   if (!std::isfinite(options.power) || !(options.power > 0.0))
     throw InvalidInput(who + ": power must be finite and > 0, not " + numberText(options.power));
-  if (std::isnan(options.radius) || !(options.radius > 0.0))
-    throw InvalidInput(who + ": radius must be > 0 (or infinite for global weights), not " +
+  // Up to 1e150, like the handles, so that its square and the grid's cells stay finite.
+  if (std::isnan(options.radius) || !(options.radius > 0.0) ||
+      (std::isfinite(options.radius) && options.radius > detail::kMaxCoordinate))
+    throw InvalidInput(who +
+                       ": radius must be > 0 and at most 1e150 (or infinite for global "
+                       "weights), not " +
                        numberText(options.radius));
   impl->local = std::isfinite(options.radius);
   const std::vector<Vec3>& p = impl->p;

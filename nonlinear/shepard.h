@@ -22,7 +22,7 @@ struct ShepardOptions {
   /// whatever the targets; for p <= 1 the weights have cusps at the handles (not
   /// differentiable there).
   double power = 2.0;
-  /// Support radius R, world units: finite and > 0, or +infinity (default) for the classic
+  /// Support radius R, world units: in (0, 1e150], or +infinity (default) for the classic
   /// global weights. With a finite R the weights are Franke & Nielson's ((R − d_i)_+ / (R d_i))^p
   /// and points farther than R from every handle have no weights (reported, never guessed).
   double radius = std::numeric_limits<double>::infinity();
@@ -58,9 +58,9 @@ struct ShepardOptions {
 class ShepardCoordinates final : public Coordinates {
  public:
   /// `handles`: n >= 1 points, world units. Throws InvalidInput naming the problem for no handle,
-  /// a non-finite handle (with its index), coincident handles (closer than 1e-12 × their
-  /// bounding-box diagonal, with both indices), a non-finite or non-positive power, or a radius
-  /// that is NaN or <= 0.
+  /// a non-finite handle or one beyond 1e150 (with its index), coincident handles (closer than
+  /// 1e-12 × their bounding-box diagonal, with both indices), a non-finite or non-positive power,
+  /// or a radius that is NaN, <= 0 or finite above 1e150.
   explicit ShepardCoordinates(std::vector<Vec3> handles, const ShepardOptions& options = {});
   ~ShepardCoordinates() override;
 

@@ -313,7 +313,7 @@ TEST(ShepardCoordinates, RejectsBadParameters) {
     EXPECT_THAT(message([&] { ShepardCoordinates c(h, withPower(p)); }),
                 HasSubstr("ShepardCoordinates: power must be finite and > 0"));
   }
-  for (double r : {0.0, -2.0, std::nan("")}) {
+  for (double r : {0.0, -2.0, std::nan(""), 1e200}) {
     EXPECT_THAT(message([&] { ShepardCoordinates c(h, withPower(2.0, r)); }),
                 HasSubstr("ShepardCoordinates: radius must be > 0"));
   }
