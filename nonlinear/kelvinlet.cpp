@@ -21,6 +21,26 @@ std::string kelvinletBrushName(KelvinletBrush brush) {
   return "unknown";
 }
 
+std::string kelvinletFalloffName(KelvinletFalloff falloff) {
+  switch (falloff) {
+    case KelvinletFalloff::Single:
+      return "single";
+    case KelvinletFalloff::Bi:
+      return "bi";
+    case KelvinletFalloff::Tri:
+      return "tri";
+  }
+  return "unknown";
+}
+
+KelvinletFalloff kelvinletFalloffFromName(std::string_view name) {
+  if (name == "single") return KelvinletFalloff::Single;
+  if (name == "bi") return KelvinletFalloff::Bi;
+  if (name == "tri") return KelvinletFalloff::Tri;
+  throw InvalidInput("Kelvinlet falloff '" + std::string(name) +
+                     "' is not one of: single, bi, tri");
+}
+
 KelvinletBrush kelvinletBrushFromName(std::string_view name) {
   if (name == "grab") return KelvinletBrush::Grab;
   if (name == "twist") return KelvinletBrush::Twist;
@@ -53,13 +73,12 @@ KelvinletWarp::KelvinletWarp(const KelvinletOptions& o) : options_(o) {
   if (o.steps < 1 || o.steps > 10000)
     fail("steps must be in 1..10000, not " + std::to_string(o.steps));
   const double n = static_cast<double>(o.steps);
-  const double eps = o.radius;
   a_ = 1.0;  // 1/(4πμ): a common factor of the force, cancelled by the normalisation
   b_ = a_ / (4.0 * (1.0 - o.poisson));
   switch (o.brush) {
     case KelvinletBrush::Grab:
       if (!isFinite(o.displacement)) fail("displacement must be finite");
-      force_ = (2.0 * eps / (3.0 * a_ - 2.0 * b_)) * (o.displacement / n);
+      edit_ = o.displacement / n;
       break;
     case KelvinletBrush::Twist: {
       const double len = glm::length(o.axis);
@@ -86,7 +105,7 @@ KelvinletWarp::KelvinletWarp(const KelvinletOptions& o) : options_(o) {
           if (std::abs(p[c][r] - p[r][c]) > tol) fail("matrix must be symmetric");
       if (std::abs(p[0][0] + p[1][1] + p[2][2]) > tol)
         fail("matrix must be traceless (a pinch changes no volume at the centre)");
-      forceMatrix_ = (eps * eps * eps / (2.5 * a_ - 2.0 * b_)) * (p / n);
+      editMatrix_ = p / n;
       break;
     }
   }
@@ -160,10 +179,63 @@ struct Step {
 
 namespace {
 
-Step stepOf(const KelvinletOptions& o, const Vec3& force, const Mat3& f, const Vec3& axis,
-            double amount, double a, double b) {
+// The brush of one step: Σ_j c_j û_j over its scales, û_j the normalised brush of radius ε_j.
+// The normalised brushes share their value and gradient at the centre and Σ c_j = 1, so the
+// combination keeps them; the c_j cancel the far field's leading terms (de Goes & James' multi-
+// scale extrapolation: Σ w_j = 0 for "bi", also Σ w_j ε_j² = 0 for "tri", with c_j ∝ w_j N_j,
+// N_j the unnormalised brush's centre value, ∝ 1/ε_j (grab) or 1/ε_j³ (affine brushes)).
+struct Brush {
+  Step scale[3];
+  double c[3] = {1.0, 0.0, 0.0};
+  int count = 1;
+
+  Vec3 displacement(const Vec3& r, Mat3* jac) const {
+    if (count == 1) return scale[0].displacement(r, jac);
+    Vec3 u(0.0);
+    if (jac) *jac = Mat3(0.0);
+    for (int j = 0; j < count; ++j) {
+      Mat3 jj(0.0);
+      u += c[j] * scale[j].displacement(r, jac ? &jj : nullptr);
+      if (jac) *jac += c[j] * jj;
+    }
+    return u;
+  }
+};
+
+Brush brushOf(const KelvinletOptions& o, const Vec3& edit, const Mat3& editMatrix, const Vec3& axis,
+              double amount, double a, double b) {
+  Brush brush;
   const double eps = o.radius;
-  return {o.brush, eps * eps, eps * eps * eps, a, b, force, f, axis, amount};
+  double radii[3] = {eps, 2.0 * eps, 4.0 * eps};
+  double w[3] = {1.0, 0.0, 0.0};
+  if (o.falloff == KelvinletFalloff::Bi) {
+    brush.count = 2;
+    w[1] = -1.0;
+  } else if (o.falloff == KelvinletFalloff::Tri) {
+    brush.count = 3;
+    const double e1 = radii[0] * radii[0], e2 = radii[1] * radii[1], e3 = radii[2] * radii[2];
+    w[1] = -(e3 - e1) / (e3 - e2);
+    w[2] = (e2 - e1) / (e3 - e2);
+  }
+  const int k = o.brush == KelvinletBrush::Grab ? 1 : 3;
+  double total = 0.0;
+  for (int j = 0; j < brush.count; ++j) {
+    const double e = radii[j];
+    Step& s = brush.scale[j];
+    s = {o.brush,
+         e * e,
+         e * e * e,
+         a,
+         b,
+         (2.0 * e / (3.0 * a - 2.0 * b)) * edit,
+         (e * e * e / (2.5 * a - 2.0 * b)) * editMatrix,
+         axis,
+         amount};
+    brush.c[j] = w[j] / std::pow(e / eps, k);
+    total += brush.c[j];
+  }
+  for (int j = 0; j < brush.count; ++j) brush.c[j] /= total;
+  return brush;
 }
 
 // The grab brush's centre follows its edit: step k is centred at c + k f_total/steps.
@@ -175,7 +247,7 @@ inline Vec3 centerOf(const KelvinletOptions& o, int k) {
 }  // namespace
 
 Vec3 KelvinletWarp::apply(const Vec3& x) const {
-  const Step step = stepOf(options_, force_, forceMatrix_, axis_, amount_, a_, b_);
+  const Brush step = brushOf(options_, edit_, editMatrix_, axis_, amount_, a_, b_);
   Vec3 y = x;
   for (int k = 0; k < options_.steps; ++k)
     y += step.displacement(y - centerOf(options_, k), nullptr);
@@ -184,7 +256,7 @@ Vec3 KelvinletWarp::apply(const Vec3& x) const {
 
 UnmappedPoints KelvinletWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
                                          std::size_t begin, std::size_t end) const {
-  const Step step = stepOf(options_, force_, forceMatrix_, axis_, amount_, a_, b_);
+  const Brush step = brushOf(options_, edit_, editMatrix_, axis_, amount_, a_, b_);
   for (std::size_t i = begin; i != end; ++i) {
     Vec3 y = in[i];
     for (int k = 0; k < options_.steps; ++k)
@@ -195,7 +267,7 @@ UnmappedPoints KelvinletWarp::applyRange(std::span<const Vec3> in, std::span<Vec
 }
 
 Mat3 KelvinletWarp::jacobian(const Vec3& x) const {
-  const Step step = stepOf(options_, force_, forceMatrix_, axis_, amount_, a_, b_);
+  const Brush step = brushOf(options_, edit_, editMatrix_, axis_, amount_, a_, b_);
   Vec3 y = x;
   Mat3 j(1.0);
   for (int k = 0; k < options_.steps; ++k) {

@@ -20,6 +20,21 @@ enum class KelvinletBrush {
   Pinch,  ///< A symmetric traceless force matrix: the centre's gradient is `matrix`; ~ 1/r².
 };
 
+/// How fast a brush fades with distance r ≫ ε (the paper's multi-scale extrapolation).
+enum class KelvinletFalloff {
+  Single,  ///< One radius ε: |u| ~ 1/r (grab) or 1/r² (twist, scale, pinch).
+  /// Radii ε and 2ε combined: 1/r³ (grab), 1/r⁴ (pinch), 1/r⁶ (twist and scale, whose far
+  /// field has no ε² term to cancel).
+  Bi,
+  /// Radii ε, 2ε and 4ε combined: 1/r⁵ (grab), 1/r⁶ (pinch; twist and scale as with Bi).
+  Tri,
+};
+
+/// "single", "bi" or "tri".
+std::string kelvinletFalloffName(KelvinletFalloff falloff);
+/// The falloff named "single", "bi" or "tri"; throws InvalidInput for any other name.
+KelvinletFalloff kelvinletFalloffFromName(std::string_view name);
+
 /// "grab", "twist", "scale" or "pinch".
 std::string kelvinletBrushName(KelvinletBrush brush);
 /// The brush named "grab", "twist", "scale" or "pinch"; throws InvalidInput for any other name.
@@ -42,6 +57,11 @@ struct KelvinletOptions {
   /// Pinch: the centre's displacement gradient, symmetric and traceless (within 1e-12 of its
   /// norm), e.g. diag(s, −s, 0) stretches along x and squeezes along y.
   Mat3 matrix{0.0};
+  /// Multi-scale falloff (default Single, the closed form). Bi and Tri combine the brush at
+  /// radii ε, 2ε (and 4ε) with weights w_j (1, −1; or 1, −(ε₃² − ε₁²)/(ε₃² − ε₂²),
+  /// (ε₂² − ε₁²)/(ε₃² − ε₂²)) that cancel the leading far-field terms, renormalised so that the
+  /// centre still does exactly what the brush's parameters say; 2 or 3 times the cost.
+  KelvinletFalloff falloff = KelvinletFalloff::Single;
   /// The brush applied as a composition of `steps` brushes of 1/steps of the edit each
   /// (displacement/steps with the grab centre following it, angle/steps, factor^(1/steps),
   /// matrix/steps), as the paper integrates large edits in time to avoid folds: cost and
@@ -85,10 +105,10 @@ class KelvinletWarp final : public Warp {
 
  private:
   KelvinletOptions options_;
-  // Per step: the force (grab), the normalised matrix (pinch), the angle (twist), the
-  // scale − 1 (scale), and the grab centre's move.
-  Vec3 force_{0.0};
-  Mat3 forceMatrix_{0.0};
+  // Per step: the displacement (grab), the matrix (pinch), the angle (twist), the scale − 1
+  // (scale); the forces of each radius are made from them.
+  Vec3 edit_{0.0};
+  Mat3 editMatrix_{0.0};
   Vec3 axis_{0.0, 0.0, 1.0};
   double amount_ = 0.0;
   double a_ = 1.0, b_ = 0.0;

@@ -1,5 +1,6 @@
 #include <spacewarp/nonlinear/kelvinlet.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -136,6 +137,62 @@ TEST(KelvinletWarp, FarFieldDecay) {
   EXPECT_NEAR(ratio(KelvinletWarp(twist(Vec3(0.2, 1.0, 0.1), 0.5))), 4.0, 1e-3);
   EXPECT_NEAR(ratio(KelvinletWarp(scale(1.5))), 4.0, 1e-3);
   EXPECT_NEAR(ratio(KelvinletWarp(pinch(pinchMatrix()))), 4.0, 1e-3);
+}
+
+TEST(KelvinletWarp, MultiScaleFalloffDecaysFasterAndKeepsTheCentre) {
+  // Doubling r divides |u| by 2^k and |J − I| by 2^(k + 1): k = 1, 3, 5 for grab and 2, 4, 6
+  // for pinch with single, bi and tri falloff; twist and scale have no ε² term in their far
+  // field (ε³/ρ³ + 3ε⁵/(2ρ⁵) = ε³/r³ + O(ε⁷/r⁷)), so bi already gives them k = 6 and tri
+  // nothing more. Measured on J − I, which the analytic Jacobian gives without the
+  // cancellation of x' − x at large x; at r = 100ε, where the next terms are ~(4ε/r)² of the
+  // leading one.
+  const Vec3 dir = glm::normalize(Vec3(0.3, 0.8, -0.5));
+  const auto ratio = [&](KelvinletOptions o, KelvinletFalloff falloff) {
+    o.falloff = falloff;
+    o.radius = 1.0;
+    const KelvinletWarp w(o);
+    return test::frobenius(w.jacobian(kCenter + 100.0 * dir) - Mat3(1.0)) /
+           test::frobenius(w.jacobian(kCenter + 200.0 * dir) - Mat3(1.0));
+  };
+  const KelvinletFalloff kinds[] = {KelvinletFalloff::Single, KelvinletFalloff::Bi,
+                                    KelvinletFalloff::Tri};
+  const auto expectDecay = [&](const KelvinletOptions& o, std::array<int, 3> k) {
+    for (int level = 0; level < 3; ++level) {
+      const double expected = std::pow(2.0, k[std::size_t(level)] + 1);
+      EXPECT_NEAR(ratio(o, kinds[level]), expected, 0.02 * expected)
+          << kelvinletBrushName(o.brush) << " falloff " << level;
+    }
+  };
+  expectDecay(grab(Vec3(0.3, -0.2, 0.4)), {1, 3, 5});
+  expectDecay(pinch(pinchMatrix()), {2, 4, 6});
+  expectDecay(twist(Vec3(0.2, 1.0, 0.1), 0.5), {2, 6, 6});
+  expectDecay(scale(1.5), {2, 6, 6});
+  // The centre still does exactly what the parameters say.
+  for (KelvinletFalloff f : {KelvinletFalloff::Bi, KelvinletFalloff::Tri}) {
+    KelvinletOptions g = grab(Vec3(0.3, -0.2, 0.4));
+    g.falloff = f;
+    EXPECT_LT(glm::length(KelvinletWarp(g).apply(kCenter) - (kCenter + g.displacement)), 1e-14);
+    KelvinletOptions t = twist(Vec3(0.0, 0.0, 1.0), 0.7);
+    t.falloff = f;
+    EXPECT_LT(test::relativeError(KelvinletWarp(t).jacobian(kCenter),
+                                  Mat3(1.0) + 0.7 * crossMatrix(Vec3(0.0, 0.0, 1.0))),
+              1e-14);
+    KelvinletOptions p = pinch(pinchMatrix());
+    p.falloff = f;
+    EXPECT_LT(test::relativeError(KelvinletWarp(p).jacobian(kCenter), Mat3(1.0) + pinchMatrix()),
+              1e-14);
+    // And the Jacobian is still analytic everywhere.
+    std::mt19937 rng(15);
+    std::vector<Vec3> points = test::randomPoints(rng, 30, -3.0, 3.0);
+    for (Vec3& x : points) x += kCenter;
+    for (const KelvinletOptions& o : {g, t, p}) {
+      EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(KelvinletWarp(o), points, 1e-8))
+          << kelvinletBrushName(o.brush);
+    }
+  }
+  EXPECT_EQ(kelvinletFalloffFromName("tri"), KelvinletFalloff::Tri);
+  EXPECT_THAT(test::messageOf<InvalidInput>([] { kelvinletFalloffFromName("quad"); }),
+              HasSubstr("'quad' is not one of: single, bi, tri"));
 }
 
 TEST(KelvinletWarp, JacobianAtTheCentre) {
