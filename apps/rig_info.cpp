@@ -95,6 +95,7 @@ class Describer {
       }
       if (brush == "scale") line("factor", get("factor"));
       if (brush == "pinch") line("matrix", get("matrix"));
+      line("falloff", get("falloff", "single"));
       line("steps", get("steps", "1"));
       line("does", "displaces space as an infinite elastic medium under a " + brush +
                        " brush spread over the radius around the center; the effect fades with "

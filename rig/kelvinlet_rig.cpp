@@ -39,6 +39,13 @@ Rig kelvinletRig(RigReader& r) {
   if (!(o.radius > 0.0)) r.fail("radius", "must be > 0");
   o.poisson = r.number("poisson", o.poisson);
   if (!(o.poisson >= 0.0 && o.poisson <= 0.5)) r.fail("poisson", "must be in [0, 0.5]");
+  if (r.has("falloff")) {
+    try {
+      o.falloff = kelvinletFalloffFromName(r.string("falloff"));
+    } catch (const InvalidInput& e) {
+      r.fail("falloff", e.what());
+    }
+  }
   const double steps = r.number("steps", 1.0);
   if (!(steps >= 1.0 && steps <= 10000.0) || steps != std::floor(steps))
     r.fail("steps", "must be a whole number in 1..10000");

@@ -746,7 +746,9 @@ class Kelvinlet(Warp):
     brush "grab" moves the center by `displacement` (3,); "twist" rotates the center's neighbourhood
     by `angle` (radians) about `axis` (3,) (the Jacobian there is I + angle [axis]x); "scale" scales it
     by `factor` (> 0); "pinch" gives it the displacement gradient `matrix` (3, 3), symmetric and
-    traceless. poisson: Poisson ratio in [0, 0.5] (default 0.45). steps: the brush applied as that
+    traceless. poisson: Poisson ratio in [0, 0.5] (default 0.45). falloff: "single" (default),
+    "bi" or "tri": the brush at radii epsilon, 2 epsilon (and 4 epsilon) combined so that it fades
+    faster with distance (grab 1/r, 1/r^3, 1/r^5), the center unchanged. steps: the brush applied as that
     many sub-brushes (1 = the closed form; more avoid folds for large edits, at steps times the cost).
     Keys of another brush raise InvalidInput.
     """
@@ -763,6 +765,7 @@ class Kelvinlet(Warp):
         angle: Optional[float] = None,
         factor: Optional[float] = None,
         matrix: Optional[ArrayLike] = None,
+        falloff: str = "single",
         steps: int = 1,
     ) -> None: ...
 

@@ -38,20 +38,23 @@ elastic medium under a force spread over `radius` (epsilon > 0, world units) aro
 brush "grab" moves the center by `displacement` (3,); "twist" rotates the center's neighbourhood
 by `angle` (radians) about `axis` (3,) (the Jacobian there is I + angle [axis]x); "scale" scales it
 by `factor` (> 0); "pinch" gives it the displacement gradient `matrix` (3, 3), symmetric and
-traceless. poisson: Poisson ratio in [0, 0.5] (default 0.45). steps: the brush applied as that
+traceless. poisson: Poisson ratio in [0, 0.5] (default 0.45). falloff: "single" (default),
+"bi" or "tri": the brush at radii epsilon, 2 epsilon (and 4 epsilon) combined so that it fades
+faster with distance (grab 1/r, 1/r^3, 1/r^5), the center unchanged. steps: the brush applied as that
 many sub-brushes (1 = the closed form; more avoid folds for large edits, at steps times the cost).
 Keys of another brush raise InvalidInput.)")
       .def(py::init([](const std::string& brush, py::handle center, double radius, double poisson,
                        const std::optional<py::handle>& displacement,
                        const std::optional<py::handle>& axis, std::optional<double> angle,
                        std::optional<double> factor, const std::optional<py::handle>& matrix,
-                       int steps) {
+                       const std::string& falloff, int steps) {
              KelvinletOptions o;
              o.brush = kelvinletBrushFromName(brush);
              o.center = toVec3(center, "center");
              o.radius = radius;
              o.poisson = poisson;
              o.steps = steps;
+             o.falloff = kelvinletFalloffFromName(falloff);
              const auto given = [](const auto& v) {
                if constexpr (std::is_same_v<std::decay_t<decltype(v)>, std::optional<py::handle>>)
                  return v.has_value() && !v->is_none();
@@ -96,7 +99,7 @@ Keys of another brush raise InvalidInput.)")
            }),
            py::kw_only(), "brush"_a, "center"_a, "radius"_a, "poisson"_a = 0.45,
            "displacement"_a = py::none(), "axis"_a = py::none(), "angle"_a = py::none(),
-           "factor"_a = py::none(), "matrix"_a = py::none(), "steps"_a = 1)
+           "factor"_a = py::none(), "matrix"_a = py::none(), "falloff"_a = "single", "steps"_a = 1)
       .def_property_readonly(
           "brush", [](const KelvinletWarp& w) { return kelvinletBrushName(w.options().brush); },
           "\"grab\", \"twist\", \"scale\" or \"pinch\".")

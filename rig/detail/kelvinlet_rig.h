@@ -8,7 +8,8 @@
 namespace spacewarp::detail {
 
 /// Reads "brush" ("grab", "twist", "scale" or "pinch"), "center" ([x, y, z]), "radius" (ε > 0),
-/// optional "poisson" (ν in [0, 0.5], default 0.45) and "steps" (1..10000, default 1), and the
+/// optional "poisson" (ν in [0, 0.5], default 0.45), "falloff" ("single", "bi" or "tri", default
+/// "single") and "steps" (1..10000, default 1), and the
 /// brush's own keys: grab "displacement" ([dx, dy, dz]); twist "axis" ([x, y, z], non-zero) and
 /// "angle" (radians); scale "factor" (> 0); pinch "matrix" (3 rows of 3, symmetric, traceless).
 /// Keys of another brush are refused. Returns the KelvinletWarp and no coordinates.

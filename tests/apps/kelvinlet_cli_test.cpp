@@ -44,11 +44,14 @@ TEST_F(KelvinletCliTest, DeformMatchesTheLibraryForEveryBrush) {
   KelvinletOptions g = base(KelvinletBrush::Grab);
   g.displacement = Vec3(0.4, -0.1, 0.2);
   g.steps = 3;
-  cases.push_back({R"("brush": "grab", "displacement": [0.4, -0.1, 0.2], "steps": 3)", g});
+  g.falloff = KelvinletFalloff::Bi;
+  cases.push_back(
+      {R"("brush": "grab", "displacement": [0.4, -0.1, 0.2], "steps": 3, "falloff": "bi")", g});
   KelvinletOptions t = base(KelvinletBrush::Twist);
   t.axis = Vec3(0.0, 1.0, 1.0);
   t.angle = 0.7;
-  cases.push_back({R"("brush": "twist", "axis": [0, 1, 1], "angle": 0.7)", t});
+  t.falloff = KelvinletFalloff::Tri;
+  cases.push_back({R"("brush": "twist", "axis": [0, 1, 1], "angle": 0.7, "falloff": "tri")", t});
   KelvinletOptions s = base(KelvinletBrush::Scale);
   s.factor = 1.5;
   cases.push_back({R"("brush": "scale", "factor": 1.5)", s});
@@ -127,6 +130,9 @@ INSTANTIATE_TEST_SUITE_P(
             "KelvinletPinchNotSymmetric",
             "{" + kGrab + R"(, "brush": "pinch", "matrix": [[0, 1, 0], [0, 0, 0], [0, 0, 0]]})", 3,
             "'matrix' must be symmetric"},
+        test::BadRig{"KelvinletUnknownFalloff",
+                     "{" + kGrab + R"(, "brush": "scale", "factor": 2, "falloff": "quad"})", 3,
+                     "'falloff' Kelvinlet falloff 'quad' is not one of: single, bi, tri"},
         test::BadRig{"KelvinletFractionalSteps",
                      "{" + kGrab + R"(, "brush": "scale", "factor": 2, "steps": 1.5})", 3,
                      "'steps' must be a whole number in 1..10000"},

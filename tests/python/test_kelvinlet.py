@@ -49,10 +49,11 @@ def test_each_brush_at_its_centre():
 @pytest.mark.parametrize("name", sorted(_BRUSHES))
 def test_rig_and_cli_equal_the_class_bit_for_bit(name, cli, tmp_path):
     points = _points()
-    ours = _brush(name, steps=2)(points)
+    falloff = {"grab": "bi", "twist": "tri"}.get(name, "single")
+    ours = _brush(name, steps=2, falloff=falloff)(points)
     keys = {k: (as_list(v) if isinstance(v, np.ndarray) else v) for k, v in _BRUSHES[name].items()}
     rig = {"method": "kelvinlet", "brush": name, "center": as_list(_CENTER), "radius": 0.8,
-           "poisson": 0.4, "steps": 2, **keys}
+           "poisson": 0.4, "steps": 2, "falloff": falloff, **keys}
     assert np.array_equal(spacewarp.rig(rig)(points), ours)
     assert np.array_equal(cli.deform(rig, points, tmp_path), ours)
     assert not np.array_equal(ours, points)
@@ -78,6 +79,7 @@ def test_jacobian_matches_central_differences(name):
     ({"brush": "pinch", "radius": 1.0, "matrix": np.eye(3)}, "matrix must be traceless"),
     ({"brush": "pinch", "radius": 1.0, "matrix": np.zeros((2, 2))}, r"matrix must have shape \(3, 3\)"),
     ({"brush": "scale", "radius": 1.0, "factor": 2.0, "steps": 0}, "steps must be in 1..10000"),
+    ({"brush": "scale", "radius": 1.0, "factor": 2.0, "falloff": "quad"}, "'quad' is not one of"),
 ])
 def test_bad_parameters_name_themselves(kwargs, message):
     with pytest.raises(spacewarp.InvalidInput, match=message):
