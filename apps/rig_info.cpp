@@ -78,6 +78,36 @@ class Describer {
            "moves the points within each wire's radius of its rest curve as the curve moves to "
            "its deformed one (scaled, turned and shifted about the closest rest point, fading "
            "with the distance), blending several wires by the size of their moves");
+    } else if (method == "idw") {
+      line("method", "idw (Shepard's inverse-distance weighting)");
+      line("handles", count(rig_, "handles") + ", moved to as many targets");
+      line("power", get("power", "2"));
+      line("radius", get("radius", "none (every handle weighs everywhere)"));
+      line("does",
+           "moves each point by the mean of the handles' displacements, weighted by "
+           "distance^-power" +
+               std::string(rig_.contains("radius")
+                               ? " (Franke-Nielson weights, zero beyond the radius; points out of "
+                                 "every handle's reach are refused)"
+                               : ""));
+    } else if (method == "kelvinlet") {
+      const std::string brush = get("brush");
+      line("method", "kelvinlet (regularized Kelvinlet " + brush + " brush)");
+      line("center", get("center"));
+      line("radius", get("radius"));
+      line("poisson", get("poisson", "0.45"));
+      if (brush == "grab") line("displacement", get("displacement"));
+      if (brush == "twist") {
+        line("axis", get("axis"));
+        line("angle", get("angle"));
+      }
+      if (brush == "scale") line("factor", get("factor"));
+      if (brush == "pinch") line("matrix", get("matrix"));
+      line("falloff", get("falloff", "single"));
+      line("steps", get("steps", "1"));
+      line("does", "displaces space as an infinite elastic medium under a " + brush +
+                       " brush spread over the radius around the center; the effect fades with "
+                       "distance and never stops entirely");
     } else if (method == "compose") {
       compose();
     } else {

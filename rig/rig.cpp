@@ -17,7 +17,9 @@
 #include <spacewarp/rig/detail/ffd_rig.h>
 #include <spacewarp/rig/detail/graph_rig.h>
 #include <spacewarp/rig/detail/harmonic_rig.h>
+#include <spacewarp/rig/detail/idw_rig.h>
 #include <spacewarp/rig/detail/json_file.h>
+#include <spacewarp/rig/detail/kelvinlet_rig.h>
 #include <spacewarp/rig/detail/mls_rig.h>
 #include <spacewarp/rig/detail/rbf_rig.h>
 #include <spacewarp/rig/detail/rig_reader.h>
@@ -91,6 +93,11 @@ const std::map<std::string, Method>& factories() {
          "constraintWeight", "maxIterations", "tolerance"},
         detail::graphRig}},
       {"mls", {{"mode", "alpha", "handles", "targets"}, detail::mlsRig}},
+      {"idw", {{"handles", "targets", "power", "radius"}, detail::idwRig}},
+      {"kelvinlet",
+       {{"brush", "center", "radius", "poisson", "falloff", "steps", "displacement", "axis",
+         "angle", "factor", "matrix"},
+        detail::kelvinletRig}},
       {"rbf",
        {{"kernel", "centers", "targets", "fixed", "smoothing", "scale", "radius"}, detail::rbfRig}},
       {"wires", {{"wires", "locality"}, detail::wiresRig}},

@@ -46,6 +46,7 @@ __all__ = [
     "Identity",
     "InvalidInput",
     "IoError",
+    "Kelvinlet",
     "Lattice",
     "LinearEditor",
     "MeanValue",
@@ -55,6 +56,7 @@ __all__ = [
     "OutOfMemory",
     "Rbf",
     "RbfWarp",
+    "Shepard",
     "SolverError",
     "SurfaceMesh",
     "Taper",
@@ -740,6 +742,48 @@ class Identity(Warp):
     def __init__(self) -> None: ...
 
 
+class Kelvinlet(Warp):
+    """A regularized Kelvinlet brush (de Goes and James 2017): the displacement of an infinite
+    elastic medium under a force spread over `radius` (epsilon > 0, world units) around `center` (3,).
+    brush "grab" moves the center by `displacement` (3,); "twist" rotates the center's neighbourhood
+    by `angle` (radians) about `axis` (3,) (the Jacobian there is I + angle [axis]x); "scale" scales it
+    by `factor` (> 0); "pinch" gives it the displacement gradient `matrix` (3, 3), symmetric and
+    traceless. poisson: Poisson ratio in [0, 0.5] (default 0.45). falloff: "single" (default),
+    "bi" or "tri": the brush at radii epsilon, 2 epsilon (and 4 epsilon) combined so that it fades
+    faster with distance (grab 1/r, 1/r^3, 1/r^5), the center unchanged. steps: the brush applied as that
+    many sub-brushes (1 = the closed form; more avoid folds for large edits, at steps times the cost).
+    Keys of another brush raise InvalidInput.
+    """
+
+    def __init__(
+        self,
+        *,
+        brush: str,
+        center: _Vec3,
+        radius: float,
+        poisson: float = 0.45,
+        displacement: Optional[_Vec3] = None,
+        axis: Optional[_Vec3] = None,
+        angle: Optional[float] = None,
+        factor: Optional[float] = None,
+        matrix: Optional[ArrayLike] = None,
+        falloff: str = "single",
+        steps: int = 1,
+    ) -> None: ...
+
+    @property
+    def brush(self) -> str:
+        """"grab", "twist", "scale" or "pinch"."""
+
+    @property
+    def radius(self) -> float:
+        """The regularisation radius epsilon, world units."""
+
+    @property
+    def poisson(self) -> float:
+        """The Poisson ratio."""
+
+
 class Lattice(Coordinates):
     """A free-form deformation lattice (Sederberg and Parry 1986): a box at `origin` along
     `axes` (3 unit vectors) with `extents` (world units), resolution (l, m, n) control points,
@@ -929,6 +973,34 @@ class RbfWarp(Warp):
         smoothing: float = 0.0,
         progress: _Progress = None,
     ) -> None: ...
+
+
+class Shepard(Coordinates):
+    """Shepard's inverse-distance weighting over `handles` (k, 3), world units:
+    w_i(x) = d_i^-power / sum_j d_j^-power (power > 0, default 2), or with a support `radius`
+    (world units, > 0) Franke and Nielson's ((R - d_i)+ / (R d_i))^power, zero beyond it. The weights
+    are non-negative, sum to 1 and interpolate the handles; warp(targets) moves every point by the
+    weighted mean of the handles' displacements (translations are reproduced, linear maps are not).
+    For power > 1 the warp's Jacobian is the identity at every handle (Shepard's flat spots). With a
+    radius, points farther than it from every handle have no weights: weights() and the warp raise
+    InvalidInput for them.
+    """
+
+    def __init__(
+        self,
+        handles: _Points,
+        *,
+        power: float = 2.0,
+        radius: Optional[float] = None,
+    ) -> None: ...
+
+    @property
+    def power(self) -> float:
+        """The weight exponent."""
+
+    @property
+    def radius(self) -> Optional[float]:
+        """The support radius (world units), or None for global weights."""
 
 
 class SurfaceMesh:

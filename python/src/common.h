@@ -152,5 +152,7 @@ void bindVolume(py::module_& m);
 void bindSurface(py::module_& m);
 void bindWires(py::module_& m);
 void bindBenchHooks(py::module_& m);
+void bindShepard(py::module_& m);
+void bindKelvinlet(py::module_& m);
 
 }  // namespace spacewarp::python

@@ -16,4 +16,6 @@ PYBIND11_MODULE(_spacewarp, m) {
   spacewarp::python::bindSurface(m);
   spacewarp::python::bindWires(m);
   spacewarp::python::bindBenchHooks(m);
+  spacewarp::python::bindShepard(m);
+  spacewarp::python::bindKelvinlet(m);
 }

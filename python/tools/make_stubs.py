@@ -70,6 +70,8 @@ HANDLE_ARGS = {
     "direction": "_Vec3",
     "extents": "_Vec3",
     "point": "_Vec3",
+    "center": "_Vec3",
+    "displacement": "_Vec3",
     "faces": "_Faces",
     "matrix": "ArrayLike",
     "values": "ArrayLike",

@@ -216,8 +216,8 @@ TEST_F(CliTest, DemoWritesEveryResult) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const PolygonSoup bar = readSoup(dir_ / "demo" / "bar.obj");
   const PolygonSoup cloud = readSoup(dir_ / "demo" / "cloud.ply");
-  for (const std::string method :
-       {"twist", "bend", "taper", "mvc", "green", "ffd", "rbf", "mls", "graph", "wires"}) {
+  for (const std::string method : {"twist", "bend", "taper", "mvc", "green", "ffd", "rbf", "mls",
+                                   "graph", "wires", "idw", "kelvinlet"}) {
     const PolygonSoup deformedBar = readSoup(dir_ / "demo" / ("bar_" + method + ".obj"));
     const PolygonSoup deformedCloud = readSoup(dir_ / "demo" / ("cloud_" + method + ".ply"));
     EXPECT_EQ(deformedBar.size(), bar.size()) << method;
