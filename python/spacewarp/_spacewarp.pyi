@@ -42,8 +42,10 @@ __all__ = [
     "Geometry",
     "GraphSolveReport",
     "Green",
+    "HandleDistances",
     "Harmonic",
     "Identity",
+    "InsideDistances",
     "InvalidInput",
     "IoError",
     "Lattice",
@@ -708,6 +710,21 @@ class Green(Coordinates):
         """The Cage (a copy)."""
 
 
+class HandleDistances:
+    """Distances from each of n handles to any point, which an Mls warp weighs its handles by
+    instead of Euclidean distances (Mls(..., distances=...)). Built by InsideDistances.
+    """
+
+    @property
+    def handles(self) -> _Float64Array:
+        """The handles (n, 3), world units, the distances are measured from."""
+
+    def distances(self, points: _Points) -> _Float64Array:
+        """The distance from every handle to every point: points (m, 3) -> (m, n), world
+        units; 0 exactly at a handle.
+        """
+
+
 class Harmonic(Coordinates):
     """Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
     about `tets` tetrahedra (0: the library's default, about 200k). cache: a file of solved coordinates, loaded when it matches the cage and
@@ -736,6 +753,32 @@ class Identity(Warp):
     """x' = x."""
 
     def __init__(self) -> None: ...
+
+
+class InsideDistances(HandleDistances):
+    """The distances from handles (n, 3) to any point measured inside a closed model (Zhu &
+    Gortler 2007): shortest paths that stay in the solid, by fast marching on voxels of
+    `voxel_size` world units (0: the model's bounding-box diagonal / 128). `model` is a Geometry
+    or the path of an OBJ, OFF or PLY file; handles must be inside it (or within 2 voxels of its
+    surface). Outside the model a point takes its nearest inside voxel's distance, extrapolated.
+    Raises InvalidInput naming the handle or parameter at fault.
+    """
+
+    def __init__(
+        self,
+        model: Union[Geometry, _Path],
+        handles: _Points,
+        *,
+        voxel_size: float = 0.0,
+    ) -> None: ...
+
+    @property
+    def voxel_size(self) -> float:
+        """The voxel edge used, world units."""
+
+    @property
+    def grid_size(self) -> list[int]:
+        """The grid's voxel counts along x, y, z."""
 
 
 class Lattice(Coordinates):
@@ -869,7 +912,9 @@ class MeshReport:
 class Mls(Warp):
     """Moving least squares (Schaefer et al. 2006): handles (k, 3) move to targets (k, 3);
     each point gets the affine, similarity or rigid map that best fits the handles weighted by
-    1 / |p - x|^(2 alpha). mode: "affine", "similarity" or "rigid" (default).
+    1 / |p - x|^(2 alpha). mode: "affine", "similarity" or "rigid" (default). distances: a
+    HandleDistances built for the same handles (e.g. InsideDistances, distances measured inside a
+    model), used instead of |p - x|; None (default): Euclidean.
     """
 
     def __init__(
@@ -879,6 +924,7 @@ class Mls(Warp):
         *,
         mode: Literal["rigid", "similarity", "affine"] = "rigid",
         alpha: float = 1.0,
+        distances: HandleDistances = None,
     ) -> None: ...
 
 

@@ -151,5 +151,6 @@ void bindGeometry(py::module_& m);
 void bindVolume(py::module_& m);
 void bindSurface(py::module_& m);
 void bindBenchHooks(py::module_& m);
+void bindMlsInside(py::module_& m);
 
 }  // namespace spacewarp::python

@@ -91,6 +91,8 @@ OVERRIDES = {
     "Cage.contains.return": "NDArray[np.bool_]",
     "Coordinates.sparse_weights.return": "Any",
     "Binding.weights": "Any",
+    "InsideDistances.__init__.model": "Union[Geometry, _Path]",
+    "InsideDistances.grid_size": "list[int]",
     "Geometry.__init__.faces": "Optional[_Faces]",
     "Geometry.__init__.normals": "Optional[_Points]",
     "Geometry.normals": "Optional[_Float64Array]",
