@@ -924,7 +924,7 @@ class Mls(Warp):
         *,
         mode: Literal["rigid", "similarity", "affine"] = "rigid",
         alpha: float = 1.0,
-        distances: HandleDistances = None,
+        distances: Optional[HandleDistances] = None,
     ) -> None: ...
 
 

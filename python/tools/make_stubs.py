@@ -93,6 +93,7 @@ OVERRIDES = {
     "Binding.weights": "Any",
     "InsideDistances.__init__.model": "Union[Geometry, _Path]",
     "InsideDistances.grid_size": "list[int]",
+    "Mls.__init__.distances": "Optional[HandleDistances]",
     "Geometry.__init__.faces": "Optional[_Faces]",
     "Geometry.__init__.normals": "Optional[_Points]",
     "Geometry.normals": "Optional[_Float64Array]",
