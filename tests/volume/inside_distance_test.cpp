@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/inverse.h>
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/nonlinear/mls.h>
 #include "test_util.h"
@@ -259,6 +260,23 @@ TEST(MlsInsideDistances, KeepsTheMlsProperties) {
     }
     EXPECT_TRUE(test::batchIsDeterministic(warp, points)) << mlsModeName(mode);
   }
+}
+
+TEST(MlsInsideDistances, InvertsAndTransformsNormals) {
+  const FingerRig rig;
+  MlsOptions o;
+  o.distances = std::make_shared<InsideDistances>(twoFingers(), rig.handles);
+  const MlsWarp warp(rig.handles, rig.targets, o);
+  std::mt19937 rng(6);
+  // Inside the palm and both fingers.
+  std::vector<Vec3> points;
+  for (int s = 0; s < 40; ++s) {
+    const Vec3 u = test::randomPoint(rng, 0.1, 0.9);
+    points.push_back(s % 3 == 0 ? Vec3(5.0 * u.x, u.y, u.z)
+                                : Vec3((s % 3 == 1 ? 0.0 : 4.0) + u.x, 1.0 + 4.0 * u.y, u.z));
+  }
+  EXPECT_TRUE(test::inverseRecovers(warp, points, 1e-8));
+  EXPECT_TRUE(test::normalsStayPerpendicular(warp, points, rng, 1e-10));
 }
 
 TEST(MlsInsideDistances, RejectsDistancesOfOtherHandles) {
