@@ -199,6 +199,13 @@ InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> han
                           voxels * 2.0,  // OpenVDB's narrow band, roughly
                       who + what);
   if (!(voxels < 4e9)) throw InvalidInput(who + what + " has too many voxels");
+  // OpenVDB's coordinates are 32-bit.
+  for (int a = 0; a < 3; ++a) {
+    if (!(std::abs(static_cast<double>(lo[a])) + dims_[a] < 0x1p30)) {
+      throw InvalidInput(who + "the model lies too far from the origin for " + what +
+                         " (voxel indices beyond 2^30)");
+    }
+  }
   origin_ =
       Vec3(static_cast<double>(lo[0]), static_cast<double>(lo[1]), static_cast<double>(lo[2])) * h_;
   const std::size_t nx = static_cast<std::size_t>(dims_[0]);
@@ -206,7 +213,7 @@ InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> han
   const std::size_t nz = static_cast<std::size_t>(dims_[2]);
   const std::size_t count = nx * ny * nz;
 
-  // The signed distance to the surface at every voxel, and each voxel's class.
+  // The signed distance to the surface at every voxel, and which voxels are inside.
   const openvdb::FloatGrid::Ptr surface = meshLevelSet(model, h_, 3.0f);
   std::vector<float> phi(count);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nz), [&](const auto& range) {

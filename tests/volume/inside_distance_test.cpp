@@ -187,6 +187,11 @@ TEST(InsideDistances, RejectsBadInput) {
   // A box between the voxel centres encloses none of them.
   const PolygonSoup tiny = makeBoxSurface(Vec3(0.02), Vec3(0.03), glm::ivec3(1));
   EXPECT_THAT(message(tiny, {Vec3(0.025)}, 0.1), HasSubstr("encloses no voxel of 0.1"));
+  // Voxel indices beyond OpenVDB's 32-bit coordinates.
+  PolygonSoup far = fingers;
+  for (Vec3& p : far.positions) p += Vec3(1e12, 0.0, 0.0);
+  EXPECT_THAT(message(far, {Vec3(1e12 + 0.5, 0.5, 0.5)}, 0.0),
+              HasSubstr("too far from the origin"));
   // Too large for the memory: named by the voxel size.
   EXPECT_THAT(message(fingers, {in}, 1e-5), HasSubstr("'voxelSize'"));
 }
