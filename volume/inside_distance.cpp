@@ -195,9 +195,10 @@ InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> han
                            " voxels, " + std::to_string(n) + " handles)";
   const double workers = std::min<double>(static_cast<double>(n),
                                           static_cast<double>(tbb::info::default_concurrency()));
-  detail::checkMemory(voxels * (4.0 * static_cast<double>(n) + 5.0 + workers * 9.0) +
-                          voxels * 2.0,  // OpenVDB's narrow band, roughly
-                      who + what);
+  // Per voxel: 4 bytes per handle kept; the level set, inside flags, nearest inside voxels and
+  // their heap (about 40 bytes, OpenVDB's narrow band included); per marching thread the
+  // values, states and heap (about 25).
+  detail::checkMemory(voxels * (4.0 * static_cast<double>(n) + 40.0 + 25.0 * workers), who + what);
   if (!(voxels < 4e9)) throw InvalidInput(who + what + " has too many voxels");
   // OpenVDB's coordinates are 32-bit.
   for (int a = 0; a < 3; ++a) {
