@@ -37,7 +37,13 @@ std::shared_ptr<const HandleDistances> insideDistances(RigReader& r,
   try {
     return std::make_shared<InsideDistances>(soup, handles, options);
   } catch (const InvalidInput& e) {
-    r.fail("model", model.string() + ": " + e.what());
+    // Named by the key at fault: the voxel size (too fine for the memory), a handle (outside
+    // the model), or else the model.
+    const std::string what = e.what();
+    if (what.find("'voxelSize'") != std::string::npos) r.fail("voxelSize", what);
+    if (what.find(": handle ") != std::string::npos)
+      r.fail("handles", model.string() + ": " + what);
+    r.fail("model", model.string() + ": " + what);
   }
 #else
   (void)handles;

@@ -118,9 +118,10 @@ TEST_F(MlsInsideCliTest, BadKeysExitWith3AndWriteNothing) {
       {R"(, "model": "missing.obj")", nullptr, "missing.obj"},
       {R"(, "model": "fingers.obj", "voxelSize": -1)", nullptr, "'voxelSize' must be > 0"},
       {R"(, "model": "fingers.obj")", &outside,
-       "'model' " + (dir_ / "fingers.obj").string() +
-           ": InsideDistances: handle 1 (2.5, 3, 0.5) "
-           "is outside the model"},
+       "'handles' " + (dir_ / "fingers.obj").string() +
+           ": InsideDistances: handle 1 (2.5, 3, 0.5) is outside the model"},
+      {R"(, "model": "fingers.obj", "voxelSize": 1e-5)", nullptr,
+       "'voxelSize' InsideDistances: 'voxelSize' 1e-05"},
   };
   for (const Case& c : cases) {
     rig(c.extra, c.handles);
