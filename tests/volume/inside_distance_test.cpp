@@ -7,6 +7,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/inverse.h>
@@ -162,6 +163,21 @@ TEST(InsideDistances, GradientsMatchFiniteDifferencesWithinAVoxel) {
   }
   std::vector<double> wrong(n + 1);
   EXPECT_THROW(d.distances(Vec3(0.0), wrong), InvalidInput);
+}
+
+TEST(InsideDistances, BuildIsTheSameForAnyThreadCount) {
+  const std::vector<Vec3> handles = {{0.5, 0.5, 0.5}, {0.5, 4.5, 0.5}, {4.5, 4.5, 0.5}};
+  std::unique_ptr<InsideDistances> one, two;
+  tbb::task_arena(1).execute(
+      [&] { one = std::make_unique<InsideDistances>(twoFingers(), handles); });
+  tbb::task_arena(2).execute(
+      [&] { two = std::make_unique<InsideDistances>(twoFingers(), handles); });
+  std::mt19937 rng(9);
+  for (int s = 0; s < 2000; ++s) {
+    const Vec3 x = Vec3(7.0, 7.0, 3.0) * test::randomPoint(rng, 0.0, 1.0) - Vec3(1.0);
+    const std::vector<double> a = distancesAt(*one, x), b = distancesAt(*two, x);
+    for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << test::toString(x);
+  }
 }
 
 TEST(InsideDistances, RejectsBadInput) {
