@@ -191,6 +191,22 @@ std::map<std::string, json> demoRigs(const DemoControls& controls) {
     rigs["harmonic"]["outside"] = "nearest";
     rigs["harmonic"]["tets"] = 100000;
   }
+  // MLS weighted by distances inside the bar (which needs OpenVDB): handles on four lines along
+  // the bar, inside it. The bar is convex, so this is close to "mls"; the fingers show the
+  // difference (demoFingers).
+  if (volumesSupported()) {
+    std::vector<Vec3> handles, targets;
+    for (const double z : {-1.8, 0.0, 1.8})
+      for (const Vec3 corner :
+           {Vec3(-0.3, -0.3, z), Vec3(0.3, -0.3, z), Vec3(0.3, 0.3, z), Vec3(-0.3, 0.3, z)})
+        handles.push_back(corner);
+    for (const Vec3& h : handles) targets.push_back(sway(h));
+    rigs["mls-inside"] = {{"method", "mls"},
+                          {"distance", "inside"},
+                          {"model", "bar.obj"},
+                          {"handles", points(handles)},
+                          {"targets", points(targets)}};
+  }
   return rigs;
 }
 
@@ -216,6 +232,33 @@ void deformWithEveryRig(const fs::path& dir, const std::map<std::string, json>& 
                   out.string());
     }
   }
+}
+
+// Two fingers on a palm (a U, 1.25 wide, 0.25 thick) whose left fingertip is pulled towards the
+// right finger, by MLS with Euclidean distances (the right finger follows) and with distances
+// inside the model (it stays): fingers_mls-fingers.obj and fingers_mls-fingers-inside.obj.
+void demoFingers(const fs::path& dir, const CliContext& context) {
+  std::vector<glm::ivec3> cells;
+  for (int x = 0; x <= 4; ++x) cells.emplace_back(x, 0, 0);
+  for (int y = 1; y <= 4; ++y) {
+    cells.emplace_back(0, y, 0);
+    cells.emplace_back(4, y, 0);
+  }
+  const double cell = 0.25;
+  writeSoup(makeBlocksSurface(cells, Vec3(0.0), cell), dir / "fingers.obj");
+  const std::vector<Vec3> handles = {{0.5, 4.5, 0.5}, {0.5, 0.5, 0.5}, {2.5, 0.5, 0.8},
+                                     {4.5, 0.5, 0.5}, {4.5, 2.5, 0.5}, {4.5, 4.5, 0.5}};
+  std::vector<Vec3> scaled, targets;
+  for (const Vec3& h : handles) scaled.push_back(h * cell);
+  targets = scaled;
+  targets[0].x += 1.5 * cell;
+  const json euclidean = {
+      {"method", "mls"}, {"handles", points(scaled)}, {"targets", points(targets)}};
+  json inside = euclidean;
+  inside["distance"] = "inside";
+  inside["model"] = "fingers.obj";
+  deformWithEveryRig(dir, {{"mls-fingers", euclidean}, {"mls-fingers-inside", inside}},
+                     {"fingers.obj"}, context);
 }
 
 // The affine map that sway() applies at height z (a turn about the axis and a shift).
@@ -291,6 +334,7 @@ void runDemo(const fs::path& dir, const CliContext& context) {
   const DemoControls controls = writeControls(dir);
   const std::map<std::string, json> rigs = demoRigs(controls);
   deformWithEveryRig(dir, rigs, inputs.files, context);
+  if (volumesSupported()) demoFingers(dir, context);
   editTheBar(dir, inputs.bar, context);
   compareWaistVertex(dir, controls.cage, context);
 

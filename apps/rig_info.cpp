@@ -68,8 +68,14 @@ class Describer {
       line("method", "mls (moving least squares, " + get("mode", "rigid") + ")");
       line("handles", count(rig_, "handles") + ", moved to as many targets");
       line("alpha", get("alpha", "1"));
+      const bool inside = get("distance", "euclidean") == "inside";
+      if (inside) {
+        line("distance", "inside the model " + get("model") + ", on voxels of " +
+                             get("voxelSize", "1/128 of its bounding-box diagonal"));
+      }
       line("does", "moves each point by its own best " + get("mode", "rigid") +
-                       " transform of the handles onto the targets, weighted by distance");
+                       " transform of the handles onto the targets, weighted by distance" +
+                       (inside ? " measured inside the model (not across gaps)" : ""));
     } else if (method == "wires") {
       line("method", "wires (Singh & Fiume)");
       line("wires", count(rig_, "wires"));

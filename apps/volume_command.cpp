@@ -16,8 +16,8 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointCount.h>
 #include <openvdb/points/PointDataGrid.h>
-#include <openvdb/tools/MeshToVolume.h>
 
+#include <spacewarp/volume/mesh_level_set.h>
 #include <spacewarp/volume/read_vdb.h>
 #include <spacewarp/volume/warp_grid.h>
 #include <spacewarp/volume/warp_points.h>
@@ -74,24 +74,7 @@ bool volumesSupported() { return true; }
 
 void writeMeshLevelSet(const PolygonSoup& closed, double voxelSize,
                        const std::filesystem::path& path) {
-  openvdb::initialize();
-  const auto transform = openvdb::math::Transform::createLinearTransform(voxelSize);
-  std::vector<openvdb::Vec3s> points;
-  for (const Vec3& p : closed.positions)
-    points.emplace_back(p.x, p.y, p.z);  // world space: meshToLevelSet applies the transform
-  std::vector<openvdb::Vec3I> triangles;
-  std::vector<openvdb::Vec4I> quads;
-  for (std::size_t f = 0; f < closed.polygonCount(); ++f) {
-    const auto poly = closed.polygon(f);
-    if (poly.size() == 4) {
-      quads.emplace_back(poly[0], poly[1], poly[2], poly[3]);
-    } else {
-      for (std::size_t k = 1; k + 1 < poly.size(); ++k)
-        triangles.emplace_back(poly[0], poly[k], poly[k + 1]);
-    }
-  }
-  auto grid = openvdb::tools::meshToLevelSet<openvdb::FloatGrid>(*transform, points, triangles,
-                                                                 quads, 3.0f);
+  auto grid = meshLevelSet(closed, voxelSize);
   grid->setName("surface");
   writeVdbFile(path, {grid}, openvdb::MetaMap());
 }

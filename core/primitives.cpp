@@ -1,8 +1,10 @@
 #include <spacewarp/core/primitives.h>
 
 #include <array>
+#include <cmath>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 
 #include <spacewarp/core/errors.h>
@@ -65,6 +67,44 @@ PolygonSoup makeBoxSurface(const Vec3& min, const Vec3& max, const glm::ivec3& d
     }
   }
   for (Vec3& n : soup.normals) n = glm::normalize(n);
+  return soup;
+}
+
+PolygonSoup makeBlocksSurface(std::span<const glm::ivec3> cells, const Vec3& origin,
+                              double cellSize) {
+  if (cells.empty()) throw InvalidInput("blocks: no cells");
+  if (!isFinite(origin) || !std::isfinite(cellSize) || !(cellSize > 0.0))
+    throw InvalidInput("blocks: the origin and cell size must be finite, the cell size > 0");
+  std::set<std::array<int, 3>> occupied;
+  for (const glm::ivec3& c : cells) occupied.insert({c.x, c.y, c.z});
+  PolygonSoup soup;
+  std::map<std::array<int, 3>, std::uint32_t> index;
+  auto vertex = [&](const std::array<int, 3>& ijk) {
+    auto [it, inserted] = index.try_emplace(ijk, static_cast<std::uint32_t>(soup.positions.size()));
+    if (inserted) soup.positions.push_back(origin + Vec3(ijk[0], ijk[1], ijk[2]) * cellSize);
+    return it->second;
+  };
+  for (const std::array<int, 3>& cell : occupied) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;  // (u, v, axis) is right-handed
+      for (int side = 0; side < 2; ++side) {
+        std::array<int, 3> next = cell;
+        next[axis] += side ? 1 : -1;
+        if (occupied.count(next)) continue;  // an inner face
+        std::array<std::uint32_t, 4> quad;
+        const int du[4] = {0, 1, 1, 0}, dv[4] = {0, 0, 1, 1};
+        for (int c = 0; c < 4; ++c) {
+          std::array<int, 3> corner = cell;
+          corner[axis] += side;
+          corner[u] += du[c];
+          corner[v] += dv[c];
+          quad[c] = vertex(corner);
+        }
+        if (!side) std::swap(quad[1], quad[3]);  // keep the low face outward
+        soup.addPolygon({quad[0], quad[1], quad[2], quad[3]});
+      }
+    }
+  }
   return soup;
 }
 

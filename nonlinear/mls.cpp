@@ -23,6 +23,7 @@ struct Model {
   std::size_t n = 0;
   double alpha = 1.0;
   MlsMode mode = MlsMode::Rigid;
+  const HandleDistances* distances = nullptr;  // null: Euclidean
 };
 
 // Per-point scratch of n doubles: on the stack for small handle sets, else one allocation.
@@ -65,9 +66,15 @@ constexpr double kPinRatio = 0x1p-60;
 double scanHandles(const Model& m, const Vec3& x, double* w, WeightSet& s) {
   double min1 = std::numeric_limits<double>::infinity();
   double min2 = min1;
+  if (m.distances) m.distances->distances(x, {w, m.n});
   for (std::size_t i = 0; i < m.n; ++i) {
-    const Vec3 d = x - m.p[i];
-    const double r2 = glm::dot(d, d);
+    double r2;
+    if (m.distances) {
+      r2 = w[i] * w[i];
+    } else {
+      const Vec3 d = x - m.p[i];
+      r2 = glm::dot(d, d);
+    }
     w[i] = r2;
     if (r2 < min1) {
       min2 = min1;
@@ -325,12 +332,24 @@ MlsMode mlsModeFromName(std::string_view name) {
 MlsWarp::MlsWarp(std::vector<Vec3> handles, std::vector<Vec3> targets, const MlsOptions& options)
     : handles_(std::move(handles)), targets_(std::move(targets)), options_(options) {
   validate("MlsWarp", handles_, &targets_, options_.mode, options_.alpha);
+  if (options_.distances) {
+    const std::span<const Vec3> built = options_.distances->handles();
+    if (built.size() != handles_.size()) {
+      throw InvalidInput("MlsWarp: the distances were built for " + std::to_string(built.size()) +
+                         " handles, not " + std::to_string(handles_.size()));
+    }
+    for (std::size_t i = 0; i < built.size(); ++i) {
+      if (built[i] != handles_[i]) {
+        throw InvalidInput("MlsWarp: the distances were built for another " + indexed("handle", i));
+      }
+    }
+  }
 }
 
 namespace {
 
 Model modelOf(const std::vector<Vec3>& p, const std::vector<Vec3>& q, const MlsOptions& o) {
-  return {p.data(), q.data(), p.size(), o.alpha, o.mode};
+  return {p.data(), q.data(), p.size(), o.alpha, o.mode, o.distances.get()};
 }
 
 }  // namespace
@@ -379,9 +398,22 @@ Mat3 MlsWarp::jacobian(const Vec3& x) const {
     z = pinv * y;
   }
   const Mat3 rt = glm::transpose(rot);
+  // With other distances, ∇w_i = −2 alpha w_i ∇d_i / d_i.
+  std::vector<double> dist;
+  std::vector<Vec3> grad;
+  if (m.distances) {
+    dist.resize(m.n);
+    grad.resize(m.n);
+    m.distances->distancesAndGradients(x, dist, grad);
+  }
   for (std::size_t i = 0; i < m.n; ++i) {
-    const Vec3 d = x - m.p[i];
-    const Vec3 g = (-2.0 * m.alpha * w[i] / glm::dot(d, d)) * d;
+    Vec3 g;
+    if (m.distances) {
+      g = (-2.0 * m.alpha * w[i] / dist[i]) * grad[i];
+    } else {
+      const Vec3 d = x - m.p[i];
+      g = (-2.0 * m.alpha * w[i] / glm::dot(d, d)) * d;
+    }
     const Vec3 ph = m.p[i] - s.pc;
     const Vec3 qh = m.q[i] - s.qc;
     dp += glm::outerProduct(ph, g);

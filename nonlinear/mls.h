@@ -5,12 +5,14 @@
 // gets its own best affine, similarity or rigid transform of the handles, weighted towards the
 // handles near x.
 
+#include <memory>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include <spacewarp/core/coordinates.h>
+#include <spacewarp/core/handle_distances.h>
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
@@ -36,6 +38,12 @@ struct MlsOptions {
   /// papers' choice). The warp is C¹ at the handles only for alpha > 1/2; near a handle it
   /// approaches the target like |x − p_i|^(2 alpha), so small alpha gives visible jumps there.
   double alpha = 1.0;
+  /// The distances d_i(x) the weights use instead of |p_i − x|: w_i(x) = 1 / d_i(x)^(2 alpha),
+  /// e.g. distances measured inside a model (volume/inside_distance.h), so that a handle does
+  /// not pull parts of the model that are near it only through empty space (Zhu & Gortler
+  /// 2007, section 5). Must be built for the same handles, in the same order. Default null:
+  /// Euclidean distances.
+  std::shared_ptr<const HandleDistances> distances;
 };
 
 /// The local fit at one point: x' = transform (x − handleCentroid) + targetCentroid, where the
@@ -47,7 +55,8 @@ struct MlsFit {
   Vec3 targetCentroid{0.0};  ///< q*, world units.
 };
 
-/// x' = T_x (x − p*) + q*, with weights w_i(x) = 1 / |p_i − x|^(2 alpha), p* = Σ w_i p_i / Σ w_i,
+/// x' = T_x (x − p*) + q*, with weights w_i(x) = 1 / |p_i − x|^(2 alpha) (or 1 / d_i(x)^(2 alpha)
+/// with MlsOptions::distances), p* = Σ w_i p_i / Σ w_i,
 /// q* likewise, p̂_i = p_i − p*, q̂_i = q_i − q*, and
 ///   - Affine:     T_x = (Σ w_i q̂_i p̂_iᵀ)(Σ w_i p̂_i p̂_iᵀ)⁻¹;
 ///   - Rigid:      T_x = R, the rotation maximising tr(Rᵀ B) with B = Σ w_i q̂_i p̂_iᵀ: the polar
@@ -68,6 +77,9 @@ struct MlsFit {
 /// only at isolated points, since collinear handles or targets are rejected)
 /// one of the optimal rotations is chosen deterministically.
 ///
+/// With MlsOptions::distances the same holds (interpolation, reproduced motions) and the
+/// Jacobian uses their gradients ∇d_i, so it is as smooth as the distances are.
+///
 /// Jacobian: analytic (derivatives of the weights through the centroids and the covariances;
 /// for the rotation, dR = R Ω with (tr S I − S) ω = vee(Rᵀ dB − dBᵀ R), S = Rᵀ B). At a handle
 /// it is the limit fit's transform (the derivative for alpha > 1/2). Where the rotation is not
@@ -85,8 +97,8 @@ class MlsWarp final : public Warp {
   /// points, coincident handles (closer than 1e-12 × their bounding-box diagonal), too few
   /// handles for the mode (4 for Affine, 3 otherwise), coplanar handles in Affine mode,
   /// collinear handles or targets in Similarity and Rigid modes (spread in the weakest
-  /// direction below 1e-6 of the strongest, which would leave the rotation undetermined), or a
-  /// non-finite or non-positive alpha.
+  /// direction below 1e-6 of the strongest, which would leave the rotation undetermined), a
+  /// non-finite or non-positive alpha, or distances built for other handles.
   MlsWarp(std::vector<Vec3> handles, std::vector<Vec3> targets, const MlsOptions& options = {});
 
   Vec3 apply(const Vec3& x) const override;

@@ -42,11 +42,12 @@ __all__ = [
     "Geometry",
     "GraphSolveReport",
     "Green",
+    "HandleDistances",
     "Harmonic",
     "Identity",
+    "InsideDistances",
     "InvalidInput",
     "IoError",
-    "Kelvinlet",
     "Lattice",
     "LinearEditor",
     "MeanValue",
@@ -56,14 +57,11 @@ __all__ = [
     "OutOfMemory",
     "Rbf",
     "RbfWarp",
-    "Shepard",
     "SolverError",
     "SurfaceMesh",
     "Taper",
     "Twist",
     "Warp",
-    "Wire",
-    "Wires",
     "cage_coordinates",
     "cage_methods",
     "coordinate_properties",
@@ -712,6 +710,21 @@ class Green(Coordinates):
         """The Cage (a copy)."""
 
 
+class HandleDistances:
+    """Distances from each of n handles to any point, which an Mls warp weighs its handles by
+    instead of Euclidean distances (Mls(..., distances=...)). Built by InsideDistances.
+    """
+
+    @property
+    def handles(self) -> _Float64Array:
+        """The handles (n, 3), world units, the distances are measured from."""
+
+    def distances(self, points: _Points) -> _Float64Array:
+        """The distance from every handle to every point: points (m, 3) -> (m, n), world
+        units; 0 exactly at a handle.
+        """
+
+
 class Harmonic(Coordinates):
     """Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
     about `tets` tetrahedra (0: the library's default, about 200k). cache: a file of solved coordinates, loaded when it matches the cage and
@@ -742,46 +755,30 @@ class Identity(Warp):
     def __init__(self) -> None: ...
 
 
-class Kelvinlet(Warp):
-    """A regularized Kelvinlet brush (de Goes and James 2017): the displacement of an infinite
-    elastic medium under a force spread over `radius` (epsilon > 0, world units) around `center` (3,).
-    brush "grab" moves the center by `displacement` (3,); "twist" rotates the center's neighbourhood
-    by `angle` (radians) about `axis` (3,) (the Jacobian there is I + angle [axis]x); "scale" scales it
-    by `factor` (> 0); "pinch" gives it the displacement gradient `matrix` (3, 3), symmetric and
-    traceless. poisson: Poisson ratio in [0, 0.5] (default 0.45). falloff: "single" (default),
-    "bi" or "tri": the brush at radii epsilon, 2 epsilon (and 4 epsilon) combined so that it fades
-    faster with distance (grab 1/r, 1/r^3, 1/r^5), the center unchanged. steps: the brush applied as that
-    many sub-brushes (1 = the closed form; more avoid folds for large edits, at steps times the cost).
-    Keys of another brush raise InvalidInput.
+class InsideDistances(HandleDistances):
+    """The distances from handles (n, 3) to any point measured inside a closed model (Zhu &
+    Gortler 2007): shortest paths that stay in the solid, by fast marching on voxels of
+    `voxel_size` world units (0: the model's bounding-box diagonal / 128). `model` is a Geometry
+    or the path of an OBJ, OFF or PLY file; handles must be inside it (or within 2 voxels of its
+    surface). Outside the model a point takes its nearest inside voxel's distance, extrapolated.
+    Raises InvalidInput naming the handle or parameter at fault.
     """
 
     def __init__(
         self,
+        model: Union[Geometry, _Path],
+        handles: _Points,
         *,
-        brush: str,
-        center: _Vec3,
-        radius: float,
-        poisson: float = 0.45,
-        displacement: Optional[_Vec3] = None,
-        axis: Optional[_Vec3] = None,
-        angle: Optional[float] = None,
-        factor: Optional[float] = None,
-        matrix: Optional[ArrayLike] = None,
-        falloff: str = "single",
-        steps: int = 1,
+        voxel_size: float = 0.0,
     ) -> None: ...
 
     @property
-    def brush(self) -> str:
-        """"grab", "twist", "scale" or "pinch"."""
+    def voxel_size(self) -> float:
+        """The voxel edge used, world units."""
 
     @property
-    def radius(self) -> float:
-        """The regularisation radius epsilon, world units."""
-
-    @property
-    def poisson(self) -> float:
-        """The Poisson ratio."""
+    def grid_size(self) -> list[int]:
+        """The grid's voxel counts along x, y, z."""
 
 
 class Lattice(Coordinates):
@@ -915,7 +912,9 @@ class MeshReport:
 class Mls(Warp):
     """Moving least squares (Schaefer et al. 2006): handles (k, 3) move to targets (k, 3);
     each point gets the affine, similarity or rigid map that best fits the handles weighted by
-    1 / |p - x|^(2 alpha). mode: "affine", "similarity" or "rigid" (default).
+    1 / |p - x|^(2 alpha). mode: "affine", "similarity" or "rigid" (default). distances: a
+    HandleDistances built for the same handles (e.g. InsideDistances, distances measured inside a
+    model), used instead of |p - x|; None (default): Euclidean.
     """
 
     def __init__(
@@ -925,6 +924,7 @@ class Mls(Warp):
         *,
         mode: Literal["rigid", "similarity", "affine"] = "rigid",
         alpha: float = 1.0,
+        distances: Optional[HandleDistances] = None,
     ) -> None: ...
 
 
@@ -973,34 +973,6 @@ class RbfWarp(Warp):
         smoothing: float = 0.0,
         progress: _Progress = None,
     ) -> None: ...
-
-
-class Shepard(Coordinates):
-    """Shepard's inverse-distance weighting over `handles` (k, 3), world units:
-    w_i(x) = d_i^-power / sum_j d_j^-power (power > 0, default 2), or with a support `radius`
-    (world units, > 0) Franke and Nielson's ((R - d_i)+ / (R d_i))^power, zero beyond it. The weights
-    are non-negative, sum to 1 and interpolate the handles; warp(targets) moves every point by the
-    weighted mean of the handles' displacements (translations are reproduced, linear maps are not).
-    For power > 1 the warp's Jacobian is the identity at every handle (Shepard's flat spots). With a
-    radius, points farther than it from every handle have no weights: weights() and the warp raise
-    InvalidInput for them.
-    """
-
-    def __init__(
-        self,
-        handles: _Points,
-        *,
-        power: float = 2.0,
-        radius: Optional[float] = None,
-    ) -> None: ...
-
-    @property
-    def power(self) -> float:
-        """The weight exponent."""
-
-    @property
-    def radius(self) -> Optional[float]:
-        """The support radius (world units), or None for global weights."""
 
 
 class SurfaceMesh:
@@ -1080,74 +1052,6 @@ class Twist(Warp):
         lo: float = ...,
         hi: float = ...,
     ) -> None: ...
-
-
-class Wire:
-    """One wire of spacewarp.Wires: the reference curve `rest` (n, 3) and the
-    deformed curve `deformed` (n, 3), n >= 2, world units, point k of each at parameter k;
-    `radius` (> 0, world units) of influence; `inner_radius` in [0, radius): full influence
-    within it (a rigid motion of the wire moves that tube rigidly); `scale` (> 0) about the curve;
-    `dropoff` "smooth" ((1 - x^2)^2, default) or "linear"; `curve` "polyline" (default) or
-    "catmull-rom". Checked when a Wires is built from it.
-    """
-
-    def __init__(
-        self,
-        rest: _Points,
-        deformed: _Points,
-        radius: float,
-        *,
-        inner_radius: float = 0.0,
-        scale: float = 1.0,
-        dropoff: Literal["smooth", "linear"] = "smooth",
-        curve: Literal["polyline", "catmull-rom"] = "polyline",
-    ) -> None: ...
-
-    @property
-    def rest(self) -> _Float64Array:
-        """The reference curve (n, 3)."""
-
-    @property
-    def deformed(self) -> _Float64Array:
-        """The deformed curve (n, 3)."""
-
-    @property
-    def radius(self) -> float:
-        """Radius of influence, world units."""
-
-    @property
-    def inner_radius(self) -> float:
-        """Radius of full influence, world units."""
-
-    @property
-    def scale(self) -> float:
-        """Scale about the curve."""
-
-    @property
-    def dropoff(self) -> str:
-        """The drop-off: "smooth" or "linear"."""
-
-    @property
-    def curve(self) -> str:
-        """The curve: "polyline" or "catmull-rom"."""
-
-
-class Wires(Warp):
-    """Wires (Singh & Fiume 1998): points within a wire's radius of its rest curve follow the
-    curve to its deformed one (scaled, turned and moved about their closest rest point, fading
-    out at the radius); several wires blend as x + sum(d_i |d_i|^m) / sum(|d_i|^m), m =
-    `locality` (>= 0, default 1). `wires`: a sequence of spacewarp.Wire.
-    """
-
-    def __init__(self, wires: Sequence[Wire], *, locality: float = 1.0) -> None: ...
-
-    @property
-    def wires(self) -> list[Wire]:
-        """The wires (a list of spacewarp.Wire)."""
-
-    @property
-    def locality(self) -> float:
-        """The blend's exponent m."""
 
 
 def cage_coordinates(

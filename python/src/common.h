@@ -154,5 +154,6 @@ void bindWires(py::module_& m);
 void bindBenchHooks(py::module_& m);
 void bindShepard(py::module_& m);
 void bindKelvinlet(py::module_& m);
+void bindMlsInside(py::module_& m);
 
 }  // namespace spacewarp::python

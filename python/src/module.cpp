@@ -9,6 +9,7 @@ PYBIND11_MODULE(_spacewarp, m) {
       "editing.";
   m.attr("__version__") = SPACEWARP_VERSION;
   spacewarp::python::registerErrors(m);
+  spacewarp::python::bindMlsInside(m);  // before Mls, which takes its distances
   spacewarp::python::bindWarps(m);
   spacewarp::python::bindCoordinates(m);
   spacewarp::python::bindGeometry(m);

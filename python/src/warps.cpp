@@ -308,14 +308,20 @@ void bindNonlinearWarps(py::module_& m) {
       m, "Mls",
       R"(Moving least squares (Schaefer et al. 2006): handles (k, 3) move to targets (k, 3);
 each point gets the affine, similarity or rigid map that best fits the handles weighted by
-1 / |p - x|^(2 alpha). mode: "affine", "similarity" or "rigid" (default).)")
-      .def(py::init(
-               [](py::handle handles, py::handle targets, const std::string& mode, double alpha) {
-                 return std::make_shared<MlsWarp>(vectorOf(handles, "handles"),
-                                                  vectorOf(targets, "targets"),
-                                                  MlsOptions{mlsModeFromName(mode), alpha});
-               }),
-           "handles"_a, "targets"_a, py::kw_only(), "mode"_a = "rigid", "alpha"_a = 1.0);
+1 / |p - x|^(2 alpha). mode: "affine", "similarity" or "rigid" (default). distances: a
+HandleDistances built for the same handles (e.g. InsideDistances, distances measured inside a
+model), used instead of |p - x|; None (default): Euclidean.)")
+      .def(py::init([](py::handle handles, py::handle targets, const std::string& mode,
+                       double alpha, std::shared_ptr<HandleDistances> distances) {
+             MlsOptions options;
+             options.mode = mlsModeFromName(mode);
+             options.alpha = alpha;
+             options.distances = std::move(distances);
+             return std::make_shared<MlsWarp>(vectorOf(handles, "handles"),
+                                              vectorOf(targets, "targets"), options);
+           }),
+           "handles"_a, "targets"_a, py::kw_only(), "mode"_a = "rigid", "alpha"_a = 1.0,
+           "distances"_a = py::none());
 
   py::class_<DeformationGraphWarp, Warp, std::shared_ptr<DeformationGraphWarp>>(
       m, "DeformationGraphWarp", "A posed deformation graph (DeformationGraph.warp()).");

@@ -231,6 +231,15 @@ TEST_F(CliTest, DemoWritesEveryResult) {
       EXPECT_GT(fs::file_size(dir_ / "demo" / ("bar_" + method + ".vdb")), 0u) << method;
     }
   }
+  // Builds with OpenVDB also run MLS with distances inside the bar, and on the fingers.
+  if (fs::exists(dir_ / "demo" / "bar.vdb")) {
+    EXPECT_EQ(readSoup(dir_ / "demo" / "bar_mls-inside.obj").size(), bar.size());
+    EXPECT_GT(fs::file_size(dir_ / "demo" / "bar_mls-inside.vdb"), 0u);
+    const PolygonSoup fingers = readSoup(dir_ / "demo" / "fingers.obj");
+    for (const char* rig : {"mls-fingers", "mls-fingers-inside"})
+      EXPECT_EQ(readSoup(dir_ / "demo" / ("fingers_" + std::string(rig) + ".obj")).size(),
+                fingers.size());
+  }
   const nlohmann::json report =
       nlohmann::json::parse(slurp(dir_ / "demo" / "compare" / "report.json"));
   EXPECT_GE(report["methods"].size(), 4u);

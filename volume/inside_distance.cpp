@@ -1,0 +1,501 @@
+#include <spacewarp/volume/inside_distance.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include <tbb/blocked_range.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+
+#include <spacewarp/core/detail/memory_budget.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/volume/mesh_level_set.h>
+
+namespace spacewarp {
+
+namespace {
+
+constexpr double kBandVoxels = 2.0;   // handles may be this far outside the surface
+constexpr double kSeedVoxels = 4.0;   // exact Euclidean seeds around each handle
+constexpr double kNearVoxels = 1.0;   // exact |x - p| within this ...
+constexpr double kBlendVoxels = 1.0;  // ... blended into the grid over this much more
+constexpr int kPadVoxels = 4;         // grid margin around the model's bounding box
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string str(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", v);
+  return text;
+}
+
+std::string str(const Vec3& p) { return "(" + str(p.x) + ", " + str(p.y) + ", " + str(p.z) + ")"; }
+
+// Fast marching of |∇u| = 1 on a dense grid of voxel edge h (Sethian 1996; second-order upwind
+// differences where two known voxels line up), over the voxels a phase allows, from the voxels
+// already known (frozen).
+class Marcher {
+ public:
+  Marcher(std::array<int, 3> dims, double h)
+      : nx_(dims[0]),
+        ny_(dims[1]),
+        nz_(dims[2]),
+        h_(h),
+        u_(static_cast<std::size_t>(nx_) * ny_ * nz_, kInf),
+        known_(u_.size(), 0) {}
+
+  std::vector<double>& values() { return u_; }
+  bool known(std::size_t idx) const { return known_[idx] != 0; }
+
+  void seed(std::size_t idx, double value) {
+    u_[idx] = value;
+    known_[idx] = 1;
+  }
+
+  // Marches every voxel that `allowed` accepts and that is connected to the known ones through
+  // allowed voxels.
+  template <class Allowed>
+  void run(const Allowed& allowed) {
+    heap_.clear();
+    for (std::size_t idx = 0; idx < u_.size(); ++idx) {
+      if (known_[idx]) visitNeighbours(idx, allowed);
+    }
+    while (!heap_.empty()) {
+      std::pop_heap(heap_.begin(), heap_.end(), std::greater<>());
+      const auto [value, idx] = heap_.back();
+      heap_.pop_back();
+      if (known_[idx] || value > u_[idx]) continue;  // stale entry
+      known_[idx] = 1;
+      visitNeighbours(idx, allowed);
+    }
+  }
+
+ private:
+  template <class Allowed>
+  void visitNeighbours(std::size_t idx, const Allowed& allowed) {
+    const std::size_t sx = 1, sy = static_cast<std::size_t>(nx_), sz = sy * ny_;
+    const int i = static_cast<int>(idx % sy);
+    const int j = static_cast<int>((idx / sy) % ny_);
+    const int k = static_cast<int>(idx / sz);
+    if (i > 0) update(idx - sx, allowed);
+    if (i + 1 < nx_) update(idx + sx, allowed);
+    if (j > 0) update(idx - sy, allowed);
+    if (j + 1 < ny_) update(idx + sy, allowed);
+    if (k > 0) update(idx - sz, allowed);
+    if (k + 1 < nz_) update(idx + sz, allowed);
+  }
+
+  template <class Allowed>
+  void update(std::size_t idx, const Allowed& allowed) {
+    if (known_[idx] || !allowed(idx)) return;
+    const double t = solve(idx);
+    if (t < u_[idx]) {
+      u_[idx] = t;
+      heap_.emplace_back(t, idx);
+      std::push_heap(heap_.begin(), heap_.end(), std::greater<>());
+    }
+  }
+
+  double knownValue(std::size_t idx) const { return known_[idx] ? u_[idx] : kInf; }
+
+  // One axis's upwind term α (u − m)²: first order (α = 1, m = u₁) from the nearer known
+  // neighbour, second order (α = 9/4, m = (4 u₁ − u₂) / 3) when the one beyond it is known and
+  // not larger (Sethian's higher-accuracy scheme).
+  struct Term {
+    double alpha = 1.0;
+    double m = kInf;
+  };
+  Term axisTerm(std::size_t idx, int coordinate, int size, std::size_t stride) const {
+    Term best;
+    for (int side = -1; side <= 1; side += 2) {
+      const int c1 = coordinate + side;
+      if (c1 < 0 || c1 >= size) continue;
+      const std::size_t n1 = side < 0 ? idx - stride : idx + stride;
+      const double u1 = knownValue(n1);
+      if (!(u1 < kInf)) continue;
+      Term t{1.0, u1};
+      const int c2 = c1 + side;
+      if (c2 >= 0 && c2 < size) {
+        const double u2 = knownValue(side < 0 ? n1 - stride : n1 + stride);
+        if (u2 <= u1) t = {2.25, (4.0 * u1 - u2) / 3.0};
+      }
+      if (t.m < best.m) best = t;
+    }
+    return best;
+  }
+
+  // The upwind solution at idx of Σ α_a (u − m_a)² = h² over the axes whose m_a are below u.
+  double solve(std::size_t idx) const {
+    const std::size_t sy = static_cast<std::size_t>(nx_), sz = sy * ny_;
+    const int i = static_cast<int>(idx % sy);
+    const int j = static_cast<int>((idx / sy) % ny_);
+    const int k = static_cast<int>(idx / sz);
+    Term t[3] = {axisTerm(idx, i, nx_, 1), axisTerm(idx, j, ny_, sy), axisTerm(idx, k, nz_, sz)};
+    std::sort(t, t + 3, [](const Term& a, const Term& b) { return a.m < b.m; });
+    double u = t[0].m + h_ / std::sqrt(t[0].alpha);
+    double a = t[0].alpha, b = t[0].alpha * t[0].m, c = t[0].alpha * t[0].m * t[0].m;
+    for (int n = 1; n < 3 && u > t[n].m; ++n) {
+      a += t[n].alpha;
+      b += t[n].alpha * t[n].m;
+      c += t[n].alpha * t[n].m * t[n].m;
+      const double disc = b * b - a * (c - h_ * h_);
+      if (!(disc >= 0.0)) break;  // keep the solution with fewer axes
+      u = (b + std::sqrt(disc)) / a;
+    }
+    return u;
+  }
+
+  int nx_, ny_, nz_;
+  double h_;
+  std::vector<double> u_;
+  std::vector<std::uint8_t> known_;
+  std::vector<std::pair<double, std::size_t>> heap_;
+};
+
+}  // namespace
+
+InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> handles,
+                                 const InsideDistanceOptions& options)
+    : handles_(std::move(handles)) {
+  const std::string who = "InsideDistances: ";
+  if (!std::isfinite(options.voxelSize) || options.voxelSize < 0.0)
+    throw InvalidInput(who + "voxelSize must be finite and >= 0, not " + str(options.voxelSize));
+  if (handles_.empty()) throw InvalidInput(who + "no handles");
+  for (std::size_t i = 0; i < handles_.size(); ++i) {
+    if (!isFinite(handles_[i]))
+      throw InvalidInput(who + "handle " + std::to_string(i) + " is not finite");
+  }
+  if (model.positions.empty() || model.polygonCount() == 0)
+    throw InvalidInput(who + "the model has no polygons");
+  model.validate();
+  const BoundingBox box = boundingBox(model.positions);
+  const double diagonal = box.diagonal();
+  if (!(diagonal > 0.0)) throw InvalidInput(who + "the model is a single point");
+  h_ = options.voxelSize > 0.0 ? options.voxelSize : diagonal / 128.0;
+
+  // The grid: voxel centres at integer multiples of h (meshLevelSet's grid), the box padded.
+  double voxels = 1.0;
+  std::array<long long, 3> lo{};
+  for (int a = 0; a < 3; ++a) {
+    const double first = std::floor(box.min[a] / h_) - kPadVoxels;
+    const double last = std::ceil(box.max[a] / h_) + kPadVoxels;
+    const double count = last - first + 1.0;
+    voxels *= count;
+    if (!(count < 1e9)) voxels = kInf;
+    lo[a] = static_cast<long long>(std::max(first, -1e15));
+    dims_[a] = static_cast<int>(std::min(count, 1e9));
+  }
+  const std::size_t n = handles_.size();
+  const std::string what = "'voxelSize' " + str(h_) + " (" + std::to_string(dims_[0]) + " x " +
+                           std::to_string(dims_[1]) + " x " + std::to_string(dims_[2]) +
+                           " voxels, " + std::to_string(n) + " handles)";
+  const double workers = std::min<double>(static_cast<double>(n),
+                                          static_cast<double>(tbb::info::default_concurrency()));
+  // Per voxel: 4 bytes per handle kept; the level set, inside flags, nearest inside voxels and
+  // their heap (about 40 bytes, OpenVDB's narrow band included); per marching thread the
+  // values, states and heap (about 25).
+  detail::checkMemory(voxels * (4.0 * static_cast<double>(n) + 40.0 + 25.0 * workers), who + what);
+  if (!(voxels < 4e9)) throw InvalidInput(who + what + " has too many voxels");
+  // OpenVDB's coordinates are 32-bit.
+  for (int a = 0; a < 3; ++a) {
+    if (!(std::abs(static_cast<double>(lo[a])) + dims_[a] < 0x1p30)) {
+      throw InvalidInput(who + "the model lies too far from the origin for " + what +
+                         " (voxel indices beyond 2^30)");
+    }
+  }
+  origin_ =
+      Vec3(static_cast<double>(lo[0]), static_cast<double>(lo[1]), static_cast<double>(lo[2])) * h_;
+  const std::size_t nx = static_cast<std::size_t>(dims_[0]);
+  const std::size_t ny = static_cast<std::size_t>(dims_[1]);
+  const std::size_t nz = static_cast<std::size_t>(dims_[2]);
+  const std::size_t count = nx * ny * nz;
+
+  // The signed distance to the surface at every voxel, and which voxels are inside.
+  const openvdb::FloatGrid::Ptr surface = meshLevelSet(model, h_, 3.0f);
+  std::vector<float> phi(count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nz), [&](const auto& range) {
+    const auto accessor = surface->getConstAccessor();
+    for (std::size_t k = range.begin(); k != range.end(); ++k) {
+      for (std::size_t j = 0; j < ny; ++j) {
+        for (std::size_t i = 0; i < nx; ++i) {
+          const openvdb::Coord c(static_cast<int>(lo[0] + static_cast<long long>(i)),
+                                 static_cast<int>(lo[1] + static_cast<long long>(j)),
+                                 static_cast<int>(lo[2] + static_cast<long long>(k)));
+          phi[i + nx * (j + ny * k)] = accessor.getValue(c);
+        }
+      }
+    }
+  });
+  std::vector<std::uint8_t> inside(count);
+  std::size_t insideCount = 0;
+  for (std::size_t idx = 0; idx < count; ++idx) {
+    inside[idx] = phi[idx] < 0.0f;
+    insideCount += inside[idx];
+  }
+  const double band = kBandVoxels * h_;
+  if (insideCount == 0) {
+    throw InvalidInput(who + "the model encloses no voxel of " + str(h_) +
+                       " (is it closed? a smaller voxelSize resolves thinner models)");
+  }
+
+  // Handles must be inside or within the band: trilinear φ at the handle.
+  for (std::size_t hi = 0; hi < n; ++hi) {
+    const Vec3 u = (handles_[hi] - origin_) / h_;
+    bool inGrid = true;
+    for (int a = 0; a < 3; ++a) inGrid = inGrid && u[a] >= 0.0 && u[a] <= dims_[a] - 1.0;
+    double value = kInf;
+    if (inGrid) {
+      int i0[3];
+      double t[3];
+      for (int a = 0; a < 3; ++a) {
+        i0[a] = std::min(static_cast<int>(std::floor(u[a])), dims_[a] - 2);
+        t[a] = u[a] - i0[a];
+      }
+      value = 0.0;
+      for (int c = 0; c < 8; ++c) {
+        const int di = c & 1, dj = (c >> 1) & 1, dk = (c >> 2) & 1;
+        const double w =
+            (di ? t[0] : 1.0 - t[0]) * (dj ? t[1] : 1.0 - t[1]) * (dk ? t[2] : 1.0 - t[2]);
+        value += w * phi[static_cast<std::size_t>(i0[0] + di) +
+                         nx * (static_cast<std::size_t>(i0[1] + dj) +
+                               ny * static_cast<std::size_t>(i0[2] + dk))];
+      }
+    }
+    if (!(value <= band)) {
+      throw InvalidInput(who + "handle " + std::to_string(hi) + " " + str(handles_[hi]) +
+                         " is outside the model (" +
+                         (inGrid && value < 3.0 * h_ ? str(value) : "more than " + str(3.0 * h_)) +
+                         " from its surface; handles must be inside or within 2 voxels of " +
+                         str(h_) + ")");
+    }
+  }
+
+  // Outside the model a voxel takes the distance of its nearest inside voxel, extrapolated: not a
+  // shortest path through empty space or along the surface, which would let one part's values
+  // undercut another's, or cut concave corners, right at the surface. Nearest inside voxels by
+  // propagating them outwards in order of distance (Danielsson-style; exact up to rare ties).
+  std::vector<std::size_t> site(count, count);
+  {
+    std::vector<double> key(count, kInf);
+    std::vector<std::pair<double, std::size_t>> heap;
+    for (std::size_t idx = 0; idx < count; ++idx) {
+      if (inside[idx]) {
+        site[idx] = idx;
+        key[idx] = 0.0;
+        heap.emplace_back(0.0, idx);
+      }
+    }
+    std::make_heap(heap.begin(), heap.end(), std::greater<>());
+    const auto position = [&](std::size_t idx) {
+      return Vec3(static_cast<double>(idx % nx), static_cast<double>((idx / nx) % ny),
+                  static_cast<double>(idx / (nx * ny)));
+    };
+    while (!heap.empty()) {
+      std::pop_heap(heap.begin(), heap.end(), std::greater<>());
+      const auto [value, idx] = heap.back();
+      heap.pop_back();
+      if (value > key[idx]) continue;
+      const std::size_t i = idx % nx, j = (idx / nx) % ny, k = idx / (nx * ny);
+      const std::size_t steps[6] = {1, 1, nx, nx, nx * ny, nx * ny};
+      const bool ok[6] = {i > 0, i + 1 < nx, j > 0, j + 1 < ny, k > 0, k + 1 < nz};
+      for (int e = 0; e < 6; ++e) {
+        if (!ok[e]) continue;
+        const std::size_t next = e % 2 ? idx + steps[e] : idx - steps[e];
+        if (inside[next]) continue;
+        const double d = glm::length(position(next) - position(site[idx]));
+        if (d < key[next] || (d == key[next] && site[idx] < site[next])) {
+          key[next] = d;
+          site[next] = site[idx];
+          heap.emplace_back(d, next);
+          std::push_heap(heap.begin(), heap.end(), std::greater<>());
+        }
+      }
+    }
+  }
+
+  // One march per handle, in parallel; each writes its own entries of values_.
+  values_.assign(count * n, 0.0f);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), [&](const auto& range) {
+    for (std::size_t hi = range.begin(); hi != range.end(); ++hi) {
+      Marcher march(dims_, h_);
+      const Vec3 p = handles_[hi];
+      const Vec3 u = (p - origin_) / h_;
+      const int r = static_cast<int>(std::ceil(kSeedVoxels));
+      int from[3], to[3];
+      for (int a = 0; a < 3; ++a) {
+        from[a] = std::max(static_cast<int>(std::floor(u[a])) - r, 0);
+        to[a] = std::min(static_cast<int>(std::ceil(u[a])) + r, dims_[a] - 1);
+      }
+      for (int k = from[2]; k <= to[2]; ++k) {
+        for (int j = from[1]; j <= to[1]; ++j) {
+          for (int i = from[0]; i <= to[0]; ++i) {
+            const double dist = glm::length(origin_ + Vec3(i, j, k) * h_ - p);
+            if (dist <= kSeedVoxels * h_) {
+              march.seed(static_cast<std::size_t>(i) +
+                             nx * (static_cast<std::size_t>(j) + ny * static_cast<std::size_t>(k)),
+                         dist);
+            }
+          }
+        }
+      }
+      march.run([&](std::size_t idx) { return inside[idx]; });
+      std::vector<double>& marched = march.values();
+      for (std::size_t idx = 0; idx < count; ++idx) {
+        if (inside[idx] || march.known(idx) || !(marched[site[idx]] < kInf)) continue;
+        const std::size_t s = site[idx];
+        const Vec3 step(static_cast<double>(idx % nx) - static_cast<double>(s % nx),
+                        static_cast<double>((idx / nx) % ny) - static_cast<double>((s / nx) % ny),
+                        static_cast<double>(idx / (nx * ny)) - static_cast<double>(s / (nx * ny)));
+        // Linear extrapolation along the distance's gradient at the site (differences over
+        // inside voxels, unit length at most) for the first voxels out, so that a distance that
+        // runs along the surface stays level across it; growing with the way out beyond.
+        const std::size_t si = s % nx, sj = (s / nx) % ny, sk = s / (nx * ny);
+        const std::size_t strides[3] = {1, nx, nx * ny};
+        const std::size_t coords[3] = {si, sj, sk};
+        const std::size_t sizes[3] = {nx, ny, nz};
+        Vec3 g(0.0);
+        for (int a = 0; a < 3; ++a) {
+          const bool lo = coords[a] > 0 && inside[s - strides[a]];
+          const bool hi = coords[a] + 1 < sizes[a] && inside[s + strides[a]];
+          const double ulo = lo ? marched[s - strides[a]] : marched[s];
+          const double uhi = hi ? marched[s + strides[a]] : marched[s];
+          if (lo || hi) g[a] = (uhi - ulo) / ((lo && hi ? 2.0 : 1.0) * h_);
+        }
+        const double gl = glm::length(g);
+        if (gl > 1.0) g /= gl;
+        const double way = h_ * glm::length(step);
+        const double value =
+            marched[s] + h_ * glm::dot(g, step) + std::max(way - kBandVoxels * h_, 0.0);
+        march.seed(idx, std::max(value, 0.0));
+      }
+      // Parts of the model that no handle's inside reaches (another component), and their
+      // surroundings: through any voxel.
+      march.run([](std::size_t) { return true; });
+      const std::vector<double>& values = march.values();
+      for (std::size_t idx = 0; idx < count; ++idx)
+        values_[idx * n + hi] = static_cast<float>(values[idx]);
+    }
+  });
+}
+
+template <bool Gradients>
+void InsideDistances::evaluate(const Vec3& x, double* d, Vec3* g) const {
+  const std::size_t n = handles_.size();
+  if (!isFinite(x)) {
+    for (std::size_t k = 0; k < n; ++k) {
+      d[k] = std::numeric_limits<double>::quiet_NaN();
+      if constexpr (Gradients) g[k] = Vec3(d[k]);
+    }
+    return;
+  }
+  // The nearest point of the grid's box, its cell and the trilinear weights there.
+  const Vec3 u = (x - origin_) / h_;
+  Vec3 clamped(0.0);
+  Vec3 inside(1.0);  // 0 on the axes where x is clamped (the box does not move with x there)
+  int i0[3];
+  double t[3];
+  for (int a = 0; a < 3; ++a) {
+    const double hiEdge = dims_[a] - 1.0;
+    double ua = u[a];
+    if (!(ua >= 0.0)) {
+      ua = 0.0;
+      inside[a] = 0.0;
+    } else if (ua > hiEdge) {
+      ua = hiEdge;
+      inside[a] = 0.0;
+    }
+    clamped[a] = ua;
+    i0[a] = std::min(static_cast<int>(ua), dims_[a] - 2);
+    t[a] = ua - i0[a];
+  }
+  Vec3 out(0.0);  // x − c, exactly 0 on the axes where x is in the box
+  for (int a = 0; a < 3; ++a) {
+    if (inside[a] == 0.0) out[a] = x[a] - (origin_[a] + clamped[a] * h_);
+  }
+  const double outLength = glm::length(out);
+  const std::size_t nx = static_cast<std::size_t>(dims_[0]);
+  const std::size_t ny = static_cast<std::size_t>(dims_[1]);
+  const std::size_t base =
+      static_cast<std::size_t>(i0[0]) +
+      nx * (static_cast<std::size_t>(i0[1]) + ny * static_cast<std::size_t>(i0[2]));
+  const std::size_t offsets[8] = {0,       1,           nx,           nx + 1,
+                                  nx * ny, nx * ny + 1, nx * ny + nx, nx * ny + nx + 1};
+  double w[8];
+  double dw[8][3];
+  for (int c = 0; c < 8; ++c) {
+    const int b[3] = {c & 1, (c >> 1) & 1, (c >> 2) & 1};
+    double f[3], df[3];
+    for (int a = 0; a < 3; ++a) {
+      f[a] = b[a] ? t[a] : 1.0 - t[a];
+      df[a] = b[a] ? 1.0 : -1.0;
+    }
+    w[c] = f[0] * f[1] * f[2];
+    if constexpr (Gradients) {
+      dw[c][0] = df[0] * f[1] * f[2];
+      dw[c][1] = f[0] * df[1] * f[2];
+      dw[c][2] = f[0] * f[1] * df[2];
+    }
+  }
+  const double nearRadius = kNearVoxels * h_;
+  const double blendWidth = kBlendVoxels * h_;
+  for (std::size_t k = 0; k < n; ++k) {
+    double value = 0.0;
+    Vec3 grad(0.0);
+    for (int c = 0; c < 8; ++c) {
+      const double v = values_[(base + offsets[c]) * n + k];
+      value += w[c] * v;
+      if constexpr (Gradients) grad += Vec3(dw[c][0], dw[c][1], dw[c][2]) * v;
+    }
+    if constexpr (Gradients) grad = grad * inside / h_;
+    if (outLength > 0.0) {
+      value += outLength;
+      if constexpr (Gradients) grad += out / outLength;
+    }
+    // Near the handle: the exact Euclidean distance, blended in (smoothstep in r).
+    const Vec3 e = x - handles_[k];
+    const double r2 = glm::dot(e, e);
+    if (r2 < (nearRadius + blendWidth) * (nearRadius + blendWidth)) {
+      const double r = std::sqrt(r2);
+      const Vec3 dir = r > 0.0 ? e / r : Vec3(0.0);
+      if (r <= nearRadius) {
+        value = r;
+        if constexpr (Gradients) grad = dir;
+      } else {
+        const double s = (r - nearRadius) / blendWidth;
+        const double blend = s * s * (3.0 - 2.0 * s);
+        if constexpr (Gradients) {
+          const double dBlend = 6.0 * s * (1.0 - s) / blendWidth;
+          grad = (1.0 - blend) * dir + blend * grad + (value - r) * dBlend * dir;
+        }
+        value = (1.0 - blend) * r + blend * value;
+      }
+    }
+    d[k] = value;
+    if constexpr (Gradients) g[k] = grad;
+  }
+}
+
+void InsideDistances::distances(const Vec3& x, std::span<double> distances) const {
+  if (distances.size() != handles_.size()) {
+    throw InvalidInput("InsideDistances::distances: " + std::to_string(distances.size()) +
+                       " entries for " + std::to_string(handles_.size()) + " handles");
+  }
+  evaluate<false>(x, distances.data(), nullptr);
+}
+
+void InsideDistances::distancesAndGradients(const Vec3& x, std::span<double> distances,
+                                            std::span<Vec3> gradients) const {
+  if (distances.size() != handles_.size() || gradients.size() != handles_.size()) {
+    throw InvalidInput(
+        "InsideDistances::distancesAndGradients: " + std::to_string(distances.size()) +
+        " distances and " + std::to_string(gradients.size()) + " gradients for " +
+        std::to_string(handles_.size()) + " handles");
+  }
+  evaluate<true>(x, distances.data(), gradients.data());
+}
+
+}  // namespace spacewarp
