@@ -48,6 +48,7 @@ __all__ = [
     "InsideDistances",
     "InvalidInput",
     "IoError",
+    "Kelvinlet",
     "Lattice",
     "LinearEditor",
     "MeanValue",
@@ -57,11 +58,14 @@ __all__ = [
     "OutOfMemory",
     "Rbf",
     "RbfWarp",
+    "Shepard",
     "SolverError",
     "SurfaceMesh",
     "Taper",
     "Twist",
     "Warp",
+    "Wire",
+    "Wires",
     "cage_coordinates",
     "cage_methods",
     "coordinate_properties",
@@ -781,6 +785,48 @@ class InsideDistances(HandleDistances):
         """The grid's voxel counts along x, y, z."""
 
 
+class Kelvinlet(Warp):
+    """A regularized Kelvinlet brush (de Goes and James 2017): the displacement of an infinite
+    elastic medium under a force spread over `radius` (epsilon > 0, world units) around `center` (3,).
+    brush "grab" moves the center by `displacement` (3,); "twist" rotates the center's neighbourhood
+    by `angle` (radians) about `axis` (3,) (the Jacobian there is I + angle [axis]x); "scale" scales it
+    by `factor` (> 0); "pinch" gives it the displacement gradient `matrix` (3, 3), symmetric and
+    traceless. poisson: Poisson ratio in [0, 0.5] (default 0.45). falloff: "single" (default),
+    "bi" or "tri": the brush at radii epsilon, 2 epsilon (and 4 epsilon) combined so that it fades
+    faster with distance (grab 1/r, 1/r^3, 1/r^5), the center unchanged. steps: the brush applied as that
+    many sub-brushes (1 = the closed form; more avoid folds for large edits, at steps times the cost).
+    Keys of another brush raise InvalidInput.
+    """
+
+    def __init__(
+        self,
+        *,
+        brush: str,
+        center: _Vec3,
+        radius: float,
+        poisson: float = 0.45,
+        displacement: Optional[_Vec3] = None,
+        axis: Optional[_Vec3] = None,
+        angle: Optional[float] = None,
+        factor: Optional[float] = None,
+        matrix: Optional[ArrayLike] = None,
+        falloff: str = "single",
+        steps: int = 1,
+    ) -> None: ...
+
+    @property
+    def brush(self) -> str:
+        """"grab", "twist", "scale" or "pinch"."""
+
+    @property
+    def radius(self) -> float:
+        """The regularisation radius epsilon, world units."""
+
+    @property
+    def poisson(self) -> float:
+        """The Poisson ratio."""
+
+
 class Lattice(Coordinates):
     """A free-form deformation lattice (Sederberg and Parry 1986): a box at `origin` along
     `axes` (3 unit vectors) with `extents` (world units), resolution (l, m, n) control points,
@@ -975,6 +1021,34 @@ class RbfWarp(Warp):
     ) -> None: ...
 
 
+class Shepard(Coordinates):
+    """Shepard's inverse-distance weighting over `handles` (k, 3), world units:
+    w_i(x) = d_i^-power / sum_j d_j^-power (power > 0, default 2), or with a support `radius`
+    (world units, > 0) Franke and Nielson's ((R - d_i)+ / (R d_i))^power, zero beyond it. The weights
+    are non-negative, sum to 1 and interpolate the handles; warp(targets) moves every point by the
+    weighted mean of the handles' displacements (translations are reproduced, linear maps are not).
+    For power > 1 the warp's Jacobian is the identity at every handle (Shepard's flat spots). With a
+    radius, points farther than it from every handle have no weights: weights() and the warp raise
+    InvalidInput for them.
+    """
+
+    def __init__(
+        self,
+        handles: _Points,
+        *,
+        power: float = 2.0,
+        radius: Optional[float] = None,
+    ) -> None: ...
+
+    @property
+    def power(self) -> float:
+        """The weight exponent."""
+
+    @property
+    def radius(self) -> Optional[float]:
+        """The support radius (world units), or None for global weights."""
+
+
 class SurfaceMesh:
     """A triangle mesh welded from a Geometry (weld_soup): positions (n, 3) world units,
     triangles (t, 3), and the maps back to the soup. Arrays are read-only views (no copy); the
@@ -1052,6 +1126,74 @@ class Twist(Warp):
         lo: float = ...,
         hi: float = ...,
     ) -> None: ...
+
+
+class Wire:
+    """One wire of spacewarp.Wires: the reference curve `rest` (n, 3) and the
+    deformed curve `deformed` (n, 3), n >= 2, world units, point k of each at parameter k;
+    `radius` (> 0, world units) of influence; `inner_radius` in [0, radius): full influence
+    within it (a rigid motion of the wire moves that tube rigidly); `scale` (> 0) about the curve;
+    `dropoff` "smooth" ((1 - x^2)^2, default) or "linear"; `curve` "polyline" (default) or
+    "catmull-rom". Checked when a Wires is built from it.
+    """
+
+    def __init__(
+        self,
+        rest: _Points,
+        deformed: _Points,
+        radius: float,
+        *,
+        inner_radius: float = 0.0,
+        scale: float = 1.0,
+        dropoff: Literal["smooth", "linear"] = "smooth",
+        curve: Literal["polyline", "catmull-rom"] = "polyline",
+    ) -> None: ...
+
+    @property
+    def rest(self) -> _Float64Array:
+        """The reference curve (n, 3)."""
+
+    @property
+    def deformed(self) -> _Float64Array:
+        """The deformed curve (n, 3)."""
+
+    @property
+    def radius(self) -> float:
+        """Radius of influence, world units."""
+
+    @property
+    def inner_radius(self) -> float:
+        """Radius of full influence, world units."""
+
+    @property
+    def scale(self) -> float:
+        """Scale about the curve."""
+
+    @property
+    def dropoff(self) -> str:
+        """The drop-off: "smooth" or "linear"."""
+
+    @property
+    def curve(self) -> str:
+        """The curve: "polyline" or "catmull-rom"."""
+
+
+class Wires(Warp):
+    """Wires (Singh & Fiume 1998): points within a wire's radius of its rest curve follow the
+    curve to its deformed one (scaled, turned and moved about their closest rest point, fading
+    out at the radius); several wires blend as x + sum(d_i |d_i|^m) / sum(|d_i|^m), m =
+    `locality` (>= 0, default 1). `wires`: a sequence of spacewarp.Wire.
+    """
+
+    def __init__(self, wires: Sequence[Wire], *, locality: float = 1.0) -> None: ...
+
+    @property
+    def wires(self) -> list[Wire]:
+        """The wires (a list of spacewarp.Wire)."""
+
+    @property
+    def locality(self) -> float:
+        """The blend's exponent m."""
 
 
 def cage_coordinates(
