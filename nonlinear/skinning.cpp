@@ -81,12 +81,11 @@ void prepareBones(std::span<const Mat4> bones, SkinningMode mode, detail::Aligne
   return {x.x + d[0], x.y + d[1], x.z + d[2]};
 }
 
-// The blended, normalised dual quaternion of one point: each bone's quaternion is taken in the
-// hemisphere of the pivot bone's (the point's first, largest influence), so that the blend
+// The blended dual quaternion of one point (not normalised): each bone's quaternion is taken in
+// the hemisphere of the pivot bone's (the point's first, largest influence), so that the blend
 // follows the shorter arc (Kavan et al. 2008, §3.4).
 [[gnu::always_inline]] inline void dqsBlend(const VD* bones, const std::uint32_t* b,
-                                            const double* w, std::size_t k, VD& real, VD& dual,
-                                            double& norm) {
+                                            const double* w, std::size_t k, VD& real, VD& dual) {
   const VD* m = bones + kDqsBlocks * b[0];
   const VD pivot = m[0];
   real = w[0] * m[0];
@@ -98,28 +97,44 @@ void prepareBones(std::span<const Mat4> bones, SkinningMode mode, detail::Aligne
     real += s * m[0];
     dual += s * m[1];
   }
-  norm =
-      __builtin_sqrt(real[0] * real[0] + real[1] * real[1] + real[2] * real[2] + real[3] * real[3]);
 }
 
-// x' for the unit dual quaternion (w, v) + ε (we, ve): the rotation x + 2 v × (v × x + w x)
-// plus the translation 2 (w ve − we v + v × ve).
-[[gnu::always_inline]] inline Vec3 dqsApply(double w, const Vec3& v, double we, const Vec3& ve,
-                                            const Vec3& x) {
-  const Vec3 r = glm::cross(v, glm::cross(v, x) + w * x);
-  const Vec3 t = w * ve - we * v + glm::cross(v, ve);
-  return x + 2.0 * (r + t);
-}
-
-[[gnu::always_inline]] inline Vec3 dqsPoint(const VD* bones, const std::uint32_t* b,
-                                            const double* w, std::size_t k, const Vec3& x) {
-  VD real, dual;
-  double norm;
-  dqsBlend(bones, b, w, k, real, dual, norm);
-  const double inv = 1.0 / norm;
-  real *= inv;
-  dual *= inv;
-  return dqsApply(real[0], {real[1], real[2], real[3]}, dual[0], {dual[1], dual[2], dual[3]}, x);
+// DQS of the `count` ≤ 4 points in[0, count) (weight rows rows[l], or first + l when `rows` is
+// null) at once: the blends point by point, then the normalisation (one vector
+// square root and division) and the motion with the points in the lanes. Every point goes
+// through this same code (a group of fewer points repeats its last one in the spare lanes), so
+// a point's result does not depend on its group. For the unit dual quaternion (w, v) + ε (we,
+// ve), x' = x + 2 v × (v × x + w x) + 2 (w ve − we v + v × ve).
+[[gnu::always_inline]] inline void dqsGroup(const VD* bones, const SkinningWeights& weights,
+                                            const Vec3* in, const std::size_t* rows, Vec3* out,
+                                            std::size_t first, std::size_t count) {
+  const std::size_t k = weights.influences;
+  VD q[4], d[4];
+  VD px, py, pz;
+  for (std::size_t l = 0; l < 4; ++l) {
+    const std::size_t p = std::min(l, count - 1);
+    const std::size_t r = (rows ? rows[p] : first + p) * k;
+    dqsBlend(bones, weights.bones.data() + r, weights.weights.data() + r, k, q[l], d[l]);
+    px[l] = in[p].x;
+    py[l] = in[p].y;
+    pz[l] = in[p].z;
+  }
+  VD rw = {q[0][0], q[1][0], q[2][0], q[3][0]}, rx = {q[0][1], q[1][1], q[2][1], q[3][1]};
+  VD ry = {q[0][2], q[1][2], q[2][2], q[3][2]}, rz = {q[0][3], q[1][3], q[2][3], q[3][3]};
+  VD ew = {d[0][0], d[1][0], d[2][0], d[3][0]}, ex = {d[0][1], d[1][1], d[2][1], d[3][1]};
+  VD ey = {d[0][2], d[1][2], d[2][2], d[3][2]}, ez = {d[0][3], d[1][3], d[2][3], d[3][3]};
+  const VD n2 = rw * rw + rx * rx + ry * ry + rz * rz;
+  VD norm;
+  detail::simd::sqrtLanes(n2, norm);
+  const VD inv = 1.0 / norm;
+  rw *= inv, rx *= inv, ry *= inv, rz *= inv, ew *= inv, ex *= inv, ey *= inv, ez *= inv;
+  const VD ax = (ry * pz - rz * py) + rw * px;  // v × x + w x
+  const VD ay = (rz * px - rx * pz) + rw * py;
+  const VD az = (rx * py - ry * px) + rw * pz;
+  const VD ox = px + 2.0 * ((ry * az - rz * ay) + (rw * ex - ew * rx + (ry * ez - rz * ey)));
+  const VD oy = py + 2.0 * ((rz * ax - rx * az) + (rw * ey - ew * ry + (rz * ex - rx * ez)));
+  const VD oz = pz + 2.0 * ((rx * ay - ry * ax) + (rw * ez - ew * rz + (rx * ey - ry * ex)));
+  for (std::size_t l = 0; l < count; ++l) out[l] = Vec3(ox[l], oy[l], oz[l]);
 }
 
 // out[i] = the skinned in[i], with the weights of row rows[i] (row i when `rows` is null).
@@ -136,10 +151,9 @@ void skinPoints(const VD* bones, SkinningMode mode, const SkinningWeights& weigh
       out[i] = lbsPoint(bones, b + r, w + r, k, in[i]);
     }
   } else {
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t r = (rows ? rows[i] : i) * k;
-      out[i] = dqsPoint(bones, b + r, w + r, k, in[i]);
-    }
+    for (std::size_t i = 0; i < n; i += 4)
+      dqsGroup(bones, weights, in + i, rows ? rows + i : nullptr, out + i, i,
+               std::min<std::size_t>(4, n - i));
   }
 }
 
@@ -497,8 +511,9 @@ Mat3 SkinningWarp::jacobian(const Vec3& x) const {
   }
 
   VD real, dual;
-  double norm;
-  dqsBlend(m.prepared.data(), b.data(), w.data(), k, real, dual, norm);
+  dqsBlend(m.prepared.data(), b.data(), w.data(), k, real, dual);
+  const double norm =
+      std::sqrt(real[0] * real[0] + real[1] * real[1] + real[2] * real[2] + real[3] * real[3]);
   const double c0w = real[0] / norm, cew = dual[0] / norm;
   const Vec3 c0v(real[1] / norm, real[2] / norm, real[3] / norm);
   const Vec3 cev(dual[1] / norm, dual[2] / norm, dual[3] / norm);
