@@ -70,6 +70,19 @@ class Describer {
       line("alpha", get("alpha", "1"));
       line("does", "moves each point by its own best " + get("mode", "rigid") +
                        " transform of the handles onto the targets, weighted by distance");
+    } else if (method == "skinning") {
+      const bool dqs = get("mode", "lbs") == "dqs";
+      line("method", std::string("skinning (") + (dqs ? "dual-quaternion" : "linear blend") + ")");
+      line("bones", count(rig_, "bones"));
+      line("weights", rig_.contains("weights")
+                          ? get("weights") + ", of the vertices of " + get("model") +
+                                " (other points take their nearest vertex's)"
+                          : get("coordinates", "rbf") + " coordinates of " +
+                                count(rig_, "handles") + " handles, one per bone");
+      line("influences", get("influences", "4") + " per point (0: all)");
+      line("does",
+           std::string("moves each point by the weighted blend of its bones' transforms (") +
+               (dqs ? "as dual quaternions: twists keep their volume" : "of the matrices") + ")");
     } else if (method == "compose") {
       compose();
     } else {

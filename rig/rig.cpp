@@ -21,6 +21,7 @@
 #include <spacewarp/rig/detail/mls_rig.h>
 #include <spacewarp/rig/detail/rbf_rig.h>
 #include <spacewarp/rig/detail/rig_reader.h>
+#include <spacewarp/rig/detail/skinning_rig.h>
 
 namespace spacewarp {
 
@@ -92,6 +93,9 @@ const std::map<std::string, Method>& factories() {
       {"mls", {{"mode", "alpha", "handles", "targets"}, detail::mlsRig}},
       {"rbf",
        {{"kernel", "centers", "targets", "fixed", "smoothing", "scale", "radius"}, detail::rbfRig}},
+      {"skinning",
+       {{"mode", "bones", "influences", "weights", "model", "handles", "coordinates"},
+        detail::skinningRig}},
       {"compose",
        {{"warps"},
         [](RigReader& r) {
