@@ -314,7 +314,7 @@ void checkBones(std::span<const Mat4> bones, SkinningMode mode) {
     double off = 0.0;
     for (int c = 0; c < 3; ++c)
       for (int r = 0; r < 3; ++r) off = std::max(off, std::abs(g[c][r] - (c == r ? 1.0 : 0.0)));
-    if (!(off <= 1e-6) || !(glm::determinant(a) > 0.0))
+    if (!(off <= 1e-4) || !(glm::determinant(a) > 0.0))
       throw InvalidInput(name + ": dual-quaternion skinning needs a rigid bone (rotation and " +
                          "translation), but its 3 × 3 part is not a rotation (|RᵀR − I| = " +
                          std::to_string(off) + "); use mode \"lbs\" for scaled or sheared bones");

@@ -63,9 +63,9 @@ SkinningWeights skinningWeights(const Coordinates& coordinates, std::span<const 
                                 std::size_t maxInfluences = 4);
 
 /// Throws InvalidInput naming the bone unless every bone is a finite affine transform (last row
-/// 0 0 0 1) and, for DualQuaternion, rigid: a rotation (|RᵀR − I| ≤ 1e-6 entrywise, det R > 0)
-/// plus a translation. DQS of scaled or sheared bones is refused rather than approximated: use
-/// LBS for them.
+/// 0 0 0 1) and, for DualQuaternion, rigid: a rotation (det R > 0, |RᵀR − I| ≤ 1e-4 entrywise,
+/// so that matrices written with 5 digits pass; DQS uses the unit quaternion of R) plus a
+/// translation. DQS of scaled or sheared bones is refused rather than approximated: use LBS.
 void checkBones(std::span<const Mat4> bones, SkinningMode mode);
 
 /// A fixed point set with its sparse weights: deform(bones) re-poses it, the fast path.

@@ -150,6 +150,7 @@ void bindCoordinates(py::module_& m);
 void bindGeometry(py::module_& m);
 void bindVolume(py::module_& m);
 void bindSurface(py::module_& m);
+void bindSkinning(py::module_& m);
 void bindBenchHooks(py::module_& m);
 
 }  // namespace spacewarp::python

@@ -14,5 +14,6 @@ PYBIND11_MODULE(_spacewarp, m) {
   spacewarp::python::bindGeometry(m);
   spacewarp::python::bindVolume(m);
   spacewarp::python::bindSurface(m);
+  spacewarp::python::bindSkinning(m);
   spacewarp::python::bindBenchHooks(m);
 }
