@@ -41,37 +41,71 @@ Quat dualPart(const Quat& q, const Vec3& t) {
   return {-0.5 * glm::dot(t, q.v), 0.5 * (q.w * t + glm::cross(t, q.v))};
 }
 
-// The bones in the kernel's layout, into `out` (aligned for the kernel's vector loads, which
-// std::vector<VD> does not guarantee).
-void prepareBones(std::span<const Mat4> bones, SkinningMode mode, detail::AlignedBuffer<VD>& out) {
+// The posed bones in the kernel's layout. DQS with few bones also keeps the hemisphere of every
+// bone's quaternion relative to every other's, so that the blend reads a sign instead of
+// computing a dot product per influence (the same comparison, so the same signs).
+constexpr std::size_t kMaxSignTableBones = 256;  // a table of at most 512 kB
+
+struct PreparedBones {
+  detail::AlignedBuffer<VD> blocks;  // aligned for the kernel's loads (std::vector<VD> is not)
+  std::vector<double> signs;         // DQS: signs[i · count + j] = ±1, bone j relative to bone i
+  std::size_t count = 0;
+};
+
+// What the kernel reads of PreparedBones.
+struct BoneView {
+  const VD* blocks;
+  const double* signs;  // null: computed per influence
+  std::size_t count;
+};
+
+BoneView viewOf(const PreparedBones& p) {
+  return {p.blocks.data(), p.signs.empty() ? nullptr : p.signs.data(), p.count};
+}
+
+// Whether quaternion q lies in the other hemisphere than `pivot` (the shorter arc flips it).
+[[gnu::always_inline]] inline bool oppositeHemisphere(const VD& q, const VD& pivot) {
+  const VD p = q * pivot;
+  return (p[0] + p[1]) + (p[2] + p[3]) < 0.0;
+}
+
+void prepareBones(std::span<const Mat4> bones, SkinningMode mode, PreparedBones& out) {
   std::size_t n = 0;
+  out.count = bones.size();
+  out.signs.clear();
   if (mode == SkinningMode::Linear) {
-    out.reserve(bones.size() * kLbsBlocks);
+    out.blocks.reserve(bones.size() * kLbsBlocks);
     for (const Mat4& m : bones) {
       for (int c = 0; c < 4; ++c) {
         VD col = {m[c][0], m[c][1], m[c][2], 0.0};
         if (c < 3) col[c] -= 1.0;
-        out[n++] = col;
+        out.blocks[n++] = col;
       }
     }
-  } else {
-    out.reserve(bones.size() * kDqsBlocks);
-    for (const Mat4& m : bones) {
-      const Quat q = rotationQuaternion(m);
-      const Quat d = dualPart(q, Vec3(m[3]));
-      out[n++] = VD{q.w, q.v.x, q.v.y, q.v.z};
-      out[n++] = VD{d.w, d.v.x, d.v.y, d.v.z};
-    }
+    return;
   }
+  out.blocks.reserve(bones.size() * kDqsBlocks);
+  for (const Mat4& m : bones) {
+    const Quat q = rotationQuaternion(m);
+    const Quat d = dualPart(q, Vec3(m[3]));
+    out.blocks[n++] = VD{q.w, q.v.x, q.v.y, q.v.z};
+    out.blocks[n++] = VD{d.w, d.v.x, d.v.y, d.v.z};
+  }
+  if (bones.size() > kMaxSignTableBones) return;
+  out.signs.resize(bones.size() * bones.size());
+  for (std::size_t i = 0; i < bones.size(); ++i)
+    for (std::size_t j = 0; j < bones.size(); ++j)
+      out.signs[i * bones.size() + j] =
+          oppositeHemisphere(out.blocks[kDqsBlocks * j], out.blocks[kDqsBlocks * i]) ? -1.0 : 1.0;
 }
 
 // One point by LBS: the blend of the bones' (A − I | t) columns applied to x.
-[[gnu::always_inline]] inline Vec3 lbsPoint(const VD* bones, const std::uint32_t* b,
+[[gnu::always_inline]] inline Vec3 lbsPoint(const BoneView& bones, const std::uint32_t* b,
                                             const double* w, std::size_t k, const Vec3& x) {
-  const VD* m = bones + kLbsBlocks * b[0];
+  const VD* m = bones.blocks + kLbsBlocks * b[0];
   VD c0 = w[0] * m[0], c1 = w[0] * m[1], c2 = w[0] * m[2], c3 = w[0] * m[3];
   for (std::size_t j = 1; j < k; ++j) {
-    m = bones + kLbsBlocks * b[j];
+    m = bones.blocks + kLbsBlocks * b[j];
     c0 += w[j] * m[0];
     c1 += w[j] * m[1];
     c2 += w[j] * m[2];
@@ -84,16 +118,16 @@ void prepareBones(std::span<const Mat4> bones, SkinningMode mode, detail::Aligne
 // The blended dual quaternion of one point (not normalised): each bone's quaternion is taken in
 // the hemisphere of the pivot bone's (the point's first, largest influence), so that the blend
 // follows the shorter arc (Kavan et al. 2008, §3.4).
-[[gnu::always_inline]] inline void dqsBlend(const VD* bones, const std::uint32_t* b,
+[[gnu::always_inline]] inline void dqsBlend(const BoneView& bones, const std::uint32_t* b,
                                             const double* w, std::size_t k, VD& real, VD& dual) {
-  const VD* m = bones + kDqsBlocks * b[0];
+  const VD* m = bones.blocks + kDqsBlocks * b[0];
   const VD pivot = m[0];
   real = w[0] * m[0];
   dual = w[0] * m[1];
+  const double* signs = bones.signs ? bones.signs + b[0] * bones.count : nullptr;
   for (std::size_t j = 1; j < k; ++j) {
-    m = bones + kDqsBlocks * b[j];
-    const VD p = m[0] * pivot;
-    const double s = (p[0] + p[1]) + (p[2] + p[3]) < 0.0 ? -w[j] : w[j];
+    m = bones.blocks + kDqsBlocks * b[j];
+    const double s = signs ? signs[b[j]] * w[j] : oppositeHemisphere(m[0], pivot) ? -w[j] : w[j];
     real += s * m[0];
     dual += s * m[1];
   }
@@ -105,7 +139,7 @@ void prepareBones(std::span<const Mat4> bones, SkinningMode mode, detail::Aligne
 // through this same code (a group of fewer points repeats its last one in the spare lanes), so
 // a point's result does not depend on its group. For the unit dual quaternion (w, v) + ε (we,
 // ve), x' = x + 2 v × (v × x + w x) + 2 (w ve − we v + v × ve).
-[[gnu::always_inline]] inline void dqsGroup(const VD* bones, const SkinningWeights& weights,
+[[gnu::always_inline]] inline void dqsGroup(const BoneView& bones, const SkinningWeights& weights,
                                             const Vec3* in, const std::size_t* rows, Vec3* out,
                                             std::size_t first, std::size_t count) {
   const std::size_t k = weights.influences;
@@ -140,8 +174,8 @@ void prepareBones(std::span<const Mat4> bones, SkinningMode mode, detail::Aligne
 // out[i] = the skinned in[i], with the weights of row rows[i] (row i when `rows` is null).
 // `in` and `out` may alias. Compiled for AVX2 + FMA and for the baseline.
 SPACEWARP_SIMD_CLONES
-void skinPoints(const VD* bones, SkinningMode mode, const SkinningWeights& weights, const Vec3* in,
-                const std::size_t* rows, Vec3* out, std::size_t n) {
+void skinPoints(const BoneView& bones, SkinningMode mode, const SkinningWeights& weights,
+                const Vec3* in, const std::size_t* rows, Vec3* out, std::size_t n) {
   const std::size_t k = weights.influences;
   const std::uint32_t* b = weights.bones.data();
   const double* w = weights.weights.data();
@@ -337,10 +371,11 @@ void SkinningBinding::deform(std::span<const Mat4> bones, SkinningMode mode,
                        " bones given, the binding has " + std::to_string(boneCount_));
   detail::requireSameSize("SkinningBinding::deform", points_.size(), out.size());
   checkBones(bones, mode);
-  detail::AlignedBuffer<VD> prepared;
+  PreparedBones prepared;
   prepareBones(bones, mode, prepared);
+  const BoneView view = viewOf(prepared);
   detail::forEachRange(points_.size(), 16384, [&](std::size_t begin, std::size_t end) {
-    skinPoints(prepared.data(), mode, weights_, points_.data() + begin, nullptr, out.data() + begin,
+    skinPoints(view, mode, weights_, points_.data() + begin, nullptr, out.data() + begin,
                end - begin);
     return UnmappedPoints{};
   });
@@ -355,7 +390,7 @@ std::vector<Vec3> SkinningBinding::deform(std::span<const Mat4> bones, SkinningM
 // ---- SkinningWarp ----
 
 struct SkinningWarp::Impl {
-  detail::AlignedBuffer<VD> prepared;
+  PreparedBones prepared;
   // Nearest-vertex weights: the model, its weights and its KD-tree (which refers to `cloud`,
   // which refers to `model`: Impl is never moved).
   std::vector<Vec3> model;
@@ -458,7 +493,7 @@ UnmappedPoints SkinningWarp::applyRange(std::span<const Vec3> in, std::span<Vec3
     one.weights.resize(k);
     for (std::size_t i = begin; i != end; ++i) {
       m.coordinateWeights(in[i], dense, one.bones.data(), raw.data(), one.weights.data());
-      skinPoints(m.prepared.data(), mode_, one, &in[i], nullptr, &out[i], 1);
+      skinPoints(viewOf(m.prepared), mode_, one, &in[i], nullptr, &out[i], 1);
     }
     return unmapped;
   }
@@ -469,7 +504,7 @@ UnmappedPoints SkinningWarp::applyRange(std::span<const Vec3> in, std::span<Vec3
       unmapped.by = this;
       continue;
     }
-    skinPoints(m.prepared.data(), mode_, m.weights, &in[i], &row, &out[i], 1);
+    skinPoints(viewOf(m.prepared), mode_, m.weights, &in[i], &row, &out[i], 1);
   }
   return unmapped;
 }
@@ -511,7 +546,7 @@ Mat3 SkinningWarp::jacobian(const Vec3& x) const {
   }
 
   VD real, dual;
-  dqsBlend(m.prepared.data(), b.data(), w.data(), k, real, dual);
+  dqsBlend(viewOf(m.prepared), b.data(), w.data(), k, real, dual);
   const double norm =
       std::sqrt(real[0] * real[0] + real[1] * real[1] + real[2] * real[2] + real[3] * real[3]);
   const double c0w = real[0] / norm, cew = dual[0] / norm;
@@ -525,14 +560,13 @@ Mat3 SkinningWarp::jacobian(const Vec3& x) const {
   }
   if (grad.empty()) return j;
   // Signs of the blend, as dqsBlend chose them.
-  const VD pivot = m.prepared[kDqsBlocks * b[0]];
+  const VD pivot = m.prepared.blocks[kDqsBlocks * b[0]];
   for (int a = 0; a < 3; ++a) {
     // d(blend)/dx_a, then through the normalisation c = b / |b₀|.
     double db[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (std::size_t i = 0; i < k; ++i) {
-      const VD* q = m.prepared.data() + kDqsBlocks * b[i];
-      const VD p = q[0] * pivot;
-      const double s = i > 0 && (p[0] + p[1]) + (p[2] + p[3]) < 0.0 ? -1.0 : 1.0;
+      const VD* q = m.prepared.blocks.data() + kDqsBlocks * b[i];
+      const double s = i > 0 && oppositeHemisphere(q[0], pivot) ? -1.0 : 1.0;
       const double g = s * grad[i][a];
       for (int c = 0; c < 4; ++c) {
         db[c] += g * q[0][c];
