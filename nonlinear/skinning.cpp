@@ -133,26 +133,11 @@ void prepareBones(std::span<const Mat4> bones, SkinningMode mode, PreparedBones&
   }
 }
 
-// DQS of the `count` ≤ 4 points in[0, count) (weight rows rows[l], or first + l when `rows` is
-// null) at once: the blends point by point, then the normalisation (one vector
-// square root and division) and the motion with the points in the lanes. Every point goes
-// through this same code (a group of fewer points repeats its last one in the spare lanes), so
-// a point's result does not depend on its group. For the unit dual quaternion (w, v) + ε (we,
-// ve), x' = x + 2 v × (v × x + w x) + 2 (w ve − we v + v × ve).
-[[gnu::always_inline]] inline void dqsGroup(const BoneView& bones, const SkinningWeights& weights,
-                                            const Vec3* in, const std::size_t* rows, Vec3* out,
-                                            std::size_t first, std::size_t count) {
-  const std::size_t k = weights.influences;
-  VD q[4], d[4];
-  VD px, py, pz;
-  for (std::size_t l = 0; l < 4; ++l) {
-    const std::size_t p = std::min(l, count - 1);
-    const std::size_t r = (rows ? rows[p] : first + p) * k;
-    dqsBlend(bones, weights.bones.data() + r, weights.weights.data() + r, k, q[l], d[l]);
-    px[l] = in[p].x;
-    py[l] = in[p].y;
-    pz[l] = in[p].z;
-  }
+// DQS of four points whose blends are q[l], d[l], with the points in the lanes: the normalisation
+// (one vector square root and division) and, for the unit dual quaternion (w, v) + ε (we, ve),
+// x' = x + 2 v × (v × x + w x) + 2 (w ve − we v + v × ve).
+[[gnu::always_inline]] inline void dqsLanes(const VD* q, const VD* d, const VD& px, const VD& py,
+                                            const VD& pz, VD& ox, VD& oy, VD& oz) {
   VD rw = {q[0][0], q[1][0], q[2][0], q[3][0]}, rx = {q[0][1], q[1][1], q[2][1], q[3][1]};
   VD ry = {q[0][2], q[1][2], q[2][2], q[3][2]}, rz = {q[0][3], q[1][3], q[2][3], q[3][3]};
   VD ew = {d[0][0], d[1][0], d[2][0], d[3][0]}, ex = {d[0][1], d[1][1], d[2][1], d[3][1]};
@@ -165,10 +150,35 @@ void prepareBones(std::span<const Mat4> bones, SkinningMode mode, PreparedBones&
   const VD ax = (ry * pz - rz * py) + rw * px;  // v × x + w x
   const VD ay = (rz * px - rx * pz) + rw * py;
   const VD az = (rx * py - ry * px) + rw * pz;
-  const VD ox = px + 2.0 * ((ry * az - rz * ay) + (rw * ex - ew * rx + (ry * ez - rz * ey)));
-  const VD oy = py + 2.0 * ((rz * ax - rx * az) + (rw * ey - ew * ry + (rz * ex - rx * ez)));
-  const VD oz = pz + 2.0 * ((rx * ay - ry * ax) + (rw * ez - ew * rz + (rx * ey - ry * ex)));
-  for (std::size_t l = 0; l < count; ++l) out[l] = Vec3(ox[l], oy[l], oz[l]);
+  ox = px + 2.0 * ((ry * az - rz * ay) + (rw * ex - ew * rx + (ry * ez - rz * ey)));
+  oy = py + 2.0 * ((rz * ax - rx * az) + (rw * ey - ew * ry + (rz * ex - rx * ez)));
+  oz = pz + 2.0 * ((rx * ay - ry * ax) + (rw * ez - ew * rz + (rx * ey - ry * ex)));
+}
+
+// DQS of the `count` ≤ 8 points in[0, count) (weight rows rows[l], or first + l when `rows` is
+// null): the blends point by point, then two groups of four lanes (two independent square roots
+// and divisions in flight, whose latency is the kernel's main cost). Every point goes through
+// this same code (spare lanes repeat the last point), so a point's result does not depend on
+// its group.
+[[gnu::always_inline]] inline void dqsGroup(const BoneView& bones, const SkinningWeights& weights,
+                                            const Vec3* in, const std::size_t* rows, Vec3* out,
+                                            std::size_t first, std::size_t count) {
+  const std::size_t k = weights.influences;
+  VD q[8], d[8];
+  VD px[2], py[2], pz[2];
+  for (std::size_t l = 0; l < 8; ++l) {
+    const std::size_t p = std::min(l, count - 1);
+    const std::size_t r = (rows ? rows[p] : first + p) * k;
+    dqsBlend(bones, weights.bones.data() + r, weights.weights.data() + r, k, q[l], d[l]);
+    px[l / 4][l % 4] = in[p].x;
+    py[l / 4][l % 4] = in[p].y;
+    pz[l / 4][l % 4] = in[p].z;
+  }
+  VD ox[2], oy[2], oz[2];
+  for (int h = 0; h < 2; ++h)
+    dqsLanes(q + 4 * h, d + 4 * h, px[h], py[h], pz[h], ox[h], oy[h], oz[h]);
+  for (std::size_t l = 0; l < count; ++l)
+    out[l] = Vec3(ox[l / 4][l % 4], oy[l / 4][l % 4], oz[l / 4][l % 4]);
 }
 
 // out[i] = the skinned in[i], with the weights of row rows[i] (row i when `rows` is null).
@@ -185,9 +195,9 @@ void skinPoints(const BoneView& bones, SkinningMode mode, const SkinningWeights&
       out[i] = lbsPoint(bones, b + r, w + r, k, in[i]);
     }
   } else {
-    for (std::size_t i = 0; i < n; i += 4)
+    for (std::size_t i = 0; i < n; i += 8)
       dqsGroup(bones, weights, in + i, rows ? rows + i : nullptr, out + i, i,
-               std::min<std::size_t>(4, n - i));
+               std::min<std::size_t>(8, n - i));
   }
 }
 

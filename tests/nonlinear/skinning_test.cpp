@@ -305,7 +305,10 @@ TEST(Skinning, TheBindingAndTheWarpGiveTheSameBitsForAnyThreadCount) {
     const std::vector<Vec3> posed = binding.deform(bones, mode);
     std::vector<Vec3> batch(m.points.size());
     warp.applyBatch(m.points, batch);
-    for (std::size_t i = 0; i < posed.size(); ++i) ASSERT_TRUE(test::bitEqual(posed[i], batch[i]));
+    for (std::size_t i = 0; i < posed.size(); ++i)
+      ASSERT_TRUE(test::bitEqual(posed[i], batch[i]))
+          << skinningModeName(mode) << " point " << i << ": " << test::toString(posed[i]) << " "
+          << test::toString(batch[i]);
     EXPECT_TRUE(test::batchIsDeterministic(warp, test::randomPoints(rng, 20000, -2.0, 2.0)));
 
     const SkinningWarp fromCoordinates(bones, coordinates, {mode, 4});
