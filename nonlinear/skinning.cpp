@@ -492,29 +492,43 @@ Vec3 SkinningWarp::apply(const Vec3& x) const {
 UnmappedPoints SkinningWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
                                         std::size_t begin, std::size_t end) const {
   const Impl& m = *impl_;
+  const BoneView bones = viewOf(m.prepared);
   UnmappedPoints unmapped;
+  // Blocks of points: their weights first, then one kernel call (DQS works on eight at a time).
+  constexpr std::size_t kBlock = 64;
+  Vec3 points[kBlock], moved[kBlock];
+  std::size_t rows[kBlock], index[kBlock];
   if (m.coordinates) {
     const std::size_t k = m.influences;
     std::vector<double> dense(bones_.size()), raw(k);
-    SkinningWeights one;
-    one.pointCount = 1;
-    one.influences = k;
-    one.bones.resize(k);
-    one.weights.resize(k);
-    for (std::size_t i = begin; i != end; ++i) {
-      m.coordinateWeights(in[i], dense, one.bones.data(), raw.data(), one.weights.data());
-      skinPoints(viewOf(m.prepared), mode_, one, &in[i], nullptr, &out[i], 1);
+    SkinningWeights block;
+    block.pointCount = kBlock;
+    block.influences = k;
+    block.bones.resize(kBlock * k);
+    block.weights.resize(kBlock * k);
+    for (std::size_t start = begin; start < end; start += kBlock) {
+      const std::size_t n = std::min(kBlock, end - start);
+      for (std::size_t i = 0; i < n; ++i)
+        m.coordinateWeights(in[start + i], dense, block.bones.data() + i * k, raw.data(),
+                            block.weights.data() + i * k);
+      skinPoints(bones, mode_, block, &in[start], nullptr, &out[start], n);
     }
     return unmapped;
   }
-  for (std::size_t i = begin; i != end; ++i) {
-    std::size_t row = 0;
-    if (!m.nearest(in[i], row)) {
-      unmapped.add(i);
-      unmapped.by = this;
-      continue;
+  for (std::size_t start = begin; start < end; start += kBlock) {
+    const std::size_t n = std::min(kBlock, end - start);
+    std::size_t found = 0;  // the points in reach, gathered; the others are left as they are
+    for (std::size_t i = start; i < start + n; ++i) {
+      if (!m.nearest(in[i], rows[found])) {
+        unmapped.add(i);
+        unmapped.by = this;
+        continue;
+      }
+      points[found] = in[i];
+      index[found++] = i;
     }
-    skinPoints(viewOf(m.prepared), mode_, m.weights, &in[i], &row, &out[i], 1);
+    skinPoints(bones, mode_, m.weights, points, rows, moved, found);
+    for (std::size_t j = 0; j < found; ++j) out[index[j]] = moved[j];
   }
   return unmapped;
 }
