@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <string>
 #include <utility>
 
@@ -209,12 +210,26 @@ double selectInfluences(const double* row, std::size_t boneCount, std::size_t k,
   const auto name = [&] {
     return at ? "the point " + detail::describePoint(*at) : "point " + std::to_string(point);
   };
-  std::size_t kept = 0;
-  for (std::size_t c = 0; c < boneCount; ++c) {
-    const double v = row[c];
-    if (!std::isfinite(v))
+  for (std::size_t c = 0; c < boneCount; ++c)
+    if (!std::isfinite(row[c]))
       throw InvalidInput("skinning weights: " + name() + " has a non-finite weight for bone " +
                          std::to_string(c));
+  if (k > 32) {  // insertion would cost up to k moves per weight: a partial sort instead
+    std::vector<std::uint32_t> order(boneCount);
+    std::iota(order.begin(), order.end(), 0u);
+    std::partial_sort(order.begin(), order.begin() + std::ptrdiff_t(k), order.end(),
+                      [&](std::uint32_t a, std::uint32_t b) {
+                        const double x = std::abs(row[a]), y = std::abs(row[b]);
+                        return x > y || (x == y && a < b);
+                      });
+    for (std::size_t j = 0; j < k; ++j) {
+      bones[j] = order[j];
+      raw[j] = row[order[j]];
+    }
+  }
+  std::size_t kept = k > 32 ? k : 0;
+  for (std::size_t c = 0; c < boneCount && k <= 32; ++c) {
+    const double v = row[c];
     const double a = std::abs(v);
     if (kept == k && !(a > std::abs(raw[k - 1]))) continue;
     std::size_t j = kept < k ? kept++ : k - 1;

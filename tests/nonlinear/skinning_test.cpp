@@ -1,5 +1,6 @@
 #include <spacewarp/nonlinear/skinning.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <numbers>
@@ -87,6 +88,19 @@ TEST(SkinningWeights, KeepsTheLargestInfluencesAndNormalisesThem) {
   // 0 keeps all of them; more influences than bones keeps all of them too.
   EXPECT_EQ(sparseSkinningWeights(row, 6, 0).influences, 6u);
   EXPECT_EQ(sparseSkinningWeights(row, 6, 10).influences, 6u);
+  // Many bones, with ties: by decreasing magnitude, ties to the lower bone, whether few
+  // influences are kept (insertion) or many (a partial sort).
+  std::vector<double> many(40);
+  for (std::size_t b = 0; b < many.size(); ++b) many[b] = double((b * 7) % 13) - 4.0;
+  std::vector<std::uint32_t> order(many.size());
+  for (std::uint32_t b = 0; b < order.size(); ++b) order[b] = b;
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return std::abs(many[a]) > std::abs(many[b]);
+  });
+  for (std::size_t k : {std::size_t{5}, std::size_t{20}, std::size_t{35}, std::size_t{40}}) {
+    const SkinningWeights w = sparseSkinningWeights(many, many.size(), k);
+    EXPECT_EQ(w.bones, std::vector<std::uint32_t>(order.begin(), order.begin() + long(k))) << k;
+  }
 }
 
 TEST(SkinningWeights, BadWeightsAreNamed) {
