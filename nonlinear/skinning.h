@@ -74,10 +74,11 @@ void checkBones(std::span<const Mat4> bones, SkinningMode mode);
 /// matrix), GLM column-major (world units). Each call prepares the bones once (DQS: their unit
 /// dual quaternions) and then blends per point with four-lane SIMD (an x86-64-v3 clone picked at
 /// load time) over TBB ranges of fixed size: the result does not depend on the thread count and
-/// is bit-identical to SkinningWarp::apply() of a point with the same weights. Weights stay in
-/// double: float weights would save 12 of ~96 bytes per point (4 bones) but break the exact
-/// reproduction of a common bone motion (Σ w_i ≠ 1 in float).
-/// Measured: see bench/nonlinear_bench_skinning.cpp.
+/// is bit-identical to SkinningWarp::apply() of a point with the same weights. LBS is bound by
+/// memory (~96 bytes per point with 4 bones), DQS by the square root and division of each
+/// blend's normalisation (README, bench/nonlinear_bench_skinning.cpp). Weights stay in double:
+/// float weights would save 16 of those bytes but make a bone motion common to all a point's
+/// bones inexact (Σ w_i ≠ 1 in float).
 class SkinningBinding {
  public:
   /// `points` (n, world units) and their weights (weights.pointCount == n). Throws InvalidInput
