@@ -183,6 +183,21 @@ std::map<std::string, json> demoRigs(const DemoControls& controls) {
                       {"curve", "catmull-rom"},
                       {"radius", 2.5},
                       {"innerRadius", 0.9}}}}};
+  // Skinning: the bar twisted by 170° about its axis between two bones at its ends, by linear
+  // blending (its middle collapses: the candy-wrapper effect) and by dual quaternions (it keeps
+  // its girth). Two handles per end, one bone each, so that the default (RBF) coordinates of
+  // the four handles are their barycentric coordinates: each end's weight is linear along z.
+  const double c = std::cos(170.0 * pi / 180.0), s = std::sin(170.0 * pi / 180.0);
+  const json rest = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  const json twisted = {{c, -s, 0, 0}, {s, c, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  for (const std::string mode : {"lbs", "dqs"}) {
+    rigs["skinning-" + mode] = {
+        {"method", "skinning"},
+        {"mode", mode},
+        {"bones", {rest, rest, twisted, twisted}},
+        {"handles",
+         {{-0.3, 0, kBarLo.z}, {0.3, 0, kBarLo.z}, {0, -0.3, kBarHi.z}, {0, 0.3, kBarHi.z}}}};
+  }
   for (const std::string& method : cageMethods())
     rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
   // The volume's inverse is seeded from a coarse lattice that may reach past the cage; 100k

@@ -114,6 +114,19 @@ class Describer {
       line("does", "displaces space as an infinite elastic medium under a " + brush +
                        " brush spread over the radius around the center; the effect fades with "
                        "distance and never stops entirely");
+    } else if (method == "skinning") {
+      const bool dqs = get("mode", "lbs") == "dqs";
+      line("method", std::string("skinning (") + (dqs ? "dual-quaternion" : "linear blend") + ")");
+      line("bones", count(rig_, "bones"));
+      line("weights", rig_.contains("weights")
+                          ? get("weights") + ", of the vertices of " + get("model") +
+                                " (other points take their nearest vertex's)"
+                          : get("coordinates", "rbf") + " coordinates of " +
+                                count(rig_, "handles") + " handles, one per bone");
+      line("influences", get("influences", "4") + " per point (0: all)");
+      line("does",
+           std::string("moves each point by the weighted blend of its bones' transforms (") +
+               (dqs ? "as dual quaternions: twists keep their volume" : "of the matrices") + ")");
     } else if (method == "compose") {
       compose();
     } else {

@@ -23,6 +23,7 @@
 #include <spacewarp/rig/detail/mls_rig.h>
 #include <spacewarp/rig/detail/rbf_rig.h>
 #include <spacewarp/rig/detail/rig_reader.h>
+#include <spacewarp/rig/detail/skinning_rig.h>
 #include <spacewarp/rig/detail/wires_rig.h>
 
 namespace spacewarp {
@@ -101,6 +102,9 @@ const std::map<std::string, Method>& factories() {
         detail::kelvinletRig}},
       {"rbf",
        {{"kernel", "centers", "targets", "fixed", "smoothing", "scale", "radius"}, detail::rbfRig}},
+      {"skinning",
+       {{"mode", "bones", "influences", "weights", "model", "handles", "coordinates"},
+        detail::skinningRig}},
       {"wires", {{"wires", "locality"}, detail::wiresRig}},
       {"compose",
        {{"warps"},

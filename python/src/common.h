@@ -151,6 +151,7 @@ void bindGeometry(py::module_& m);
 void bindVolume(py::module_& m);
 void bindSurface(py::module_& m);
 void bindWires(py::module_& m);
+void bindSkinning(py::module_& m);
 void bindBenchHooks(py::module_& m);
 void bindShepard(py::module_& m);
 void bindKelvinlet(py::module_& m);

@@ -16,6 +16,7 @@ PYBIND11_MODULE(_spacewarp, m) {
   spacewarp::python::bindVolume(m);
   spacewarp::python::bindSurface(m);
   spacewarp::python::bindWires(m);
+  spacewarp::python::bindSkinning(m);
   spacewarp::python::bindBenchHooks(m);
   spacewarp::python::bindShepard(m);
   spacewarp::python::bindKelvinlet(m);

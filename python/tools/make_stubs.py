@@ -78,6 +78,7 @@ HANDLE_ARGS = {
     "axes": "ArrayLike",
     "triangles": "ArrayLike",
     "constrained": "ArrayLike",
+    "bones": "ArrayLike",
 }
 POINT_ARGS = {"points", "posed", "normals", "positions", "handles", "targets", "centers", "fixed",
               "nodes", "samples", "vertices", "from_points", "to_points", "rest", "start",
@@ -123,6 +124,12 @@ OVERRIDES = {
     "resolve_handles.return": "tuple[NDArray[np.uint32], _Float64Array]",
     "edit.handles": "Sequence[dict[str, Any]]",
     "edit.coordinates": "Optional[Coordinates]",
+    "Skinning.__init__.weights": "Optional[ArrayLike]",
+    "Skinning.__init__.model": "Optional[_Points]",
+    "Skinning.__init__.coordinates": "Optional[Coordinates]",
+    "SkinningBinding.__init__.weights": "Union[ArrayLike, Coordinates]",
+    "SkinningBinding.deform.out": "Optional[_Float64Array]",
+    "SkinningBinding.influences": "tuple[NDArray[np.uint32], _Float64Array]",
 }
 
 # String options: their accepted values (checked in C++; a Literal lets editors complete them).
