@@ -216,8 +216,9 @@ TEST_F(CliTest, DemoWritesEveryResult) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const PolygonSoup bar = readSoup(dir_ / "demo" / "bar.obj");
   const PolygonSoup cloud = readSoup(dir_ / "demo" / "cloud.ply");
-  for (const std::string method : {"twist", "bend", "taper", "mvc", "green", "ffd", "rbf", "mls",
-                                   "graph", "wires", "idw", "kelvinlet"}) {
+  for (const std::string method :
+       {"twist", "bend", "taper", "mvc", "green", "ffd", "rbf", "mls", "graph", "wires", "idw",
+        "kelvinlet", "skinning-lbs", "skinning-dqs"}) {
     const PolygonSoup deformedBar = readSoup(dir_ / "demo" / ("bar_" + method + ".obj"));
     const PolygonSoup deformedCloud = readSoup(dir_ / "demo" / ("cloud_" + method + ".ply"));
     EXPECT_EQ(deformedBar.size(), bar.size()) << method;
@@ -240,6 +241,21 @@ TEST_F(CliTest, DemoWritesEveryResult) {
       EXPECT_EQ(readSoup(dir_ / "demo" / ("fingers_" + std::string(rig) + ".obj")).size(),
                 fingers.size());
   }
+  // The bar twisted by 170° between two bones: by LBS the middle collapses towards the axis (to
+  // cos 85° of its girth: the candy wrapper), by DQS it keeps its girth.
+  const auto middleGirth = [&](const std::string& file) {
+    const PolygonSoup skinned = readSoup(dir_ / "demo" / file);
+    double girth = 0.0;
+    for (std::size_t i = 0; i < bar.size(); ++i)
+      if (std::abs(bar.positions[i].z) < 1e-9)
+        girth = std::max(girth, std::hypot(skinned.positions[i].x, skinned.positions[i].y));
+    return girth;
+  };
+  const double girth = middleGirth("bar.obj");
+  EXPECT_NEAR(girth, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(middleGirth("bar_skinning-lbs.obj") / girth,
+              std::cos(85.0 * std::numbers::pi / 180.0), 1e-9);
+  EXPECT_NEAR(middleGirth("bar_skinning-dqs.obj") / girth, 1.0, 1e-9);
   const nlohmann::json report =
       nlohmann::json::parse(slurp(dir_ / "demo" / "compare" / "report.json"));
   EXPECT_GE(report["methods"].size(), 4u);

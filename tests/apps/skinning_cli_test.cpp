@@ -153,27 +153,6 @@ TEST_F(SkinningCliTest, DeformWithWeightsFromCoordinatesMatchesTheLibrary) {
   EXPECT_THAT(info.out, HasSubstr("rbf coordinates of 4 handles"));
 }
 
-// The demo twists its bar by 170° between two bones: by LBS the middle collapses towards the
-// axis (to cos 85° of its girth), by DQS it keeps its girth.
-TEST_F(SkinningCliTest, TheDemoShowsTheCandyWrapperOfLinearBlendingOnly) {
-  const test::CliResult r = run("demo " + (dir_ / "demo").string());
-  ASSERT_EQ(r.exitCode, 0) << r.err;
-  const auto middleGirth = [&](const std::string& file) {
-    const PolygonSoup bar = readSoup(dir_ / "demo" / file);
-    double girth = 0.0;
-    const PolygonSoup rest = readSoup(dir_ / "demo" / "bar.obj");
-    for (std::size_t i = 0; i < bar.size(); ++i)
-      if (std::abs(rest.positions[i].z) < 1e-9)
-        girth = std::max(girth, glm::length(Vec3(bar.positions[i].x, bar.positions[i].y, 0.0)));
-    return girth;
-  };
-  const double rest = middleGirth("bar.obj");
-  EXPECT_NEAR(rest, std::sqrt(0.5), 1e-12);
-  EXPECT_NEAR(middleGirth("bar_skinning-lbs.obj") / rest, std::cos(85.0 * M_PI / 180.0), 1e-9);
-  EXPECT_NEAR(middleGirth("bar_skinning-dqs.obj") / rest, 1.0, 1e-9);
-  EXPECT_THAT(r.out, HasSubstr("cloud_skinning-dqs.ply"));
-}
-
 // Bad weight files: exit 3, the rig, key and file named, nothing written.
 TEST_F(SkinningCliTest, BadWeightFilesAreRefusedByName) {
   const PolygonSoup model = writeCloud(Vec3(-1.0), Vec3(1.0), 5, 6);
