@@ -3,51 +3,39 @@
 #include <cmath>
 #include <string>
 
+#include <spacewarp/core/detail/enum_names.h>
+#include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 
+namespace {
+
+constexpr detail::EnumNames<KelvinletBrush, 4> kBrushNames = {{{KelvinletBrush::Grab, "grab"},
+                                                               {KelvinletBrush::Twist, "twist"},
+                                                               {KelvinletBrush::Scale, "scale"},
+                                                               {KelvinletBrush::Pinch, "pinch"}}};
+constexpr detail::EnumNames<KelvinletFalloff, 3> kFalloffNames = {
+    {{KelvinletFalloff::Single, "single"},
+     {KelvinletFalloff::Bi, "bi"},
+     {KelvinletFalloff::Tri, "tri"}}};
+
+}  // namespace
+
 std::string kelvinletBrushName(KelvinletBrush brush) {
-  switch (brush) {
-    case KelvinletBrush::Grab:
-      return "grab";
-    case KelvinletBrush::Twist:
-      return "twist";
-    case KelvinletBrush::Scale:
-      return "scale";
-    case KelvinletBrush::Pinch:
-      return "pinch";
-  }
-  return "unknown";
+  return detail::enumName(kBrushNames, brush);
 }
 
 std::string kelvinletFalloffName(KelvinletFalloff falloff) {
-  switch (falloff) {
-    case KelvinletFalloff::Single:
-      return "single";
-    case KelvinletFalloff::Bi:
-      return "bi";
-    case KelvinletFalloff::Tri:
-      return "tri";
-  }
-  return "unknown";
+  return detail::enumName(kFalloffNames, falloff);
 }
 
 KelvinletFalloff kelvinletFalloffFromName(std::string_view name) {
-  if (name == "single") return KelvinletFalloff::Single;
-  if (name == "bi") return KelvinletFalloff::Bi;
-  if (name == "tri") return KelvinletFalloff::Tri;
-  throw InvalidInput("Kelvinlet falloff '" + std::string(name) +
-                     "' is not one of: single, bi, tri");
+  return detail::enumFromName(kFalloffNames, name, "Kelvinlet falloff");
 }
 
 KelvinletBrush kelvinletBrushFromName(std::string_view name) {
-  if (name == "grab") return KelvinletBrush::Grab;
-  if (name == "twist") return KelvinletBrush::Twist;
-  if (name == "scale") return KelvinletBrush::Scale;
-  if (name == "pinch") return KelvinletBrush::Pinch;
-  throw InvalidInput("Kelvinlet brush '" + std::string(name) +
-                     "' is not one of: grab, twist, scale, pinch");
+  return detail::enumFromName(kBrushNames, name, "Kelvinlet brush");
 }
 
 namespace {
@@ -55,14 +43,6 @@ namespace {
 [[noreturn]] void fail(const std::string& what) { throw InvalidInput("KelvinletWarp: " + what); }
 
 bool finiteMatrix(const Mat3& m) { return isFinite(m[0]) && isFinite(m[1]) && isFinite(m[2]); }
-
-Mat3 crossMatrix(const Vec3& y) {  // [y]x v = y × v
-  Mat3 m(0.0);
-  m[0] = Vec3(0.0, y.z, -y.y);
-  m[1] = Vec3(-y.z, 0.0, y.x);
-  m[2] = Vec3(y.y, -y.x, 0.0);
-  return m;
-}
 
 }  // namespace
 
@@ -148,7 +128,7 @@ struct Step {
         const Vec3 dPsi = (0.4 * eps3 * (-3.0 * i5 - 7.5 * eps2 * i7)) * r;
         if (brush == KelvinletBrush::Twist) {
           const Vec3 nr = glm::cross(axis, r);
-          if (jac) *jac = amount * (psi * crossMatrix(axis) + glm::outerProduct(nr, dPsi));
+          if (jac) *jac = amount * (psi * detail::crossMatrix(axis) + glm::outerProduct(nr, dPsi));
           return (amount * psi) * nr;
         }
         if (jac) *jac = amount * (Mat3(psi) + glm::outerProduct(r, dPsi));

@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 
@@ -299,34 +300,15 @@ void validate(const std::string& who, const std::vector<Vec3>& handles,
   }
 }
 
-Mat3 crossMatrix(const Vec3& y) {  // [y]x v = y × v
-  Mat3 m(0.0);
-  m[0] = Vec3(0.0, y.z, -y.y);
-  m[1] = Vec3(-y.z, 0.0, y.x);
-  m[2] = Vec3(y.y, -y.x, 0.0);
-  return m;
-}
+constexpr detail::EnumNames<MlsMode, 3> kModeNames = {
+    {{MlsMode::Affine, "affine"}, {MlsMode::Similarity, "similarity"}, {MlsMode::Rigid, "rigid"}}};
 
 }  // namespace
 
-std::string mlsModeName(MlsMode mode) {
-  switch (mode) {
-    case MlsMode::Affine:
-      return "affine";
-    case MlsMode::Similarity:
-      return "similarity";
-    case MlsMode::Rigid:
-      return "rigid";
-  }
-  return "unknown";
-}
+std::string mlsModeName(MlsMode mode) { return detail::enumName(kModeNames, mode); }
 
 MlsMode mlsModeFromName(std::string_view name) {
-  if (name == "affine") return MlsMode::Affine;
-  if (name == "similarity") return MlsMode::Similarity;
-  if (name == "rigid") return MlsMode::Rigid;
-  throw InvalidInput("MLS mode '" + std::string(name) +
-                     "' is not one of: affine, similarity, rigid");
+  return detail::enumFromName(kModeNames, name, "MLS mode");
 }
 
 MlsWarp::MlsWarp(std::vector<Vec3> handles, std::vector<Vec3> targets, const MlsOptions& options)
@@ -436,7 +418,7 @@ Mat3 MlsWarp::jacobian(const Vec3& x) const {
     const double hs = frobeniusDot(h, h);
     if (!(std::abs(det) > 1e-12 * hs * std::sqrt(hs))) return Warp::jacobian(x);
     const Mat3 omega = glm::inverse(h) * cross;
-    first = -scale * rot * crossMatrix(y) * omega;
+    first = -scale * rot * detail::crossMatrix(y) * omega;
     if (m.mode == MlsMode::Similarity) first += glm::outerProduct(rot * y, ds / mo.mu);
   }
   return first + t * (Mat3(1.0) - dp) + dq;

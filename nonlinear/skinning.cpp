@@ -11,6 +11,7 @@
 
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/batch.h>
+#include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/nonlinear/detail/graph_index.h>
@@ -289,15 +290,17 @@ std::size_t effectiveInfluences(std::size_t maxInfluences, std::size_t boneCount
 
 }  // namespace
 
-std::string skinningModeName(SkinningMode mode) {
-  return mode == SkinningMode::Linear ? "lbs" : "dqs";
-}
+namespace {
+
+constexpr detail::EnumNames<SkinningMode, 2> kModeNames = {
+    {{SkinningMode::Linear, "lbs"}, {SkinningMode::DualQuaternion, "dqs"}}};
+
+}  // namespace
+
+std::string skinningModeName(SkinningMode mode) { return detail::enumName(kModeNames, mode); }
 
 SkinningMode skinningModeFromName(std::string_view name) {
-  if (name == "lbs") return SkinningMode::Linear;
-  if (name == "dqs") return SkinningMode::DualQuaternion;
-  throw InvalidInput("unknown skinning mode '" + std::string(name) +
-                     "' (expected \"lbs\" or \"dqs\")");
+  return detail::enumFromName(kModeNames, name, "skinning mode");
 }
 
 SkinningWeights sparseSkinningWeights(std::span<const double> rows, std::size_t boneCount,

@@ -8,6 +8,15 @@
 
 namespace spacewarp::detail {
 
+/// The cross-product matrix [y]×, [y]× v = y × v: the generator of rotations about y.
+inline Mat3 crossMatrix(const Vec3& y) {
+  Mat3 m(0.0);
+  m[0] = Vec3(0.0, y.z, -y.y);
+  m[1] = Vec3(-y.z, 0.0, y.x);
+  m[2] = Vec3(y.y, -y.x, 0.0);
+  return m;
+}
+
 /// Eigen-decomposition of the symmetric 3 × 3 matrix m by cyclic Jacobi: eigenvalues e (not
 /// sorted), eigenvectors as the columns of v. Deterministic.
 void symmetricEigen(const Mat3& m, double e[3], Mat3& v);

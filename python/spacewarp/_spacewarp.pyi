@@ -59,6 +59,8 @@ __all__ = [
     "Rbf",
     "RbfWarp",
     "Shepard",
+    "Skinning",
+    "SkinningBinding",
     "SolverError",
     "SurfaceMesh",
     "Taper",
@@ -1047,6 +1049,88 @@ class Shepard(Coordinates):
     @property
     def radius(self) -> Optional[float]:
         """The support radius (world units), or None for global weights."""
+
+
+class Skinning(Warp):
+    """Skeletal skinning of space. bones: (b, 4, 4) row-major transforms from the
+    rest pose to the posed one (world units). The weights of a point x come either from `weights`
+    (n, b) of the vertices of `model` (n, 3) — x takes its nearest vertex's weights, so the warp is
+    exact on the model — or from `coordinates` (a Coordinates with one control point per bone,
+    e.g. MlsAffine or Rbf of the bones' handles). Per point the `influences`
+    (default 4; 0 for all) largest weights are kept and normalised to sum 1.
+    mode: "lbs" (linear blend skinning: the bones' matrices averaged; any
+    affine bones) or "dqs" (dual-quaternion skinning, Kavan et al. 2008: the rigid motions averaged
+    as unit dual quaternions, each in the hemisphere of the point's largest-weight bone; rigid bones
+    only).
+    """
+
+    def __init__(
+        self,
+        bones: ArrayLike,
+        *,
+        weights: Optional[ArrayLike] = None,
+        model: Optional[_Points] = None,
+        coordinates: Optional[Coordinates] = None,
+        mode: str = "lbs",
+        influences: int = 4,
+    ) -> None: ...
+
+    @property
+    def mode(self) -> str:
+        """"lbs" or "dqs"."""
+
+    @property
+    def bone_count(self) -> int:
+        """b."""
+
+
+class SkinningBinding:
+    """A fixed point set bound to b bones, re-posed by deform(bones): the fast path (SIMD,
+    parallel, deterministic; bit-identical to Skinning at the same points). points: (n, 3), world
+    units. weights: (n, b) dense weights, or a Coordinates with one control point per bone, whose
+    weights at the points are computed once. The `influences` (default 4; 0 for all) largest
+    weights per point are kept and normalised to sum 1.
+    """
+
+    def __init__(
+        self,
+        points: _Points,
+        weights: Union[ArrayLike, Coordinates],
+        *,
+        influences: int = 4,
+    ) -> None: ...
+
+    def deform(
+        self,
+        bones: ArrayLike,
+        *,
+        mode: str = "lbs",
+        out: Optional[_Float64Array] = None,
+    ) -> _Float64Array:
+        """The posed points (n, 3) for bones (b, 4, 4), into `out` if given.
+        mode: "lbs" (linear blend skinning: the bones' matrices averaged; any
+        affine bones) or "dqs" (dual-quaternion skinning, Kavan et al. 2008: the rigid motions averaged
+        as unit dual quaternions, each in the hemisphere of the point's largest-weight bone; rigid bones
+        only).
+        """
+
+    @property
+    def point_count(self) -> int:
+        """n."""
+
+    @property
+    def bone_count(self) -> int:
+        """b."""
+
+    @property
+    def rest_points(self) -> _Float64Array:
+        """The bound points (n, 3), a copy."""
+
+    @property
+    def influences(self) -> tuple[NDArray[np.uint32], _Float64Array]:
+        """The kept influences as (bones (n, k) uint32, weights (n, k) float64), largest weight
+        first, each row summing to 1.
+        """
 
 
 class SurfaceMesh:

@@ -189,7 +189,7 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{"UnknownMode",
                      R"({"method": "skinning", "mode": "slerp", "bones": )" + kBones +
                          R"(, "handles": )" + kHandles + "}",
-                     3, "'mode' unknown skinning mode 'slerp'"},
+                     3, "'mode' skinning mode 'slerp' is not one of: lbs, dqs"},
         test::BadRig{
             "NonRigidBoneForDqs",
             R"({"method": "skinning", "mode": "dqs", "bones": [[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]],

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <spacewarp/core/combinators.h>
+#include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 #include "test_util.h"
 
@@ -85,14 +86,6 @@ std::vector<KelvinletOptions> allBrushes() {
   steppedGrab.steps = 4;
   all.push_back(steppedGrab);
   return all;
-}
-
-Mat3 crossMatrix(const Vec3& y) {
-  Mat3 m(0.0);
-  m[0] = Vec3(0.0, y.z, -y.y);
-  m[1] = Vec3(-y.z, 0.0, y.x);
-  m[2] = Vec3(y.y, -y.x, 0.0);
-  return m;
 }
 
 TEST(KelvinletWarp, GrabMovesTheCentreByExactlyTheDisplacement) {
@@ -175,7 +168,7 @@ TEST(KelvinletWarp, MultiScaleFalloffDecaysFasterAndKeepsTheCentre) {
     KelvinletOptions t = twist(Vec3(0.0, 0.0, 1.0), 0.7);
     t.falloff = f;
     EXPECT_LT(test::relativeError(KelvinletWarp(t).jacobian(kCenter),
-                                  Mat3(1.0) + 0.7 * crossMatrix(Vec3(0.0, 0.0, 1.0))),
+                                  Mat3(1.0) + 0.7 * detail::crossMatrix(Vec3(0.0, 0.0, 1.0))),
               1e-14);
     KelvinletOptions p = pinch(pinchMatrix());
     p.falloff = f;
@@ -199,14 +192,15 @@ TEST(KelvinletWarp, JacobianAtTheCentre) {
   const Vec3 axis = glm::normalize(Vec3(1.0, 2.0, -0.5));
   const double angle = 0.8;
   EXPECT_LT(test::relativeError(KelvinletWarp(twist(2.0 * axis, angle)).jacobian(kCenter),
-                                Mat3(1.0) + angle * crossMatrix(axis)),
+                                Mat3(1.0) + angle * detail::crossMatrix(axis)),
             1e-15);
   // With steps the composition (I + θ/n [n]×)ⁿ approaches the rotation.
   KelvinletOptions o = twist(axis, angle);
   o.steps = 64;
   const Mat3 j = KelvinletWarp(o).jacobian(kCenter);
   Mat3 expected(1.0);
-  for (int k = 0; k < 64; ++k) expected = (Mat3(1.0) + (angle / 64) * crossMatrix(axis)) * expected;
+  for (int k = 0; k < 64; ++k)
+    expected = (Mat3(1.0) + (angle / 64) * detail::crossMatrix(axis)) * expected;
   EXPECT_LT(test::relativeError(j, expected), 1e-14);
   EXPECT_LT(test::relativeError(glm::transpose(j) * j, Mat3(1.0)), 0.02);
   // The centre itself stays put for the affine brushes.

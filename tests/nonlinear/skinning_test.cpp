@@ -126,7 +126,7 @@ TEST(SkinningWeights, BadWeightsAreNamed) {
 TEST(SkinningMode, NamesRoundTripAndUnknownNamesAreRefused) {
   for (SkinningMode mode : kModes) EXPECT_EQ(skinningModeFromName(skinningModeName(mode)), mode);
   EXPECT_THAT(test::messageOf<InvalidInput>([] { skinningModeFromName("slerp"); }),
-              HasSubstr("unknown skinning mode 'slerp'"));
+              HasSubstr("skinning mode 'slerp' is not one of: lbs, dqs"));
 }
 
 TEST(Skinning, IdentityBonesLeaveEveryPointExactlyInPlace) {

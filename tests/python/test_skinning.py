@@ -102,7 +102,7 @@ def test_bad_input_is_named():
     with pytest.raises(spacewarp.InvalidInput, match="weights of point 0 sum to 0"):
         spacewarp.SkinningBinding(points, np.array([[1.0, -1, 0], [1, 0, 0]]))
     binding = spacewarp.SkinningBinding(points, np.ones((2, 3)))
-    with pytest.raises(spacewarp.InvalidInput, match="unknown skinning mode 'slerp'"):
+    with pytest.raises(spacewarp.InvalidInput, match="skinning mode 'slerp' is not one of: lbs, dqs"):
         binding.deform(_BONES, mode="slerp")
     scaled = _BONES.copy()
     scaled[1, 0, 0] = 2.0
