@@ -256,7 +256,28 @@ void validate(const std::vector<Wire>& wires, const WiresOptions& options) {
           throw InvalidInput(who + ": " + name + "[" + std::to_string(k) + "] repeats " + name +
                              "[" + std::to_string(k - 1) + "]");
       }
+      // A Catmull-Rom tangent at point k is (p[k+1] − p[k−1]) / 2: zero at a hairpin, where the
+      // frames (and so the map) would be NaN.
+      if (w.curve == WireCurve::CatmullRom) {
+        for (std::size_t k = 1; k + 1 < pts->size(); ++k) {
+          if (glm::length((*pts)[k + 1] - (*pts)[k - 1]) <= tol)
+            throw InvalidInput(who + ": " + name + "[" + std::to_string(k + 1) + "] repeats " +
+                               name + "[" + std::to_string(k - 1) +
+                               "] (a hairpin: the catmull-rom curve has no tangent at " + name +
+                               "[" + std::to_string(k) + "])");
+        }
+      }
     }
+    // Each chord of the closest-point grid visits at least one cell, so beyond kMaxVisits chords
+    // no cell size bounds the build: refused before anything is allocated.
+    const double chords = static_cast<double>(w.rest.size() - 1) *
+                          (w.curve == WireCurve::CatmullRom ? kCatmullRomSamples : 1);
+    if (chords > kMaxVisits)
+      throw InvalidInput(who + ": " + std::to_string(w.rest.size()) + " points make " +
+                         std::to_string(static_cast<std::size_t>(chords)) +
+                         " chords, more than the " +
+                         std::to_string(static_cast<std::size_t>(kMaxVisits)) +
+                         " a wire can have (use fewer points)");
     if (!std::isfinite(w.radius) || !(w.radius > 0.0))
       throw InvalidInput(who + ": radius must be finite and > 0, not " + std::to_string(w.radius));
     if (!(w.innerRadius >= 0.0) || !(w.innerRadius < w.radius))

@@ -366,5 +366,40 @@ TEST(WiresWarp, ManyLongSegmentsWithATinyRadiusBuildQuickly) {
   EXPECT_TRUE(test::bitEqual(warp.apply(off), off));
 }
 
+// A Catmull-Rom hairpin (p[k+1] == p[k−1]) has a zero tangent at p[k]: it used to give NaN
+// positions and Jacobians silently; now refused naming the wire and the points. A polyline takes
+// the same points (its tangent there is the outgoing segment's).
+TEST(WiresWarp, RefusesCatmullRomHairpins) {
+  const std::vector<Vec3> line{{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+  const std::vector<Vec3> hairpin{{0, 0, 0}, {1, 0, 0}, {0, 0, 0}};
+  const std::string inDeformed = test::messageOf<InvalidInput>(
+      [&] { WiresWarp({wireOf(WireCurve::CatmullRom, line, hairpin, 0.5)}); });
+  EXPECT_THAT(inDeformed, HasSubstr("wire 0: deformed[2] repeats deformed[0]"));
+  EXPECT_THAT(inDeformed, HasSubstr("hairpin"));
+  EXPECT_THAT(test::messageOf<InvalidInput>(
+                  [&] { WiresWarp({wireOf(WireCurve::CatmullRom, hairpin, line, 0.5)}); }),
+              HasSubstr("wire 0: rest[2] repeats rest[0]"));
+  const WiresWarp polyline({wireOf(WireCurve::Polyline, line, hairpin, 0.5)});
+  for (double x = -0.5; x <= 2.5; x += 0.125)
+    EXPECT_TRUE(isFinite(polyline.apply(Vec3(x, 0.1, 0.05)))) << x;
+}
+
+// A wire of more chords than the grid can list used to build forever (the cell doubled to
+// infinity); now refused before anything is built.
+TEST(WiresWarp, RefusesWiresOfTooManyChordsUpFront) {
+  const std::size_t n = (std::size_t{1} << 20) + 2;  // 16 chords per Catmull-Rom span: > 2^24
+  std::vector<Vec3> rest(n), deformed(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    rest[k] = Vec3(static_cast<double>(k), static_cast<double>(k % 3), 0.0);
+    deformed[k] = rest[k] + Vec3(0.0, 0.0, 1.0);
+  }
+  EXPECT_THAT(
+      test::messageOf<InvalidInput>([&] {
+        WiresWarp({wireOf(WireCurve::Polyline, {{0, 0, 0}, {1, 0, 0}}, {{0, 0, 0}, {1, 0, 0}}, 1.0),
+                   wireOf(WireCurve::CatmullRom, rest, deformed, 0.5)});
+      }),
+      HasSubstr("wire 1: 1048578 points make 16777232 chords"));
+}
+
 }  // namespace
 }  // namespace spacewarp
