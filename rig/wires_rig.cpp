@@ -26,15 +26,19 @@ Wire readWire(const nlohmann::json& object, const RigReader& r, std::size_t inde
   Wire wire;
   // Enumerated names first: a wrong name is the likelier mistake than wrong numbers.
   if (w.has("curve")) {
+    // The string read outside the try: its own type error already names the place.
+    const std::string name = w.string("curve");
     try {
-      wire.curve = wireCurveFromName(w.string("curve"));
+      wire.curve = wireCurveFromName(name);
     } catch (const InvalidInput& e) {
       w.fail("curve", e.what());
     }
   }
   if (w.has("dropoff")) {
+    // The string read outside the try: its own type error already names the place.
+    const std::string name = w.string("dropoff");
     try {
-      wire.dropoff = wireDropoffFromName(w.string("dropoff"));
+      wire.dropoff = wireDropoffFromName(name);
     } catch (const InvalidInput& e) {
       w.fail("dropoff", e.what());
     }

@@ -86,6 +86,19 @@ TEST_F(WiresCliTest, DeformMatchesTheLibraryOnSoupsAndClouds) {
   EXPECT_THAT(info.out, HasSubstr("wires:      2"));
 }
 
+// A 'curve' or 'dropoff' of the wrong JSON type used to print its place twice.
+TEST_F(WiresCliTest, WrongTypeOfCurveNamesThePlaceOnce) {
+  for (const char* key : {"curve", "dropoff"}) {
+    write("rig.json", std::string(R"({"method": "wires", "wires": [{"rest": [[0,0,0],[0,0,1]],
+        "deformed": [[0,0,0],[0,0,1]], "radius": 1, ")") +
+                          key + R"(": 3}]})");
+    const test::CliResult r = run("info " + (dir_ / "rig.json").string());
+    EXPECT_EQ(r.exitCode, 3) << r.err;
+    EXPECT_THAT(r.err, HasSubstr("wires[0]: '" + std::string(key) + "' must be a string"));
+    EXPECT_EQ(r.err.find("rig.json"), r.err.rfind("rig.json")) << r.err;
+  }
+}
+
 const std::string kLine = "[[0,0,0],[1,0,0],[2,1,0]]";
 const std::string kLine2 = "[[0,0,0],[1,0,0.5],[2,1,0]]";
 
@@ -140,7 +153,11 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{"WireNotAnObject", wireRig("[1, 2]"), 3,
                      "'wires' [1] must be a JSON object (a wire)"},
         test::BadRig{"NoWires", R"({"method": "wires", "wires": []})", 3,
-                     "'wires' must be a non-empty array"}),
+                     "'wires' must be a non-empty array"},
+        test::BadRig{"CatmullRomHairpin",
+                     wireRig(R"({"rest": )" + kLine + R"(, "deformed": [[0,0,0],[1,0,0],[0,0,0]],
+                                 "radius": 1, "curve": "catmull-rom"})"),
+                     3, "wire 1: deformed[2] repeats deformed[0] (a hairpin"}),
     ::spacewarp::test::badRigName);
 
 }  // namespace
