@@ -63,6 +63,8 @@ struct WiresOptions {
   /// The paper's "localizing" exponent m ≥ 0 of the combination of several wires:
   /// x' = x + Σ Δx_i |Δx_i|^m / Σ |Δx_i|^m. m = 0 averages the moves of the wires that move x;
   /// larger m lets the wire that moves x most dominate. Default 1. Unused for a single wire.
+  /// With m < 1 the map jumps where another wire's influence starts (a wire counts as soon as
+  /// it moves x at all), so m ≥ 1 where wires overlap.
   double locality = 1.0;
 };
 
