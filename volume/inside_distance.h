@@ -46,9 +46,9 @@ struct InsideDistanceOptions {
 /// 1-unit gap at h = 0.05, and on the mid-plane the gradient is one side's); |∇d_i| ≈ 1 inside
 /// and up to 2 outside. A component of the model that no handle's inside path reaches is
 /// treated as outside: its distances are extrapolated from the nearest reached part, so it moves
-/// with those handles (a handle placed in it, target equal to itself, holds it). The gradient is that of the
-/// interpolation: exact within a voxel, discontinuous across voxel faces, so a Jacobian built on
-/// it jumps by O(h)-relative amounts between voxels.
+/// with those handles (a handle placed in it, target equal to itself, holds it). The gradient is
+/// that of the interpolation: exact within a voxel, discontinuous across voxel faces, so a Jacobian
+/// built on it jumps by O(h)-relative amounts between voxels.
 ///
 /// Accuracy (measured, tests/volume/inside_distance_test.cpp): inside a convex box within 0.16 h
 /// of the Euclidean distance; around the reflex corner of an L within 0.06 h of the shortest
@@ -67,8 +67,8 @@ class InsideDistances final : public HandleDistances {
   /// inside the model or within 2 voxels outside its surface. Throws InvalidInput naming the
   /// problem for: an empty or invalid model, one with boundary edges (not closed: edges used by
   /// an odd number of polygons, vertices matched by position), one that encloses no voxel
-  /// (thinner than a voxel), a non-finite or negative voxel size, no handles, a non-finite handle, a
-  /// handle outside the model (naming its index and how far out it is), or a grid too large for
+  /// (thinner than a voxel), a non-finite or negative voxel size, no handles, a non-finite handle,
+  /// a handle outside the model (naming its index and how far out it is), or a grid too large for
   /// the memory.
   InsideDistances(const PolygonSoup& model, std::vector<Vec3> handles,
                   const InsideDistanceOptions& options = {});
