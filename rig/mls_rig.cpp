@@ -40,7 +40,9 @@ std::shared_ptr<const HandleDistances> insideDistances(RigReader& r,
     // Named by the key at fault: the voxel size (too fine for the memory), a handle (outside
     // the model), or else the model.
     const std::string what = e.what();
-    if (what.find("'voxelSize'") != std::string::npos) r.fail("voxelSize", what);
+    // "InsideDistances: 'voxelSize' 0.001 (...)": the key once, from the reader.
+    if (const auto at = what.find("'voxelSize' "); at != std::string::npos)
+      r.fail("voxelSize", what.substr(at + 12));
     if (what.find(": handle ") != std::string::npos)
       r.fail("handles", model.string() + ": " + what);
     r.fail("model", model.string() + ": " + what);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include <tbb/blocked_range.h>
@@ -34,6 +35,47 @@ std::string str(double v) {
 }
 
 std::string str(const Vec3& p) { return "(" + str(p.x) + ", " + str(p.y) + ", " + str(p.z) + ")"; }
+
+// The soup's boundary edges: edges (between vertices at equal positions, so unwelded soups count
+// as closed) used by an odd number of polygons. A closed surface has none; an open one has no
+// inside, and its level set's sign is then arbitrary, so handles would be blamed for it.
+struct BoundaryEdges {
+  std::size_t count = 0;
+  std::uint32_t a = 0, b = 0;  // one of them, by vertex index
+};
+
+BoundaryEdges boundaryEdges(const PolygonSoup& soup) {
+  const std::size_t nv = soup.positions.size();
+  std::vector<std::uint32_t> order(nv);
+  for (std::size_t v = 0; v < nv; ++v) order[v] = static_cast<std::uint32_t>(v);
+  const auto less = [&](std::uint32_t u, std::uint32_t v) {
+    const Vec3& p = soup.positions[u];
+    const Vec3& q = soup.positions[v];
+    return std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z);
+  };
+  std::sort(order.begin(), order.end(), less);
+  std::vector<std::uint32_t> id(nv);  // the first vertex at the same position
+  for (std::size_t k = 0; k < nv; ++k)
+    id[order[k]] = k > 0 && !less(order[k - 1], order[k]) ? id[order[k - 1]] : order[k];
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+  edges.reserve(soup.faceIndices.size());
+  for (std::size_t f = 0; f < soup.polygonCount(); ++f) {
+    const auto polygon = soup.polygon(f);
+    for (std::size_t c = 0; c < polygon.size(); ++c) {
+      const std::uint32_t u = id[polygon[c]], v = id[polygon[(c + 1) % polygon.size()]];
+      if (u != v) edges.emplace_back(std::min(u, v), std::max(u, v));
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  BoundaryEdges result;
+  for (std::size_t k = 0; k < edges.size();) {
+    std::size_t end = k;
+    while (end < edges.size() && edges[end] == edges[k]) ++end;
+    if ((end - k) % 2 == 1 && result.count++ == 0) std::tie(result.a, result.b) = edges[k];
+    k = end;
+  }
+  return result;
+}
 
 // Fast marching of |∇u| = 1 on a dense grid of voxel edge h (Sethian 1996; second-order upwind
 // differences where two known voxels line up), over the voxels a phase allows, from the voxels
@@ -172,34 +214,51 @@ InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> han
   if (model.positions.empty() || model.polygonCount() == 0)
     throw InvalidInput(who + "the model has no polygons");
   model.validate();
+  if (const BoundaryEdges open = boundaryEdges(model); open.count > 0) {
+    throw InvalidInput(who + "the model is not closed (" + std::to_string(open.count) +
+                       " boundary edges, e.g. between vertices " + std::to_string(open.a) + " " +
+                       str(model.positions[open.a]) + " and " + std::to_string(open.b) + " " +
+                       str(model.positions[open.b]) + "): inside distances need a closed surface");
+  }
   const BoundingBox box = boundingBox(model.positions);
   const double diagonal = box.diagonal();
   if (!(diagonal > 0.0)) throw InvalidInput(who + "the model is a single point");
   h_ = options.voxelSize > 0.0 ? options.voxelSize : diagonal / 128.0;
 
   // The grid: voxel centres at integer multiples of h (meshLevelSet's grid), the box padded.
+  // Counts in double: a tiny voxel gives counts far beyond any integer type.
   double voxels = 1.0;
-  std::array<long long, 3> lo{};
+  std::array<double, 3> first{}, counts{};
   for (int a = 0; a < 3; ++a) {
-    const double first = std::floor(box.min[a] / h_) - kPadVoxels;
-    const double last = std::ceil(box.max[a] / h_) + kPadVoxels;
-    const double count = last - first + 1.0;
-    voxels *= count;
-    if (!(count < 1e9)) voxels = kInf;
-    lo[a] = static_cast<long long>(std::max(first, -1e15));
-    dims_[a] = static_cast<int>(std::min(count, 1e9));
+    first[a] = std::floor(box.min[a] / h_) - kPadVoxels;
+    counts[a] = std::ceil(box.max[a] / h_) + kPadVoxels - first[a] + 1.0;
+    voxels *= counts[a];
   }
   const std::size_t n = handles_.size();
-  const std::string what = "'voxelSize' " + str(h_) + " (" + std::to_string(dims_[0]) + " x " +
-                           std::to_string(dims_[1]) + " x " + std::to_string(dims_[2]) +
-                           " voxels, " + std::to_string(n) + " handles)";
+  const std::string what = "'voxelSize' " + str(h_) + " (" + str(counts[0]) + " x " +
+                           str(counts[1]) + " x " + str(counts[2]) + " voxels, " +
+                           std::to_string(n) + " handles)";
   const double workers = std::min<double>(static_cast<double>(n),
                                           static_cast<double>(tbb::info::default_concurrency()));
   // Per voxel: 4 bytes per handle kept; the level set, inside flags, nearest inside voxels and
   // their heap (about 40 bytes, OpenVDB's narrow band included); per marching thread the
   // values, states and heap (about 25).
-  detail::checkMemory(voxels * (4.0 * static_cast<double>(n) + 40.0 + 25.0 * workers), who + what);
+  const double bytes = voxels * (4.0 * static_cast<double>(n) + 40.0 + 25.0 * workers);
+  if (!(bytes < 1e21)) {  // beyond any machine: say so rather than print a byte count
+    const std::size_t available = detail::availableMemory();
+    throw InvalidInput(
+        who + what + " needs far more memory than any machine has" +
+        (available != std::numeric_limits<std::size_t>::max()
+             ? " (" + detail::formatBytes(static_cast<double>(available)) + " available)"
+             : std::string()));
+  }
+  detail::checkMemory(bytes, who + what);
   if (!(voxels < 4e9)) throw InvalidInput(who + what + " has too many voxels");
+  std::array<long long, 3> lo{};
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = static_cast<long long>(std::clamp(first[a], -1e15, 1e15));
+    dims_[a] = static_cast<int>(counts[a]);
+  }
   // OpenVDB's coordinates are 32-bit.
   for (int a = 0; a < 3; ++a) {
     if (!(std::abs(static_cast<double>(lo[a])) + dims_[a] < 0x1p30)) {
@@ -268,9 +327,9 @@ InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> han
     if (!(value <= band)) {
       throw InvalidInput(who + "handle " + std::to_string(hi) + " " + str(handles_[hi]) +
                          " is outside the model (" +
-                         (inGrid && value < 3.0 * h_ ? str(value) : "more than " + str(3.0 * h_)) +
-                         " from its surface; handles must be inside or within 2 voxels of " +
-                         str(h_) + ")");
+                         (inGrid && value < 3.0 * h_ ? str(value) : "more than " + str(band)) +
+                         " from its surface; handles must be inside or within 2 voxels (" +
+                         str(band) + ") of it)");
     }
   }
 

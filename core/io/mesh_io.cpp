@@ -72,11 +72,11 @@ FileFormat formatFromPath(const std::filesystem::path& path) {
 }
 
 PolygonSoup readSoup(const std::filesystem::path& path) {
-  const FileFormat format = formatFromPath(path);
   const std::string name = path.string();
   std::error_code error;
-  if (std::filesystem::is_directory(path, error))
+  if (std::filesystem::is_directory(path, error))  // before the extension: folders have none
     throw IoError("cannot open " + name + ": it is a directory");
+  const FileFormat format = formatFromPath(path);
   errno = 0;
   std::ifstream in(path, std::ios::binary);
   if (!in) {

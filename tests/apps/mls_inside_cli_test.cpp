@@ -104,6 +104,10 @@ TEST_F(MlsInsideCliTest, DeformsALevelSet) {
 
 TEST_F(MlsInsideCliTest, BadKeysExitWith3AndWriteNothing) {
   writeSoup(fingers(), dir_ / "fingers.obj");
+  PolygonSoup open = fingers();  // one face short
+  open.faceIndices.resize(open.faceOffsets[open.faceOffsets.size() - 2]);
+  open.faceOffsets.pop_back();
+  writeSoup(open, dir_ / "open.obj");
   writeCloud(Vec3(0.0), Vec3(1.0), 10, 1);
   const std::vector<Vec3> outside = {
       {0.5, 4.5, 0.5}, {2.5, 3.0, 0.5}, {2.5, 0.5, 0.8}, {4.5, 0.5, 0.5}, {4.5, 4.5, 0.5}};
@@ -120,8 +124,12 @@ TEST_F(MlsInsideCliTest, BadKeysExitWith3AndWriteNothing) {
       {R"(, "model": "fingers.obj")", &outside,
        "'handles' " + (dir_ / "fingers.obj").string() +
            ": InsideDistances: handle 1 (2.5, 3, 0.5) is outside the model"},
-      {R"(, "model": "fingers.obj", "voxelSize": 1e-5)", nullptr,
-       "'voxelSize' InsideDistances: 'voxelSize' 1e-05"},
+      {R"(, "model": "fingers.obj", "voxelSize": 1e-5)", nullptr, "rig.json: 'voxelSize' 1e-05 ("},
+      {R"(, "model": "fingers.obj", "voxelSize": 1e-300)", nullptr,
+       "'voxelSize' 1e-300 (5e+300 x 5e+300 x 1e+300 voxels, 5 handles) needs far more memory"},
+      {R"(, "model": "open.obj")", nullptr,
+       "'model' " + (dir_ / "open.obj").string() + ": InsideDistances: the model is not closed"},
+      {R"(, "model": ".")", nullptr, "is a directory"},
   };
   for (const Case& c : cases) {
     rig(c.extra, c.handles);

@@ -19,6 +19,7 @@ namespace spacewarp {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 // A slab of unit cells, one thick in z, from (x, y) cells.
 PolygonSoup slab(const std::vector<glm::ivec2>& xy) {
@@ -210,6 +211,52 @@ TEST(InsideDistances, RejectsBadInput) {
               HasSubstr("too far from the origin"));
   // Too large for the memory: named by the voxel size.
   EXPECT_THAT(message(fingers, {in}, 1e-5), HasSubstr("'voxelSize'"));
+  // Far too large: the true voxel counts, no byte count beyond exabytes.
+  const std::string huge = message(fingers, {in}, 1e-300);
+  EXPECT_THAT(huge, HasSubstr("'voxelSize' 1e-300 (5e+300 x 5e+300 x 1e+300 voxels, 1 handles)"));
+  EXPECT_THAT(huge, HasSubstr("far more memory than any machine has"));
+  EXPECT_THAT(huge, Not(HasSubstr("inf")));
+}
+
+// A handle beyond the 2-voxel rule is reported with that rule's distance, not the band's.
+TEST(InsideDistances, OutsideHandleMessageStatesTheRule) {
+  const PolygonSoup box = makeBoxSurface(Vec3(0.0), Vec3(1.0), glm::ivec3(1));
+  const auto message = [&](double z) {
+    return test::messageOf<InvalidInput>(
+        [&] { InsideDistances(box, {Vec3(0.5, 0.5, z)}, InsideDistanceOptions{0.05}); });
+  };
+  EXPECT_THAT(message(1.12), HasSubstr("(0.12 from its surface; handles must be inside or "
+                                       "within 2 voxels (0.1) of it)"));
+  EXPECT_THAT(message(1.5), HasSubstr("(more than 0.1 from its surface"));
+}
+
+// A box missing a face encloses nothing: refused as open, naming an edge, not the handles.
+TEST(InsideDistances, RejectsAnOpenModel) {
+  PolygonSoup closed = makeBoxSurface(Vec3(0.0), Vec3(1.0), glm::ivec3(1));
+  ASSERT_EQ(closed.polygonCount(), 6u);
+  EXPECT_NO_THROW(InsideDistances(closed, {Vec3(0.2)}, InsideDistanceOptions{0.05}));
+  PolygonSoup open;
+  open.positions = closed.positions;
+  for (std::size_t f = 0; f + 1 < closed.polygonCount(); ++f) {
+    const auto p = closed.polygon(f);
+    open.addPolygon(std::vector<std::uint32_t>(p.begin(), p.end()));
+  }
+  const std::string m = test::messageOf<InvalidInput>(
+      [&] { InsideDistances(open, {Vec3(0.2)}, InsideDistanceOptions{0.05}); });
+  EXPECT_THAT(m, HasSubstr("the model is not closed (4 boundary edges, e.g. between vertices"));
+  EXPECT_THAT(m, HasSubstr("inside distances need a closed surface"));
+  EXPECT_THAT(m, Not(HasSubstr("handle")));
+  // The same box with every polygon on its own vertices (an unwelded soup) is closed.
+  PolygonSoup unwelded;
+  for (std::size_t f = 0; f < closed.polygonCount(); ++f) {
+    std::vector<std::uint32_t> corners;
+    for (const std::uint32_t v : closed.polygon(f)) {
+      corners.push_back(static_cast<std::uint32_t>(unwelded.positions.size()));
+      unwelded.positions.push_back(closed.positions[v]);
+    }
+    unwelded.addPolygon(corners);
+  }
+  EXPECT_NO_THROW(InsideDistances(unwelded, {Vec3(0.2)}, InsideDistanceOptions{0.05}));
 }
 
 // MLS with distances measured inside the two-finger model.
