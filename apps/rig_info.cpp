@@ -123,7 +123,8 @@ class Describer {
                                 " (other points take their nearest vertex's)"
                           : get("coordinates", "rbf") + " coordinates of " +
                                 count(rig_, "handles") + " handles, one per bone");
-      line("influences", get("influences", "4") + " per point (0: all)");
+      line("influences",
+           get("influences", rig_.contains("weights") ? "4" : "0") + " per point (0: all)");
       line("does",
            std::string("moves each point by the weighted blend of its bones' transforms (") +
                (dqs ? "as dual quaternions: twists keep their volume" : "of the matrices") + ")");

@@ -203,11 +203,18 @@ void skinPoints(const BoneView& bones, SkinningMode mode, const SkinningWeights&
   }
 }
 
-// The kept influences of one dense row: the k weights of largest magnitude (ties to the lower
-// bone), in that order, into bones/raw; returns their sum. Throws for non-finite weights and a
-// zero sum, naming the point: index `point` of a batch, or the position `at` when not null.
+// The kept influences of one dense row into bones/raw (k entries), in decreasing order (ties to
+// the lower bone); returns their sum. Keeping every bone (k == boneCount) keeps the signed
+// weights. Truncating clamps negative weights to 0 first, so that the kept sum is at least the
+// largest weight: signed weights (RBF, MLS coordinates) cut to their k largest magnitudes can
+// sum to ~0 and put a pole in space. With `fade` (weights that vary in space) the (k + 1)-th
+// largest weight τ is also subtracted from the kept ones, so that a bone leaves the kept set
+// with weight 0 and the result stays continuous where the kept set changes; `faded` gets τ's
+// bone (or boneCount when τ = 0). Throws for non-finite weights, a sum that overflows and a sum
+// ≤ 0, naming the point: index `point` of a batch, or the position `at` when not null.
 double selectInfluences(const double* row, std::size_t boneCount, std::size_t k, std::size_t point,
-                        std::uint32_t* bones, double* raw, const Vec3* at = nullptr) {
+                        std::uint32_t* bones, double* raw, const Vec3* at = nullptr,
+                        bool fade = false, std::size_t* faded = nullptr) {
   const auto name = [&] {
     return at ? "the point " + detail::describePoint(*at) : "point " + std::to_string(point);
   };
@@ -215,41 +222,40 @@ double selectInfluences(const double* row, std::size_t boneCount, std::size_t k,
     if (!std::isfinite(row[c]))
       throw InvalidInput("skinning weights: " + name() + " has a non-finite weight for bone " +
                          std::to_string(c));
-  if (k > 32) {  // insertion would cost up to k moves per weight: a partial sort instead
-    std::vector<std::uint32_t> order(boneCount);
-    std::iota(order.begin(), order.end(), 0u);
-    std::partial_sort(order.begin(), order.begin() + std::ptrdiff_t(k), order.end(),
-                      [&](std::uint32_t a, std::uint32_t b) {
-                        const double x = std::abs(row[a]), y = std::abs(row[b]);
-                        return x > y || (x == y && a < b);
-                      });
-    for (std::size_t j = 0; j < k; ++j) {
-      bones[j] = order[j];
-      raw[j] = row[order[j]];
-    }
+  const bool truncate = k < boneCount;
+  const auto key = [&](double v) { return truncate ? std::max(v, 0.0) : std::abs(v); };
+  const auto before = [&](std::uint32_t a, std::uint32_t b) {
+    const double x = key(row[a]), y = key(row[b]);
+    return x > y || (x == y && a < b);
+  };
+  // k + 1 entries when fading (the last is τ): std::partial_sort, the callers' scratch has room.
+  const std::size_t m = fade && truncate ? k + 1 : k;
+  std::vector<std::uint32_t> order(boneCount);
+  std::iota(order.begin(), order.end(), 0u);
+  std::partial_sort(order.begin(), order.begin() + std::ptrdiff_t(m), order.end(), before);
+  for (std::size_t j = 0; j < m; ++j) {
+    bones[j] = order[j];
+    raw[j] = truncate ? key(row[order[j]]) : row[order[j]];
   }
-  std::size_t kept = k > 32 ? k : 0;
-  for (std::size_t c = 0; c < boneCount && k <= 32; ++c) {
-    const double v = row[c];
-    const double a = std::abs(v);
-    if (kept == k && !(a > std::abs(raw[k - 1]))) continue;
-    std::size_t j = kept < k ? kept++ : k - 1;
-    while (j > 0 && std::abs(raw[j - 1]) < a) {
-      raw[j] = raw[j - 1];
-      bones[j] = bones[j - 1];
-      --j;
-    }
-    raw[j] = v;
-    bones[j] = static_cast<std::uint32_t>(c);
+  if (faded) *faded = boneCount;
+  if (m > k && raw[k] > 0.0 && raw[0] > raw[k]) {  // all k + 1 equal: no fade (bounded, a tie)
+    for (std::size_t j = 0; j < k; ++j) raw[j] = std::max(raw[j] - raw[k], 0.0);
+    if (faded) *faded = bones[k];
   }
   double sum = 0.0, magnitude = 0.0;
   for (std::size_t j = 0; j < k; ++j) {
     sum += raw[j];
     magnitude += std::abs(raw[j]);
   }
-  if (!(std::abs(sum) > 1e-12 * magnitude))
+  if (!std::isfinite(magnitude))
     throw InvalidInput("skinning weights: the weights of " + name() +
-                       " sum to 0 (they cannot be normalised)");
+                       " are too large: their sum is not finite");
+  if (!(sum > 1e-12 * magnitude))
+    throw InvalidInput(
+        "skinning weights: the weights of " + name() +
+        (truncate ? " have no positive weight (negative weights are dropped when "
+                    "only the largest are kept)"
+                  : " sum to " + std::to_string(sum) + " (the sum must be > 0 to normalise them)"));
   return sum;
 }
 
@@ -348,11 +354,14 @@ SkinningWeights skinningWeights(const Coordinates& coordinates, std::span<const 
     rows.resize(n * bones);
     coordinates.weightsBatch(points.subspan(start, n), rows);
     detail::forEachRange(n, 1024, [&](std::size_t begin, std::size_t end) {
-      std::vector<double> raw(k);
+      std::vector<double> raw(k + 1);
+      std::vector<std::uint32_t> b(k + 1);
       for (std::size_t i = begin; i < end; ++i) {
         const std::size_t p = start + i;
-        const double sum = selectInfluences(rows.data() + i * bones, bones, k, p,
-                                            out.bones.data() + p * k, raw.data());
+        const double sum =
+            selectInfluences(rows.data() + i * bones, bones, k, p, b.data(), raw.data(), nullptr,
+                             /*fade=*/true);
+        std::copy_n(b.data(), k, out.bones.data() + p * k);
         normaliseInfluences(k, sum, raw.data(), out.weights.data() + p * k);
       }
       return UnmappedPoints{};
@@ -376,6 +385,9 @@ void checkBones(std::span<const Mat4> bones, SkinningMode mode) {
     double off = 0.0;
     for (int c = 0; c < 3; ++c)
       for (int r = 0; r < 3; ++r) off = std::max(off, std::abs(g[c][r] - (c == r ? 1.0 : 0.0)));
+    if (glm::determinant(a) < 0.0 && off <= 1e-4)
+      throw InvalidInput(name + ": the bone is a reflection (determinant −1): dual-quaternion " +
+                         "skinning needs rotations; use mode \"lbs\"");
     if (!(off <= 1e-4) || !(glm::determinant(a) > 0.0))
       throw InvalidInput(name + ": dual-quaternion skinning needs a rigid bone (rotation and " +
                          "translation), but its 3 × 3 part is not a rotation (|RᵀR − I| = " +
@@ -441,12 +453,14 @@ struct SkinningWarp::Impl {
     return true;
   }
 
-  // The sparse weights of x from the coordinates (k entries; `dense` has a row of scratch);
-  // returns the raw kept weights' sum, with the normalised weights in w.
+  // The sparse weights of x from the coordinates (k entries in w; b and raw have room for
+  // k + 1, `dense` for a row); returns the raw kept weights' sum, and in `faded` the bone whose
+  // weight was subtracted (selectInfluences).
   double coordinateWeights(const Vec3& x, std::vector<double>& dense, std::uint32_t* b, double* raw,
-                           double* w) const {
+                           double* w, std::size_t* faded = nullptr) const {
     coordinates->weights(x, dense);
-    const double sum = selectInfluences(dense.data(), dense.size(), influences, 0, b, raw, &x);
+    const double sum = selectInfluences(dense.data(), dense.size(), influences, 0, b, raw, &x,
+                                        /*fade=*/true, faded);
     normaliseInfluences(influences, sum, raw, w);
     return sum;
   }
@@ -518,7 +532,8 @@ UnmappedPoints SkinningWarp::applyRange(std::span<const Vec3> in, std::span<Vec3
   std::size_t rows[kBlock], index[kBlock];
   if (m.coordinates) {
     const std::size_t k = m.influences;
-    std::vector<double> dense(bones_.size()), raw(k);
+    std::vector<double> dense(bones_.size()), raw(k + 1);
+    std::vector<std::uint32_t> b(k + 1);
     SkinningWeights block;
     block.pointCount = kBlock;
     block.influences = k;
@@ -526,9 +541,11 @@ UnmappedPoints SkinningWarp::applyRange(std::span<const Vec3> in, std::span<Vec3
     block.weights.resize(kBlock * k);
     for (std::size_t start = begin; start < end; start += kBlock) {
       const std::size_t n = std::min(kBlock, end - start);
-      for (std::size_t i = 0; i < n; ++i)
-        m.coordinateWeights(in[start + i], dense, block.bones.data() + i * k, raw.data(),
+      for (std::size_t i = 0; i < n; ++i) {
+        m.coordinateWeights(in[start + i], dense, b.data(), raw.data(),
                             block.weights.data() + i * k);
+        std::copy_n(b.data(), k, block.bones.data() + i * k);
+      }
       skinPoints(bones, mode_, block, &in[start], nullptr, &out[start], n);
     }
     return unmapped;
@@ -554,19 +571,25 @@ UnmappedPoints SkinningWarp::applyRange(std::span<const Vec3> in, std::span<Vec3
 Mat3 SkinningWarp::jacobian(const Vec3& x) const {
   const Impl& m = *impl_;
   const std::size_t k = m.coordinates ? m.influences : m.weights.influences;
-  std::vector<std::uint32_t> b(k);
-  std::vector<double> w(k), raw(k);
+  std::vector<std::uint32_t> b(k + 1);
+  std::vector<double> w(k), raw(k + 1);
   std::vector<Vec3> grad;  // ∇w_j of the kept, normalised weights; empty when constant
   if (m.coordinates) {
     std::vector<double> dense(bones_.size());
-    const double sum = m.coordinateWeights(x, dense, b.data(), raw.data(), w.data());
+    std::size_t faded = bones_.size();
+    const double sum = m.coordinateWeights(x, dense, b.data(), raw.data(), w.data(), &faded);
     std::vector<Vec3> all(bones_.size());
     if (!m.coordinates->weightGradients(x, all)) return Warp::jacobian(x);
-    // w_j = u_j / S over the kept u: ∇w_j = (∇u_j − w_j Σ ∇u) / S.
-    Vec3 total(0.0);
-    for (std::size_t j = 0; j < k; ++j) total += all[b[j]];
+    // w_j = u_j / S over the kept u = v_j − τ (τ the faded weight, 0 if none; u_j = 0 where a
+    // weight ties τ): ∇w_j = (∇u_j − w_j Σ ∇u) / S.
+    const Vec3 dTau = faded < bones_.size() ? all[faded] : Vec3(0.0);
     grad.resize(k);
-    for (std::size_t j = 0; j < k; ++j) grad[j] = (all[b[j]] - w[j] * total) / sum;
+    Vec3 total(0.0);
+    for (std::size_t j = 0; j < k; ++j) {
+      grad[j] = raw[j] > 0.0 || k == bones_.size() ? all[b[j]] - dTau : Vec3(0.0);
+      total += grad[j];
+    }
+    for (std::size_t j = 0; j < k; ++j) grad[j] = (grad[j] - w[j] * total) / sum;
   } else {
     std::size_t row = 0;
     if (!m.nearest(x, row))

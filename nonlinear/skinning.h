@@ -45,27 +45,35 @@ struct SkinningWeights {
 };
 
 /// The sparse weights of dense rows (`rows`: points × boneCount, row-major): per point the
-/// `maxInfluences` weights of largest magnitude (all of them for 0, or when there are fewer
-/// bones), renormalised to sum to 1. Negative weights are kept (LBS blends them as they are;
-/// DQS blends the signed weights of the hemisphere-aligned quaternions). Throws InvalidInput
-/// naming the point (and bone) for a non-finite weight, and for kept weights whose sum is 0 (at
-/// most 1e-12 of the sum of their magnitudes: nothing to normalise), and if rows.size() is not a
-/// multiple of boneCount or boneCount is 0 or above 2³².
+/// `maxInfluences` largest weights (all of them for 0, or when there are fewer bones),
+/// renormalised to sum to 1. Keeping all bones keeps negative weights (LBS blends them as they
+/// are; DQS blends the signed weights of the hemisphere-aligned quaternions) and needs a
+/// positive sum. Keeping fewer clamps negative weights to 0 first and keeps the largest: the kept
+/// sum is then at least the largest weight, never near 0 (signed weights cut to their largest
+/// magnitudes can sum to ~0: a pole). Throws InvalidInput naming the point (and bone) for a
+/// non-finite weight, a sum that overflows, a sum ≤ 0 (at most 1e-12 of the sum of the kept
+/// magnitudes; truncating: no positive weight), and if rows.size() is not a multiple of
+/// boneCount or boneCount is 0 or above 2³².
 SkinningWeights sparseSkinningWeights(std::span<const double> rows, std::size_t boneCount,
                                       std::size_t maxInfluences = 4);
 
 /// The sparse weights of `points` (world units) from `coordinates` whose control points are the
-/// bones' handles (one column per bone: controlPointCount() == columnCount()), as
-/// sparseSkinningWeights() of coordinates.weightsBatch(). Computed in parallel, deterministic.
-/// Throws InvalidInput for coordinates with extra columns (Green's face normals), and as
-/// weightsBatch() and sparseSkinningWeights() do.
+/// bones' handles (one column per bone: controlPointCount() == columnCount()). By default
+/// (maxInfluences 0) every bone's weight is kept: exact, and as smooth as the coordinates.
+/// Truncated (0 < maxInfluences < bones), as sparseSkinningWeights() and then faded: the
+/// (k + 1)-th largest weight is subtracted from the kept ones, so that a bone leaves a point's
+/// kept set with weight 0 and the weights stay continuous in space (where the k + 1 largest tie,
+/// plain truncation: bounded). Computed in parallel, deterministic. Throws InvalidInput for
+/// coordinates with extra columns (Green's face normals), and as weightsBatch() and
+/// sparseSkinningWeights() do.
 SkinningWeights skinningWeights(const Coordinates& coordinates, std::span<const Vec3> points,
-                                std::size_t maxInfluences = 4);
+                                std::size_t maxInfluences = 0);
 
 /// Throws InvalidInput naming the bone unless every bone is a finite affine transform (last row
-/// 0 0 0 1) and, for DualQuaternion, rigid: a rotation (det R > 0, |RᵀR − I| ≤ 1e-4 entrywise,
-/// so that matrices written with 5 digits pass; DQS uses the unit quaternion of R) plus a
-/// translation. DQS of scaled or sheared bones is refused rather than approximated: use LBS.
+/// 0 0 0 1) and, for DualQuaternion, rigid: a rotation (det R > 0 — a reflection is named as such,
+/// |RᵀR − I| ≤ 1e-4 entrywise, so that matrices written with 5 digits pass; DQS uses the unit
+/// quaternion of R) plus a translation. DQS of scaled or sheared bones is refused rather than
+/// approximated: use LBS.
 void checkBones(std::span<const Mat4> bones, SkinningMode mode);
 
 /// A fixed point set with its sparse weights: deform(bones) re-poses it, the fast path.
@@ -106,16 +114,19 @@ class SkinningBinding {
 struct SkinningOptions {
   /// LBS or DQS. Default Linear, the common baseline.
   SkinningMode mode = SkinningMode::Linear;
-  /// Influences kept per point (the largest weights, renormalised); 0 keeps all. Default 4,
-  /// what real-time skinning uses.
-  std::size_t maxInfluences = 4;
+  /// Influences kept per point (skinningWeights(): the largest, faded and renormalised); 0 keeps
+  /// all. Default 0: exact and smooth; truncating to 4, what real-time skinning uses, is faster
+  /// with many bones but only continuous, and drops negative weights.
+  std::size_t maxInfluences = 0;
 };
 
 /// Skinning as a warp of space. The weights of a point x are either
 ///  - those of the nearest vertex of a weighted model (a KD-tree query, deterministic): exact
 ///    on the model's vertices, piecewise constant in space (a Voronoi partition of the model's
-///    vertices), so a volume or another sampling of the model follows it; or
-///  - sparseSkinningWeights() of coordinates.weights(x), smooth where the coordinates are.
+///    vertices), so a volume or another sampling of the model follows it. Of duplicate vertices
+///    (same position, different weights) the lowest index wins, at both copies; or
+///  - skinningWeights() of coordinates.weights(x), smooth where the coordinates are (continuous
+///    when truncated).
 /// Then x' is the LBS or DQS blend of the bones at x, bit-identical to a SkinningBinding with the
 /// same weights.
 ///

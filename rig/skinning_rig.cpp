@@ -67,7 +67,9 @@ std::vector<double> readCsv(const std::filesystem::path& path, std::size_t& colu
 }
 
 // NumPy's .npy, versions 1 to 3: magic, version, header length, a Python dict literal, the data.
-std::vector<double> readNpy(const std::filesystem::path& path, std::size_t& columns) {
+// A non-zero expectedRows/expectedColumns is checked against the header's shape before reading.
+std::vector<double> readNpy(const std::filesystem::path& path, std::size_t& columns,
+                            std::size_t expectedRows, std::size_t expectedColumns) {
   std::ifstream in(path, std::ios::binary);
   if (!in) bad(path, "cannot open");
   char magic[8];
@@ -86,21 +88,37 @@ std::vector<double> readNpy(const std::filesystem::path& path, std::size_t& colu
   const bool f4 = header.find("'<f4'") != std::string::npos;
   if (!f8 && !f4)
     bad(path, "the .npy array must hold little-endian float64 or float32 ('<f8', '<f4')");
-  if (header.find("'fortran_order': False") == std::string::npos)
-    bad(path, "the .npy array must be in C order (fortran_order False)");
+  const bool fortran = header.find("'fortran_order': True") != std::string::npos;
+  if (!fortran && header.find("'fortran_order': False") == std::string::npos)
+    bad(path, "the .npy header has no 'fortran_order'");
   const std::size_t shape = header.find("'shape':");
   const std::size_t open = header.find('(', shape), close = header.find(')', open);
   if (shape == std::string::npos || open == std::string::npos || close == std::string::npos)
     bad(path, "the .npy header has no shape");
   std::vector<double> dims;
-  std::string inside = header.substr(open + 1, close - open - 1);
+  const std::string shapeText = header.substr(open + 1, close - open - 1);
+  std::string inside = shapeText;
   for (char& c : inside)
     if (c == ',') c = ' ';
-  if (!parseCsvLine(inside, dims) || dims.size() != 2 || dims[0] < 1 || dims[1] < 1 ||
-      dims[0] > 1e12 || dims[1] > 1e9)
+  if (!parseCsvLine(inside, dims) || dims.size() != 2 || dims[0] < 1 || dims[1] < 1)
     bad(path, "the .npy array must be 2-D (points × bones) and not empty");
+  // The shape against the file's size and the model's, before anything is allocated or read.
+  const std::size_t itemSize = f8 ? sizeof(double) : sizeof(float);
+  const std::streamoff dataStart = in.tellg();
+  in.seekg(0, std::ios::end);
+  const double available = double(in.tellg() - dataStart);
+  in.seekg(dataStart);
+  if (dims[0] * dims[1] * double(itemSize) > available)
+    bad(path, "the .npy shape (" + shapeText + ") is too large for the file, which has " +
+                  std::to_string(std::size_t(available)) + " bytes of data");
   const std::size_t rows = std::size_t(dims[0]);
   columns = std::size_t(dims[1]);
+  if (expectedColumns != 0 && columns != expectedColumns)
+    bad(path, "has " + std::to_string(columns) + " columns, but there are " +
+                  std::to_string(expectedColumns) + " bones (one column per bone)");
+  if (expectedRows != 0 && rows != expectedRows)
+    bad(path, "has " + std::to_string(rows) + " rows, but the model has " +
+                  std::to_string(expectedRows) + " vertices (one row each)");
   const std::size_t count = rows * columns;
   std::vector<double> values(count);
   if (f8) {
@@ -113,6 +131,12 @@ std::vector<double> readNpy(const std::filesystem::path& path, std::size_t& colu
       bad(path, "the .npy data is shorter than its shape (" + std::to_string(rows) + " × " +
                     std::to_string(columns) + ")");
     for (std::size_t i = 0; i < count; ++i) values[i] = f[i];
+  }
+  if (fortran) {  // column-major (NumPy's order='F'): transposed into rows of bones
+    std::vector<double> rowMajor(count);
+    for (std::size_t c = 0; c < columns; ++c)
+      for (std::size_t i = 0; i < rows; ++i) rowMajor[i * columns + c] = values[c * rows + i];
+    values.swap(rowMajor);
   }
   return values;
 }
@@ -139,11 +163,12 @@ std::vector<Mat4> readBones(RigReader& r) {
 
 }  // namespace
 
-std::vector<double> readWeightMatrix(const std::filesystem::path& path, std::size_t& columns) {
+std::vector<double> readWeightMatrix(const std::filesystem::path& path, std::size_t& columns,
+                                     std::size_t expectedRows, std::size_t expectedColumns) {
   std::string extension = path.extension().string();
   for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
   if (std::filesystem::is_directory(path)) bad(path, "is a folder");
-  if (extension == ".npy") return readNpy(path, columns);
+  if (extension == ".npy") return readNpy(path, columns, expectedRows, expectedColumns);
   if (extension == ".csv" || extension == ".txt") return readCsv(path, columns);
   bad(path, "weights are read from .csv or .npy files");
 }
@@ -167,12 +192,15 @@ Rig skinningRig(RigReader& r) {
       r.fail("bones[" + std::to_string(b) + "]", what);
     }
   }
-  const double influences = r.number("influences", double(options.maxInfluences));
+  // Default: 4 of a weights file (what real-time skinning keeps), all of the handles'
+  // coordinates (exact and smooth; truncated they are only continuous).
+  const bool fromFile = r.has("weights") || r.has("model");
+  const double influences = r.number("influences", fromFile ? 4.0 : 0.0);
   if (!(influences >= 0.0) || influences != std::floor(influences) || influences > 1e6)
     r.fail("influences", "must be an integer >= 0 (0 keeps every bone's weight)");
   options.maxInfluences = std::size_t(influences);
 
-  if (r.has("weights") || r.has("model")) {
+  if (fromFile) {
     if (r.has("handles")) r.fail("handles", "is not read when 'weights' are given: remove one");
     if (r.has("coordinates"))
       r.fail("coordinates", "is not read when 'weights' are given: remove one");
@@ -182,7 +210,12 @@ Rig skinningRig(RigReader& r) {
     std::vector<double> dense;
     PolygonSoup model;
     try {
-      dense = readWeightMatrix(weightsPath, columns);
+      model = readSoup(modelPath);
+    } catch (const IoError& e) {
+      r.fail("model", e.what());
+    }
+    try {
+      dense = readWeightMatrix(weightsPath, columns, model.positions.size(), bones.size());
     } catch (const IoError& e) {
       r.fail("weights", e.what());
     }
@@ -190,11 +223,6 @@ Rig skinningRig(RigReader& r) {
       r.fail("weights", weightsPath.string() + " has " + std::to_string(columns) +
                             " columns, but there are " + std::to_string(bones.size()) +
                             " bones (one column per bone)");
-    try {
-      model = readSoup(modelPath);
-    } catch (const IoError& e) {
-      r.fail("model", e.what());
-    }
     if (dense.size() / columns != model.positions.size())
       r.fail("weights", weightsPath.string() + " has " + std::to_string(dense.size() / columns) +
                             " rows, but the model has " + std::to_string(model.positions.size()) +
@@ -220,12 +248,22 @@ Rig skinningRig(RigReader& r) {
   if (kind != "rbf" && kind != "mls-affine")
     r.fail("coordinates", "'" + kind + "' is not one of: mls-affine, rbf");
   r.finish();
+  // Both coordinates reproduce affine functions, so they need 4 handles not in one plane.
+  const std::string needs = "the " + kind + " coordinates of the handles need at least 4 " +
+                            "handles not in one plane (so at least 4 bones) to reproduce affine " +
+                            "motions";
+  const std::string fewer = "; with fewer bones give 'weights' and 'model' files";
+  if (handles.size() < 4) r.fail("handles", needs + fewer);
   std::shared_ptr<const Coordinates> coordinates;
-  if (kind == "mls-affine") {
-    coordinates = std::make_shared<MlsAffineCoordinates>(std::move(handles));
-  } else {
-    if (r.checking()) return {};  // the RBF fit is the expensive part
-    coordinates = std::make_shared<RbfCoordinates>(handles);
+  try {
+    if (kind == "mls-affine") {
+      coordinates = std::make_shared<MlsAffineCoordinates>(std::move(handles));
+    } else {
+      if (r.checking()) return {};  // the RBF fit is the expensive part
+      coordinates = std::make_shared<RbfCoordinates>(handles);
+    }
+  } catch (const InvalidInput& e) {
+    r.fail("handles", needs + " (" + e.what() + ")" + fewer);
   }
   if (r.checking()) return {};
   return {std::make_shared<SkinningWarp>(bones, coordinates, options), coordinates};

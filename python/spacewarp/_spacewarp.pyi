@@ -1056,8 +1056,10 @@ class Skinning(Warp):
     rest pose to the posed one (world units). The weights of a point x come either from `weights`
     (n, b) of the vertices of `model` (n, 3) — x takes its nearest vertex's weights, so the warp is
     exact on the model — or from `coordinates` (a Coordinates with one control point per bone,
-    e.g. MlsAffine or Rbf of the bones' handles). Per point the `influences`
-    (default 4; 0 for all) largest weights are kept and normalised to sum 1.
+    e.g. MlsAffine or Rbf of the bones' handles). Per point the `influences` largest weights are
+    kept and normalised to sum 1: 0 keeps all; default None: 4 of `weights`, all of `coordinates`
+    (exact and smooth). Truncating clamps negative weights to 0 (no poles) and, for coordinates,
+    fades the kept ones by the next largest (continuous in space).
     mode: "lbs" (linear blend skinning: the bones' matrices averaged; any
     affine bones) or "dqs" (dual-quaternion skinning, Kavan et al. 2008: the rigid motions averaged
     as unit dual quaternions, each in the hemisphere of the point's largest-weight bone; rigid bones
@@ -1072,7 +1074,7 @@ class Skinning(Warp):
         model: Optional[_Points] = None,
         coordinates: Optional[Coordinates] = None,
         mode: str = "lbs",
-        influences: int = 4,
+        influences: Optional[int] = None,
     ) -> None: ...
 
     @property
@@ -1088,8 +1090,9 @@ class SkinningBinding:
     """A fixed point set bound to b bones, re-posed by deform(bones): the fast path (SIMD,
     parallel, deterministic; bit-identical to Skinning at the same points). points: (n, 3), world
     units. weights: (n, b) dense weights, or a Coordinates with one control point per bone, whose
-    weights at the points are computed once. The `influences` (default 4; 0 for all) largest
-    weights per point are kept and normalised to sum 1.
+    weights at the points are computed once. The `influences` largest weights per point are kept
+    and normalised to sum 1, as in Skinning: 0 keeps all; default None: 4 of dense weights, all of
+    coordinates.
     """
 
     def __init__(
@@ -1097,7 +1100,7 @@ class SkinningBinding:
         points: _Points,
         weights: Union[ArrayLike, Coordinates],
         *,
-        influences: int = 4,
+        influences: Optional[int] = None,
     ) -> None: ...
 
     def deform(

@@ -66,8 +66,10 @@ const std::string& skinningDoc() {
 rest pose to the posed one (world units). The weights of a point x come either from `weights`
 (n, b) of the vertices of `model` (n, 3) — x takes its nearest vertex's weights, so the warp is
 exact on the model — or from `coordinates` (a Coordinates with one control point per bone,
-e.g. MlsAffine or Rbf of the bones' handles). Per point the `influences`
-(default 4; 0 for all) largest weights are kept and normalised to sum 1.
+e.g. MlsAffine or Rbf of the bones' handles). Per point the `influences` largest weights are
+kept and normalised to sum 1: 0 keeps all; default None: 4 of `weights`, all of `coordinates`
+(exact and smooth). Truncating clamps negative weights to 0 (no poles) and, for coordinates,
+fades the kept ones by the next largest (continuous in space).
 )" + kModes;
   return doc;
 }
@@ -85,7 +87,7 @@ void bindSkinning(py::module_& m) {
                                                                 skinningDoc().c_str())
       .def(py::init([](py::handle bones, const py::object& weights, const py::object& model,
                        const std::shared_ptr<Coordinates>& coordinates, const std::string& mode,
-                       std::size_t influences) {
+                       std::optional<std::size_t> influences) {
              std::vector<Mat4> b = toBones(bones);
              const SkinningMode skinningMode = modeOf(mode);
              if (coordinates) {
@@ -93,15 +95,17 @@ void bindSkinning(py::module_& m) {
                  throw InvalidInput("give either weights and model, or coordinates");
                std::shared_ptr<SkinningWarp> warp;
                withoutGil([&] {
-                 warp = std::make_shared<SkinningWarp>(std::move(b), coordinates,
-                                                       SkinningOptions{skinningMode, influences});
+                 warp = std::make_shared<SkinningWarp>(
+                     std::move(b), coordinates,
+                     SkinningOptions{skinningMode, influences.value_or(0)});
                });
                return warp;
              }
              if (weights.is_none() || model.is_none())
                throw InvalidInput("give weights (n, b) and model (n, 3), or coordinates");
              const Points points = toPoints(model, "model", false);
-             SkinningWeights w = toWeights(weights, points.size(), b.size(), influences);
+             SkinningWeights w =
+                 toWeights(weights, points.size(), b.size(), influences.value_or(4));
              std::shared_ptr<SkinningWarp> warp;
              withoutGil([&] {
                warp = std::make_shared<SkinningWarp>(
@@ -111,7 +115,7 @@ void bindSkinning(py::module_& m) {
              return warp;
            }),
            "bones"_a, py::kw_only(), "weights"_a = py::none(), "model"_a = py::none(),
-           "coordinates"_a = nullptr, "mode"_a = "lbs", "influences"_a = 4)
+           "coordinates"_a = nullptr, "mode"_a = "lbs", "influences"_a = py::none())
       .def_property_readonly(
           "mode", [](const SkinningWarp& w) { return skinningModeName(w.mode()); },
           "\"lbs\" or \"dqs\".")
@@ -123,35 +127,39 @@ void bindSkinning(py::module_& m) {
       R"(A fixed point set bound to b bones, re-posed by deform(bones): the fast path (SIMD,
 parallel, deterministic; bit-identical to Skinning at the same points). points: (n, 3), world
 units. weights: (n, b) dense weights, or a Coordinates with one control point per bone, whose
-weights at the points are computed once. The `influences` (default 4; 0 for all) largest
-weights per point are kept and normalised to sum 1.)")
-      .def(py::init([](py::handle points, py::handle weights, std::size_t influences) {
-             const Points p = toPoints(points, "points", false);
-             std::vector<Vec3> positions(p.span.begin(), p.span.end());
-             std::shared_ptr<SkinningBinding> binding;
-             if (py::isinstance<Coordinates>(weights)) {
-               const auto coordinates = weights.cast<std::shared_ptr<Coordinates>>();
-               withoutGil([&] {
-                 SkinningWeights w = skinningWeights(*coordinates, positions, influences);
-                 binding = std::make_shared<SkinningBinding>(std::move(positions), std::move(w),
-                                                             coordinates->controlPointCount());
-               });
-               return binding;
-             }
-             const DoubleArray a = DoubleArray::ensure(weights);
-             if (!a || a.ndim() != 2) {
-               PyErr_Clear();
-               throw InvalidInput("weights must be an (n, b) array or a Coordinates");
-             }
-             const std::size_t bones = std::size_t(a.shape(1));
-             SkinningWeights w = toWeights(weights, positions.size(), bones, influences);
-             withoutGil([&] {
-               binding =
-                   std::make_shared<SkinningBinding>(std::move(positions), std::move(w), bones);
-             });
-             return binding;
-           }),
-           "points"_a, "weights"_a, py::kw_only(), "influences"_a = 4)
+weights at the points are computed once. The `influences` largest weights per point are kept
+and normalised to sum 1, as in Skinning: 0 keeps all; default None: 4 of dense weights, all of
+coordinates.)")
+      .def(py::init(
+               [](py::handle points, py::handle weights, std::optional<std::size_t> influences) {
+                 const Points p = toPoints(points, "points", false);
+                 std::vector<Vec3> positions(p.span.begin(), p.span.end());
+                 std::shared_ptr<SkinningBinding> binding;
+                 if (py::isinstance<Coordinates>(weights)) {
+                   const auto coordinates = weights.cast<std::shared_ptr<Coordinates>>();
+                   withoutGil([&] {
+                     SkinningWeights w =
+                         skinningWeights(*coordinates, positions, influences.value_or(0));
+                     binding = std::make_shared<SkinningBinding>(std::move(positions), std::move(w),
+                                                                 coordinates->controlPointCount());
+                   });
+                   return binding;
+                 }
+                 const DoubleArray a = DoubleArray::ensure(weights);
+                 if (!a || a.ndim() != 2) {
+                   PyErr_Clear();
+                   throw InvalidInput("weights must be an (n, b) array or a Coordinates");
+                 }
+                 const std::size_t bones = std::size_t(a.shape(1));
+                 SkinningWeights w =
+                     toWeights(weights, positions.size(), bones, influences.value_or(4));
+                 withoutGil([&] {
+                   binding =
+                       std::make_shared<SkinningBinding>(std::move(positions), std::move(w), bones);
+                 });
+                 return binding;
+               }),
+           "points"_a, "weights"_a, py::kw_only(), "influences"_a = py::none())
       .def(
           "deform",
           [](const SkinningBinding& b, py::handle bones, const std::string& mode,

@@ -20,8 +20,11 @@ Rig skinningRig(RigReader& reader);
 
 /// The dense weight matrix of a .csv (rows of comma- or space-separated numbers; a first line
 /// that is not numeric, such as `spacewarp weights`'s column names, is skipped) or .npy file
-/// (float64 or float32, little-endian, C order, 2-D), row-major, with its column count in
-/// `columns`. Throws IoError naming the file (and the line) for unreadable or malformed content.
-std::vector<double> readWeightMatrix(const std::filesystem::path& path, std::size_t& columns);
+/// (float64 or float32, little-endian, C or Fortran order, 2-D), row-major, with its column
+/// count in `columns`. Throws IoError naming the file (and the line) for unreadable or malformed
+/// content; a .npy whose shape does not fit the file, or differs from a non-zero expectedRows or
+/// expectedColumns, is refused from its header, before its data is allocated or read.
+std::vector<double> readWeightMatrix(const std::filesystem::path& path, std::size_t& columns,
+                                     std::size_t expectedRows = 0, std::size_t expectedColumns = 0);
 
 }  // namespace spacewarp::detail

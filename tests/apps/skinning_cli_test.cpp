@@ -151,6 +151,59 @@ TEST_F(SkinningCliTest, DeformWithWeightsFromCoordinatesMatchesTheLibrary) {
   EXPECT_EQ(info.exitCode, 0) << info.err;
   EXPECT_THAT(info.out, HasSubstr("skinning (linear blend)"));
   EXPECT_THAT(info.out, HasSubstr("rbf coordinates of 4 handles"));
+  EXPECT_THAT(info.out, HasSubstr("0 per point (0: all)"));  // the handles' default
+}
+
+// A .npy's shape is checked from its header, against the file's size and against the model and
+// bones, before its data is allocated or read; Fortran order is read transposed.
+TEST_F(SkinningCliTest, NpyShapesAreCheckedBeforeReadingAndFortranOrderIsRead) {
+  const PolygonSoup model = writeCloud(Vec3(-1.0), Vec3(1.0), 6, 6);
+  writeSoup(model, dir_ / "model.ply");
+  write("rig.json", R"({"method": "skinning", "bones": )" + kBones +
+                        R"(, "weights": "w.npy", "model": "model.ply"})");
+  const auto npy = [&](const std::string& shape, bool fortran, const std::vector<double>& data) {
+    std::string header =
+        "{'descr': '<f8', 'fortran_order': " + std::string(fortran ? "True" : "False") +
+        ", 'shape': (" + shape + "), }";
+    header.append(63 - (10 + header.size()) % 64, ' ');
+    header += '\n';
+    std::ofstream out(dir_ / "w.npy", std::ios::binary);
+    out.write("\x93NUMPY\x01\x00", 8);
+    const char length[2] = {char(header.size() & 0xff), char(header.size() >> 8)};
+    out.write(length, 2);
+    out << header;
+    out.write(reinterpret_cast<const char*>(data.data()),
+              std::streamsize(data.size() * sizeof(double)));
+  };
+  const auto expectRefused = [&](const std::string& message) {
+    const test::CliResult r = deform("rig.json");
+    EXPECT_EQ(r.exitCode, 3) << r.err;
+    EXPECT_THAT(r.err, HasSubstr("rig.json: 'weights'"));
+    EXPECT_THAT(r.err, HasSubstr(message));
+    EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
+  };
+  // Shapes far larger than the file: refused by the header (reading them would take terabytes).
+  npy("4000000000000, 3", false, std::vector<double>(18, 0.5));
+  expectRefused("the .npy shape (4000000000000, 3) is too large for the file");
+  npy("6, 40000000", false, std::vector<double>(18, 0.5));
+  expectRefused("is too large for the file");
+  // A shape that fits its file but not the rig: named from the header.
+  npy("6, 2", false, std::vector<double>(12, 0.5));
+  expectRefused("has 2 columns, but there are 3 bones");
+  npy("3, 3", false, std::vector<double>(9, 0.5));
+  expectRefused("has 3 rows, but the model has 6 vertices");
+  // Fortran order: the same weights, column-major, deform alike.
+  const std::vector<double> rows = weightsOf(model.positions);
+  std::vector<double> columns(rows.size());
+  for (std::size_t i = 0; i < 6; ++i)
+    for (std::size_t b = 0; b < 3; ++b) columns[b * 6 + i] = rows[i * 3 + b];
+  writeSoup(model, dir_ / "cloud.ply");
+  npy("6, 3", true, columns);
+  ASSERT_EQ(deform("rig.json").exitCode, 0);
+  const PolygonSoup fromFortran = readSoup(dir_ / "out.ply");
+  npy("6, 3", false, rows);
+  ASSERT_EQ(deform("rig.json").exitCode, 0);
+  EXPECT_EQ(readSoup(dir_ / "out.ply").positions, fromFortran.positions);
 }
 
 // Bad weight files: exit 3, the rig, key and file named, nothing written.
@@ -213,6 +266,11 @@ INSTANTIATE_TEST_SUITE_P(
                      R"({"method": "skinning", "bones": )" + kBones + R"(, "handles": )" +
                          kHandles + R"(, "coordinates": "harmonic"})",
                      3, "'coordinates' 'harmonic' is not one of: mls-affine, rbf"},
+        test::BadRig{
+            "TooFewHandlesForTheCoordinates",
+            R"({"method": "skinning", "bones": )" + kBones + R"(, "handles": )" + kHandles + "}", 3,
+            "'handles' the rbf coordinates of the handles need at least 4 handles not "
+            "in one plane (so at least 4 bones)"},
         test::BadRig{"NegativeInfluences",
                      R"({"method": "skinning", "influences": -1, "bones": )" + kBones +
                          R"(, "handles": )" + kHandles + "}",

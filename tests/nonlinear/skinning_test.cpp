@@ -78,29 +78,52 @@ std::vector<Vec3> handlesOf(std::size_t n) {  // spread, not coplanar
 
 TEST(SkinningWeights, KeepsTheLargestInfluencesAndNormalisesThem) {
   const std::vector<double> row = {0.1, -0.5, 0.3, 0.05, 0.4, 0.2};
+  // Truncated: the negative weight is dropped (clamped to 0), the largest are kept.
   const SkinningWeights w = sparseSkinningWeights(row, 6, 3);
   ASSERT_EQ(w.influences, 3u);
-  EXPECT_THAT(w.bones, ::testing::ElementsAre(1u, 4u, 2u));  // by magnitude, the negative first
-  const double sum = -0.5 + 0.4 + 0.3;
-  EXPECT_DOUBLE_EQ(w.weights[0], -0.5 / sum);
-  EXPECT_DOUBLE_EQ(w.weights[1], 0.4 / sum);
-  EXPECT_DOUBLE_EQ(w.weights[2], 0.3 / sum);
-  // 0 keeps all of them; more influences than bones keeps all of them too.
-  EXPECT_EQ(sparseSkinningWeights(row, 6, 0).influences, 6u);
+  EXPECT_THAT(w.bones, ::testing::ElementsAre(4u, 2u, 5u));
+  const double sum = 0.4 + 0.3 + 0.2;
+  EXPECT_DOUBLE_EQ(w.weights[0], 0.4 / sum);
+  EXPECT_DOUBLE_EQ(w.weights[1], 0.3 / sum);
+  EXPECT_DOUBLE_EQ(w.weights[2], 0.2 / sum);
+  // 0 keeps all of them, signed, by magnitude; more influences than bones keeps all of them too.
+  const SkinningWeights all = sparseSkinningWeights(row, 6, 0);
+  EXPECT_EQ(all.influences, 6u);
+  EXPECT_EQ(all.bones[0], 1u);
+  EXPECT_DOUBLE_EQ(all.weights[0], -0.5 / 0.55);
   EXPECT_EQ(sparseSkinningWeights(row, 6, 10).influences, 6u);
-  // Many bones, with ties: by decreasing magnitude, ties to the lower bone, whether few
-  // influences are kept (insertion) or many (a partial sort).
+  // Many bones, with ties: by decreasing (clamped) weight, ties to the lower bone, whether few
+  // influences are kept or many; all of them by decreasing magnitude.
   std::vector<double> many(40);
   for (std::size_t b = 0; b < many.size(); ++b) many[b] = double((b * 7) % 13) - 4.0;
-  std::vector<std::uint32_t> order(many.size());
-  for (std::uint32_t b = 0; b < order.size(); ++b) order[b] = b;
-  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return std::abs(many[a]) > std::abs(many[b]);
-  });
   for (std::size_t k : {std::size_t{5}, std::size_t{20}, std::size_t{35}, std::size_t{40}}) {
+    std::vector<std::uint32_t> order(many.size());
+    for (std::uint32_t b = 0; b < order.size(); ++b) order[b] = b;
+    const auto key = [&](std::uint32_t b) {
+      return k < many.size() ? std::max(many[b], 0.0) : std::abs(many[b]);
+    };
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint32_t a, std::uint32_t b) { return key(a) > key(b); });
     const SkinningWeights w = sparseSkinningWeights(many, many.size(), k);
     EXPECT_EQ(w.bones, std::vector<std::uint32_t>(order.begin(), order.begin() + long(k))) << k;
   }
+}
+
+// Signed weights cut to their 4 largest magnitudes can sum to ~0 (−1.217 + 1.150 + 0.979 −
+// 0.923 = −0.011, the adversarial tester's RBF weights): truncation clamps the negative ones
+// first, so the kept weights are a convex combination whose sum is at least the largest.
+TEST(SkinningWeights, TruncationDropsNegativeWeightsSoTheKeptSumIsNeverNearZero) {
+  const std::vector<double> row = {-1.217, 1.150, 0.979, -0.923, 0.3, -0.2, 0.1, -0.1, 0.01};
+  const SkinningWeights w = sparseSkinningWeights(row, row.size(), 4);
+  EXPECT_THAT(w.bones, ::testing::ElementsAre(1u, 2u, 4u, 6u));
+  double sum = 0.0;
+  for (double x : w.weights) {
+    EXPECT_GE(x, 0.0);
+    EXPECT_LE(x, 1.0);
+    sum += x;
+  }
+  EXPECT_NEAR(sum, 1.0, 1e-15);
+  EXPECT_DOUBLE_EQ(w.weights[0], 1.150 / (1.150 + 0.979 + 0.3 + 0.1));
 }
 
 TEST(SkinningWeights, BadWeightsAreNamed) {
@@ -117,6 +140,20 @@ TEST(SkinningWeights, BadWeightsAreNamed) {
                 sparseSkinningWeights({{0, 0}}, 2);
               }),
               HasSubstr("weights of point 0 sum to 0"));
+  // All negative: −W is not W.
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] {
+                sparseSkinningWeights({{1, 0, -0.5, -0.5}}, 2);
+              }),
+              HasSubstr("weights of point 1 sum to -1.0"));
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] {
+                sparseSkinningWeights({{1, 0, 0, 0, -0.5, -0.5, -0.1, 0}}, 4, 2);
+              }),
+              HasSubstr("weights of point 1 have no positive weight"));
+  // Finite weights whose sum overflows.
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] {
+                sparseSkinningWeights({{1, 0, 1e308, 1e308}}, 2);
+              }),
+              HasSubstr("weights of point 1 are too large: their sum is not finite"));
   EXPECT_THAT(test::messageOf<InvalidInput>([&] {
                 sparseSkinningWeights({{1, 0, 1}}, 2);
               }),
@@ -313,7 +350,7 @@ TEST(Skinning, TheBindingAndTheWarpGiveTheSameBitsForAnyThreadCount) {
   // Weights from coordinates: a binding of skinningWeights() is the warp.
   const auto coordinates = std::make_shared<MlsAffineCoordinates>(handlesOf(6));
   const std::vector<Vec3> points = test::randomPoints(rng, 3000, -1.5, 1.5);
-  const SkinningBinding coordinateBinding(points, skinningWeights(*coordinates, points), 6);
+  const SkinningBinding coordinateBinding(points, skinningWeights(*coordinates, points, 4), 6);
   for (SkinningMode mode : kModes) {
     const SkinningWarp warp(bones, m.points, m.weights, mode);
     const std::vector<Vec3> posed = binding.deform(bones, mode);
@@ -358,6 +395,46 @@ TEST(Skinning, NearestVertexWeightsAreExactOnTheModelAndConstantAroundIt) {
   EXPECT_THROW(warp.apply(Vec3(1e200, 0, 0)), InvalidInput);
 }
 
+// The adversarial tester's scene: 16 random handles in the unit cube with RBF coordinates
+// (signed weights), bones turning up to 60° and moving up to 0.5. Truncated to 4 influences,
+// LBS is a convex combination of the bones' images (|x' − x| ≤ the largest bone displacement)
+// and, like the default (all weights, exact), continuous: walking a line in fine steps, no step
+// is longer than a bounded multiple of the step (a pole or a jump would give steps of the
+// bones' displacement, ~10⁴ times longer).
+TEST(Skinning, WeightsFromCoordinatesHaveNoPolesOrJumps) {
+  std::mt19937 rng(3);
+  const std::vector<Vec3> handles = test::randomPoints(rng, 16, 0.0, 1.0);
+  std::vector<Mat4> bones;
+  std::uniform_real_distribution<double> angle(-kPi / 3, kPi / 3);
+  for (std::size_t b = 0; b < handles.size(); ++b)
+    bones.push_back(rigid({1, 0, 0}, angle(rng), Vec3(0.0), test::randomPoint(rng, 0.0, 0.5)));
+  const auto rbf = std::make_shared<RbfCoordinates>(handles);
+  const auto reach = [&](const Vec3& x) {
+    double d = 0.0;
+    for (const Mat4& m : bones) d = std::max(d, glm::length(transform(m, x) - x));
+    return d;
+  };
+  const SkinningWarp truncated(bones, rbf, {SkinningMode::Linear, 4});
+  for (const Vec3& x : test::randomPoints(rng, 2000, 0.0, 1.0))
+    EXPECT_LE(glm::length(truncated.apply(x) - x), reach(x) * (1.0 + 1e-12)) << x.x;
+  const std::size_t steps = 20000;
+  const Vec3 from(-0.2, 0.1, -0.1), to(1.2, 0.9, 1.1);
+  std::vector<Vec3> line(steps + 1);
+  for (std::size_t i = 0; i <= steps; ++i) line[i] = from + (to - from) * (double(i) / steps);
+  const double step = glm::length(to - from) / steps;
+  for (SkinningMode mode : kModes) {
+    for (std::size_t k : {std::size_t{0}, std::size_t{4}}) {
+      const SkinningWarp warp(bones, rbf, {mode, k});
+      std::vector<Vec3> moved(line.size());
+      warp.applyBatch(line, moved);
+      double longest = 0.0;
+      for (std::size_t i = 0; i < steps; ++i)
+        longest = std::max(longest, glm::length(moved[i + 1] - moved[i]));
+      EXPECT_LE(longest, 200.0 * step) << skinningModeName(mode) << " k " << k;
+    }
+  }
+}
+
 TEST(Skinning, JacobiansMatchFiniteDifferences) {
   std::mt19937 rng(7);
   const std::vector<Vec3> handles = handlesOf(5);
@@ -369,7 +446,7 @@ TEST(Skinning, JacobiansMatchFiniteDifferences) {
   const auto mls = std::make_shared<MlsAffineCoordinates>(handles);  // finite differences
   const std::vector<Vec3> points = test::randomPoints(rng, 50, -1.5, 1.5);
   for (SkinningMode mode : kModes) {
-    for (std::size_t k : {std::size_t{0}, std::size_t{5}}) {
+    for (std::size_t k : {std::size_t{0}, std::size_t{3}, std::size_t{5}}) {
       EXPECT_TRUE(
           test::jacobianMatchesFiniteDifferences(SkinningWarp(bones, rbf, {mode, k}), points, 1e-7))
           << skinningModeName(mode);
@@ -418,7 +495,8 @@ TEST(Skinning, BadInputIsNamed) {
   EXPECT_THAT(test::messageOf<InvalidInput>([&] {
                 SkinningBinding(model, good, 2).deform(mirrored, SkinningMode::DualQuaternion);
               }),
-              HasSubstr("bone 0: dual-quaternion skinning needs a rigid bone"));
+              HasSubstr("bone 0: the bone is a reflection (determinant −1): dual-quaternion "
+                        "skinning needs rotations; use mode \"lbs\""));
   std::vector<Mat4> projective = bones;
   projective[1][0][3] = 0.1;
   EXPECT_THAT(test::messageOf<InvalidInput>(

@@ -112,3 +112,28 @@ def test_bad_input_is_named():
         binding.deform(np.eye(3))
     with pytest.raises(spacewarp.InvalidInput, match="give weights"):
         spacewarp.Skinning(_BONES, weights=np.ones((2, 3)))
+
+
+def test_weights_from_coordinates_have_no_pole():
+    """The adversarial tester's reproducer: 16 random handles, signed RBF weights. Truncated to 4
+    (negatives dropped, faded) and by default (all weights), two points 1e-5 apart stay together
+    and within the bones' reach (they were thrown 50 units apart)."""
+    rng = np.random.default_rng(3)
+    handles = rng.random((16, 3))
+    bones = np.stack([_turn_x(np.radians(rng.uniform(-60, 60)), rng.random(3) * 0.5)
+                      for _ in range(16)])
+    points = np.array([[0.14468] * 3, [0.14469] * 3])
+    coordinates = spacewarp.Rbf(handles)
+    for influences in (4, None):
+        for mode in ("lbs", "dqs"):
+            warp = spacewarp.Skinning(bones, coordinates=coordinates, mode=mode,
+                                      influences=influences)
+            moved = warp(points)
+            assert np.linalg.norm(moved[1] - moved[0]) < 1e-3, (influences, mode)
+            assert np.all(np.linalg.norm(moved - points, axis=1) < 2.0), (influences, mode)
+    # Truncated: non-negative weights summing to 1.
+    _, kept = spacewarp.SkinningBinding(points, coordinates, influences=4).influences
+    assert np.all(kept >= 0.0)
+    np.testing.assert_allclose(kept.sum(axis=1), 1.0, rtol=1e-14)
+    # Default: all 16 bones kept.
+    assert spacewarp.SkinningBinding(points, coordinates).influences[0].shape == (2, 16)
