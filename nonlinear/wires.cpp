@@ -179,24 +179,24 @@ bool sameBits(const Mat3& a, const Mat3& b) {
   return true;
 }
 
-// The rotation q about the same axis by f times its angle (q and −q alike: the short way).
+// The rotation q about its axis by f times its angle 2 acos(q.w) ∈ [0, 2π]: q's sign is kept
+// (not reduced to the short way), so that F M turns continuously where M passes a half turn.
 Quat power(const Quat& q, double f) {
   const Vec3 v(q.x, q.y, q.z);
   const double s = glm::length(v);
   if (!(s > 0.0)) return Quat(1.0, 0.0, 0.0, 0.0);
-  const double half = f * std::atan2(s, std::abs(q.w));
-  const Vec3 axis = (q.w < 0.0 ? -1.0 : 1.0) * v / s;
-  const Vec3 u = std::sin(half) * axis;
+  const double half = f * std::atan2(s, q.w);
+  const Vec3 u = (std::sin(half) / s) * v;
   return Quat(std::cos(half), u.x, u.y, u.z);
 }
 
-// The rotation vector (axis times angle, angle in [0, π]) of the unit quaternion q.
+// The rotation vector (axis times angle, angle 2 acos(q.w) ∈ [0, 2π]) of the unit quaternion q:
+// exp of it is q itself, sign included.
 Vec3 rotationVector(const Quat& q) {
   const Vec3 v(q.x, q.y, q.z);
   const double s = glm::length(v);
   if (!(s > 0.0)) return Vec3(0.0);
-  const double angle = 2.0 * std::atan2(s, std::abs(q.w));
-  return ((q.w < 0.0 ? -angle : angle) / s) * v;
+  return (2.0 * std::atan2(s, q.w) / s) * v;
 }
 
 // SO(3)'s left Jacobian at the rotation vector p applied to y: (I + (1 − cos θ)/θ² [p]× +
@@ -209,11 +209,12 @@ Vec3 leftJacobian(const Vec3& p, const Vec3& y) {
   return y + a * py + b * glm::cross(p, py);
 }
 
-// Its inverse applied to y: (I − [p]×/2 + (1/θ² − (1 + cos θ)/(2 θ sin θ)) [p]×²) y.
+// Its inverse applied to y: (I − [p]×/2 + (1/θ² − cot(θ/2)/(2θ)) [p]×²) y (singular only at
+// θ = 2π, where the partial rotations' axis is undefined).
 Vec3 leftJacobianInverse(const Vec3& p, const Vec3& y) {
   const double t2 = glm::dot(p, p), t = std::sqrt(t2);
-  const double c =
-      t < 1e-4 ? 1.0 / 12.0 + t2 / 720.0 : 1.0 / t2 - (1.0 + std::cos(t)) / (2.0 * t * std::sin(t));
+  const double c = t < 1e-4 ? 1.0 / 12.0 + t2 / 720.0
+                            : 1.0 / t2 - std::cos(0.5 * t) / (2.0 * t * std::sin(0.5 * t));
   const Vec3 py = glm::cross(p, y);
   return y - 0.5 * py + c * glm::cross(p, py);
 }
@@ -350,8 +351,9 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
     // W = R here gives the identity exactly (so that a wire at rest moves nothing).
     Quat q = sameBits(fr[k], fd[k]) ? Quat(1.0, 0.0, 0.0, 0.0)
                                     : glm::normalize(glm::quat_cast(fd[k] * glm::transpose(fr[k])));
-    if (k > 0 && glm::dot(q, turn.back()) < 0.0)
-      q = -q;  // one hemisphere: slerp takes the short way
+    // The sign nearest the previous sample's (w >= 0 at the start): the quaternion, and so the
+    // partial rotations power(M, F), continuous along the curve even where M passes a half turn.
+    if (k == 0 ? q.w < 0.0 : glm::dot(q, turn.back()) < 0.0) q = -q;
     turn.push_back(q);
   }
 

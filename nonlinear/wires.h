@@ -75,9 +75,12 @@ struct WiresOptions {
 ///   x_r = R(u) + rot(M(u), F)(x_s − R(u))              rotate,
 ///   x'  = x_r + F (W(u) − R(u))                        translate,
 /// where M(u) is the rotation taking R's frame at u to W's frame at u and rot(M, F) the rotation
-/// about M's axis by F times its angle. The frames are rotation-minimising (double reflection,
-/// Wang et al. 2008) frames [tangent, normal, binormal], so M(u) takes R'(u) to W'(u) and
-/// carries the curves' twist: the frames start from the direction of the first rest point off
+/// about M's axis by F times its angle, the angle taken continuously along the curve, in
+/// [0, 2π] (not reduced to the short way: M's quaternion keeps its sign from sample to sample,
+/// starting with w ≥ 0 at u = 0, so space does not tear where M passes a half turn; a wire whose
+/// M reaches a full turn has rot(M, F) singular there). The frames are rotation-minimising (double
+/// reflection, Wang et al. 2008) frames [tangent, normal, binormal], so M(u) takes R'(u) to W'(u)
+/// and carries the curves' twist: the frames start from the direction of the first rest point off
 /// the initial tangent line (the same point of W gives W's), so a rigid motion Q of a non-straight
 /// wire gives M(u) = Q everywhere and moves the region F = 1 rigidly (to rounding). A straight
 /// reference wire has no such point (a turn about its axis would be invisible): W's first frame
