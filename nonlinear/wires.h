@@ -80,11 +80,19 @@ struct WiresOptions {
 /// starting with w ≥ 0 at u = 0, so space does not tear where M passes a half turn; a wire whose
 /// M reaches a full turn has rot(M, F) singular there). The frames are rotation-minimising (double
 /// reflection, Wang et al. 2008) frames [tangent, normal, binormal], so M(u) takes R'(u) to W'(u)
-/// and carries the curves' twist: the frames start from the direction of the first rest point off
-/// the initial tangent line (the same point of W gives W's), so a rigid motion Q of a non-straight
-/// wire gives M(u) = Q everywhere and moves the region F = 1 rigidly (to rounding). A straight
-/// reference wire has no such point (a turn about its axis would be invisible): W's first frame
-/// is then R's turned by the smallest rotation from R'(0) to W'(0).
+/// and carries the curves' twist, fixed by M(0): R's first frame carried by the best rigid fit Q
+/// of the rest points onto the deformed points (Kabsch), then turned by the smallest rotation
+/// taking Q R'(0) to W'(0). So a rigid motion Q of a non-straight wire gives M(u) = Q everywhere
+/// and moves the region F = 1 rigidly (to rounding). Where that fit is not firm (its turn about
+/// the curve flips between nearly equal wires: W nearly straight, or bent unlike R, e.g. an
+/// S-shape over an arch), M(0)'s turn about W'(0) is faded towards that of the smallest rotation
+/// taking R'(0) to W'(0), in proportion to σ₂ + sign(det H) σ₃ of the points' cross-covariance H
+/// over half of R's spread off its principal line (the value for a rigid motion; full from there
+/// on), so the twist changes little for small changes of W. A straight R (off its line by less
+/// than 1e-12 of its size) uses the smallest rotation alone (a turn about it would be invisible).
+/// Continuity in W cannot hold everywhere together with rigid motions (a W bent like R but
+/// mirrored is R turned a half turn): it fails where that fade is partial and Q's turn is
+/// opposite to the smallest rotation's (a mirrored bend weaker than half of R's).
 ///
 /// Frames and tangents are computed at sample points and M is interpolated between them
 /// (normalised lerp of the quaternions, which is slerp to within the square of the samples'

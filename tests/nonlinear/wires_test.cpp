@@ -240,6 +240,40 @@ TEST(WiresWarp, NoTearWhereTheRotationPassesAHalfTurn) {
   }
 }
 
+// The tube's twist is continuous in W: ±1e-4 bumps of a nearly straight deformed curve, or of an
+// S-shaped one whose correlation with an arched R changes sign there, move the points little
+// (the best rigid fit turns by a half turn between them, and W's first frame used to follow "the
+// first point off the initial tangent line", turning the tube upside down).
+TEST(WiresWarp, TinyChangesOfTheWireMoveTheTubeLittle) {
+  const auto wire = [](WireCurve curve, std::vector<Vec3> rest, std::vector<Vec3> deformed) {
+    Wire w = wireOf(curve, std::move(rest), std::move(deformed), 0.5);
+    w.innerRadius = 0.3;
+    return w;
+  };
+  const auto bump = [](double y) {
+    return std::vector<Vec3>{{0.0, 0.0, 0.0}, {1.0, y, 0.0}, {2.0, 0.0, 0.0}};
+  };
+  const std::vector<Vec3> arch = {
+      {0.0, 0.0, 0.0}, {1.0, 0.2, 0.0}, {2.0, 0.2, 0.0}, {3.0, 0.0, 0.0}};
+  const auto sShape = [](double e) {
+    return std::vector<Vec3>{
+        {0.0, 0.0, 0.0}, {1.0, 0.2 + e, 0.0}, {2.0, -0.2, 0.0}, {3.0, 0.0, 0.0}};
+  };
+  for (WireCurve curve : kCurves) {
+    const WiresWarp pairs[2][2] = {{WiresWarp({wire(curve, bump(0.2), bump(1e-4))}),
+                                    WiresWarp({wire(curve, bump(0.2), bump(-1e-4))})},
+                                   {WiresWarp({wire(curve, arch, sShape(1e-4))}),
+                                    WiresWarp({wire(curve, arch, sShape(-1e-4))})}};
+    for (const auto& [up, down] : pairs) {
+      for (const Vec3& x : {Vec3(1.0, 0.2, 0.1), Vec3(0.2, 0.04, 0.1), Vec3(1.8, 0.1, -0.1)}) {
+        EXPECT_LE(glm::length(up.apply(x) - down.apply(x)), 1e-3)
+            << wireCurveName(curve) << " " << test::toString(x);
+        EXPECT_NE(up.apply(x), x);  // inside the tube
+      }
+    }
+  }
+}
+
 TEST(WiresWarp, ScaleMovesPointsAwayFromTheCurveByTheDropOff) {
   // A straight wire along x: the closest point is the foot on the axis, d the distance to it.
   const std::vector<Vec3> rest = {{-1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}};
