@@ -221,7 +221,7 @@ Quat power(const Quat& q, double f) {
   const double s = glm::length(v);
   if (!(s > 0.0)) return Quat(1.0, 0.0, 0.0, 0.0);
   const double half = f * std::atan2(s, q.w);
-  const Vec3 u = (std::sin(half) / s) * v;
+  const Vec3 u = std::sin(half) * (v / s);
   return Quat(std::cos(half), u.x, u.y, u.z);
 }
 
