@@ -244,12 +244,12 @@ Vec3 leftJacobian(const Vec3& p, const Vec3& y) {
   return y + a * py + b * glm::cross(p, py);
 }
 
-// Its inverse applied to y: (I − [p]×/2 + (1/θ² − cot(θ/2)/(2θ)) [p]×²) y (singular only at
-// θ = 2π, where the partial rotations' axis is undefined).
+// Its inverse applied to y: (I − [p]×/2 + (1/θ² − (1 + cos θ)/(2 θ sin θ)) [p]×²) y, θ ∈ [0, 2π)
+// (singular at 2π, where the partial rotations' axis is undefined).
 Vec3 leftJacobianInverse(const Vec3& p, const Vec3& y) {
   const double t2 = glm::dot(p, p), t = std::sqrt(t2);
-  const double c = t < 1e-4 ? 1.0 / 12.0 + t2 / 720.0
-                            : 1.0 / t2 - std::cos(0.5 * t) / (2.0 * t * std::sin(0.5 * t));
+  const double c =
+      t < 1e-4 ? 1.0 / 12.0 + t2 / 720.0 : 1.0 / t2 - (1.0 + std::cos(t)) / (2.0 * t * std::sin(t));
   const Vec3 py = glm::cross(p, y);
   return y - 0.5 * py + c * glm::cross(p, py);
 }

@@ -228,6 +228,12 @@ TEST(WiresWarp, NoTearWhereTheRotationPassesAHalfTurn) {
       // Steps of 1e-3 stretched by at most 1 + 0.15 / bend along the arc (F turns little more).
       EXPECT_LE(largestStep(curl, line), 3e-3) << wireCurveName(curve);
     }
+    if (curve == WireCurve::CatmullRom) {
+      // The Jacobian with M's angle beyond π (the tangent turned 180° at x = 3).
+      std::vector<Vec3> beyond;
+      for (int i = 0; i < 20; ++i) beyond.push_back({3.05 + 0.04 * i, 0.05, 0.12});
+      EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(curl, beyond, 1e-6));
+    }
     // (A polyline's vertices tear slightly at their inner bisectors anyway: see the header.)
     if (curve == WireCurve::Polyline) continue;
     const WiresWarp rigid({wireOf(curve, bentRest, moved(bentRest, halfTurn, {}), 0.5)});
