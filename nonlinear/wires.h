@@ -114,13 +114,16 @@ struct WiresOptions {
 ///
 /// Properties: R(u) goes to W(u) (to rounding); W = R and s = 1 is the identity bit for bit. The
 /// map is continuous wherever the closest point of R is (it jumps on R's medial axis within r, as
-/// in the paper: keep r below the curve's radius of curvature). Jacobian: analytic, through the
-/// closest point's parameter (dt/dx = R' / (|R'|² − R''·(x − R))), the drop-off and the rotation
-/// (SO(3)'s left Jacobian for the power F of the interpolated rotation), and the blend's
-/// weights; where u(x) is not differentiable (the medial axis, a polyline's vertices' bisector
-/// planes) it is one side's. applyBatch runs in
-/// parallel; every result is bit-identical to apply() for any thread count. Non-finite x is
-/// returned unchanged.
+/// in the paper: keep r below the curve's radius of curvature), except at a closed wire's seam:
+/// a wire whose last point is its first is still treated as open (Catmull-Rom ends reflected, and
+/// R's and W's frames need not close up around the loop, so M at the end differs from M at the
+/// start), and space jumps across the seam where the closest point passes from the end to the
+/// start (by 0.05 at 0.05 from a unit-size loop reshaped by a fifth of its size). Jacobian:
+/// analytic, through the closest point's parameter (dt/dx = R' / (|R'|² − R''·(x − R))), the
+/// drop-off and the rotation (SO(3)'s left Jacobian for the power F of the interpolated rotation),
+/// and the blend's weights; where u(x) is not differentiable (the medial axis, a polyline's
+/// vertices' bisector planes) it is one side's. applyBatch runs in parallel; every result is
+/// bit-identical to apply() for any thread count. Non-finite x is returned unchanged.
 class WiresWarp final : public Warp {
  public:
   /// Throws InvalidInput naming the wire (its index) and the parameter for: no wires, fewer than
