@@ -10,6 +10,7 @@
 
 #include <glm/gtc/quaternion.hpp>
 
+#include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -151,25 +152,59 @@ std::vector<Mat3> transportFrames(const Samples& s, Vec3 normal) {
   return frames;
 }
 
-// The first normals of R and W: towards the first rest point off R's initial tangent line (the
-// same point of W for W), or, for a straight R (or a W straight where R is not), R's turned by the
-// smallest rotation between the initial tangents.
-std::pair<Vec3, Vec3> firstNormals(const Wire& w, const Samples& r, const Samples& d) {
-  const auto offLine = [](const std::vector<Vec3>& p, std::size_t k, const Vec3& t, Vec3& n) {
-    const Vec3 e = p[k] - p[0];
-    const Vec3 o = e - glm::dot(e, t) * t;
-    if (!(glm::length(o) > 1e-6 * glm::length(e))) return false;
-    n = glm::normalize(o);
-    return true;
-  };
-  for (std::size_t k = 1; k < w.rest.size(); ++k) {
-    Vec3 nr, nd;
-    if (!offLine(w.rest, k, r.t[0], nr)) continue;
-    if (offLine(w.deformed, k, d.t[0], nd)) return {nr, nd};
-    return {nr, minimalRotation(r.t[0], d.t[0], nr)};
+// How firmly the rest and deformed points fix the best rigid fit's turn about the rest curve's
+// principal line: σ₂ + sign(det H) σ₃ of their cross-covariance H (σ₁ ≥ σ₂ ≥ σ₃ its singular
+// values; 0 where the fit is not unique, so the fit's turn flips near there) over R's spread
+// off its principal line (what it is for a rigid motion), capped at 1 from half of that on.
+// 0 for a straight R.
+double fitFirmness(const std::vector<Vec3>& rest, const std::vector<Vec3>& deformed) {
+  Vec3 cr(0.0), cd(0.0);
+  for (std::size_t k = 0; k < rest.size(); ++k) {
+    cr += rest[k];
+    cd += deformed[k];
   }
-  const Vec3 nr = anyPerpendicular(r.t[0]);
-  return {nr, minimalRotation(r.t[0], d.t[0], nr)};
+  cr /= static_cast<double>(rest.size());
+  cd /= static_cast<double>(rest.size());
+  Mat3 h(0.0), c(0.0);
+  for (std::size_t k = 0; k < rest.size(); ++k) {
+    h += glm::outerProduct(deformed[k] - cd, rest[k] - cr);
+    c += glm::outerProduct(rest[k] - cr, rest[k] - cr);
+  }
+  const auto ascending = [](const Mat3& m) {
+    std::array<double, 3> e{};
+    Mat3 v;
+    detail::symmetricEigen(m, e.data(), v);
+    std::sort(e.begin(), e.end());
+    return e;
+  };
+  const std::array<double, 3> spread = ascending(c);
+  const double off = spread[0] + spread[1];
+  // Off-line spread below rounding of the total: a straight R (its twist is undefined).
+  if (!(off > 1e-24 * (off + spread[2]))) return 0.0;
+  const std::array<double, 3> s2 = ascending(glm::transpose(h) * h);
+  const double s3 = std::sqrt(std::max(0.0, s2[0])), s2nd = std::sqrt(std::max(0.0, s2[1]));
+  const double firm = s2nd + (glm::determinant(h) < 0.0 ? -s3 : s3);
+  return std::clamp(firm / (0.5 * off), 0.0, 1.0);
+}
+
+// The first normals of R and W: W's is R's turned by a rotation G with G R'(0) = W'(0), so that
+// M(0) = G. G is the best rigid fit Q of the rest points onto the deformed ones turned by the
+// smallest rotation taking Q R'(0) to W'(0), so that a rigid motion Q of the wire gives M = Q;
+// where the fit is not firm (fitFirmness < 1: W nearly straight, or bent unlike R) its turn about
+// W'(0) is faded towards that of the smallest rotation taking R'(0) to W'(0), so that the twist
+// does not flip between nearly equal wires.
+std::pair<Vec3, Vec3> firstNormals(const Wire& w, const Samples& r, const Samples& d) {
+  const Vec3 tr = r.t[0], td = d.t[0];
+  const Vec3 nr = anyPerpendicular(tr);
+  if (w.rest == w.deformed) return {nr, nr};  // W = R: the identity exactly
+  const Vec3 a = minimalRotation(tr, td, nr);
+  const double fade = fitFirmness(w.rest, w.deformed);
+  if (!(fade > 0.0)) return {nr, a};
+  const Mat3 q = detail::rigidFit(w.rest, w.deformed).r;
+  const Vec3 b = minimalRotation(glm::normalize(q * tr), td, q * nr);
+  if (fade >= 1.0) return {nr, b};
+  const double angle = fade * std::atan2(glm::dot(td, glm::cross(a, b)), glm::dot(a, b));
+  return {nr, std::cos(angle) * a + std::sin(angle) * glm::cross(td, a)};
 }
 
 bool sameBits(const Mat3& a, const Mat3& b) {
@@ -179,24 +214,24 @@ bool sameBits(const Mat3& a, const Mat3& b) {
   return true;
 }
 
-// The rotation q about the same axis by f times its angle (q and −q alike: the short way).
+// The rotation q about its axis by f times its angle 2 acos(q.w) ∈ [0, 2π]: q's sign is kept
+// (not reduced to the short way), so that F M turns continuously where M passes a half turn.
 Quat power(const Quat& q, double f) {
   const Vec3 v(q.x, q.y, q.z);
   const double s = glm::length(v);
   if (!(s > 0.0)) return Quat(1.0, 0.0, 0.0, 0.0);
-  const double half = f * std::atan2(s, std::abs(q.w));
-  const Vec3 axis = (q.w < 0.0 ? -1.0 : 1.0) * v / s;
-  const Vec3 u = std::sin(half) * axis;
+  const double half = f * std::atan2(s, q.w);
+  const Vec3 u = std::sin(half) * (v / s);
   return Quat(std::cos(half), u.x, u.y, u.z);
 }
 
-// The rotation vector (axis times angle, angle in [0, π]) of the unit quaternion q.
+// The rotation vector (axis times angle, angle 2 acos(q.w) ∈ [0, 2π]) of the unit quaternion q:
+// exp of it is q itself, sign included.
 Vec3 rotationVector(const Quat& q) {
   const Vec3 v(q.x, q.y, q.z);
   const double s = glm::length(v);
   if (!(s > 0.0)) return Vec3(0.0);
-  const double angle = 2.0 * std::atan2(s, std::abs(q.w));
-  return ((q.w < 0.0 ? -angle : angle) / s) * v;
+  return (2.0 * std::atan2(s, q.w) / s) * v;
 }
 
 // SO(3)'s left Jacobian at the rotation vector p applied to y: (I + (1 − cos θ)/θ² [p]× +
@@ -209,7 +244,8 @@ Vec3 leftJacobian(const Vec3& p, const Vec3& y) {
   return y + a * py + b * glm::cross(p, py);
 }
 
-// Its inverse applied to y: (I − [p]×/2 + (1/θ² − (1 + cos θ)/(2 θ sin θ)) [p]×²) y.
+// Its inverse applied to y: (I − [p]×/2 + (1/θ² − (1 + cos θ)/(2 θ sin θ)) [p]×²) y, θ ∈ [0, 2π)
+// (singular at 2π, where the partial rotations' axis is undefined).
 Vec3 leftJacobianInverse(const Vec3& p, const Vec3& y) {
   const double t2 = glm::dot(p, p), t = std::sqrt(t2);
   const double c =
@@ -350,8 +386,9 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
     // W = R here gives the identity exactly (so that a wire at rest moves nothing).
     Quat q = sameBits(fr[k], fd[k]) ? Quat(1.0, 0.0, 0.0, 0.0)
                                     : glm::normalize(glm::quat_cast(fd[k] * glm::transpose(fr[k])));
-    if (k > 0 && glm::dot(q, turn.back()) < 0.0)
-      q = -q;  // one hemisphere: slerp takes the short way
+    // The sign nearest the previous sample's (w >= 0 at the start): the quaternion, and so the
+    // partial rotations power(M, F), continuous along the curve even where M passes a half turn.
+    if (k == 0 ? q.w < 0.0 : glm::dot(q, turn.back()) < 0.0) q = -q;
     turn.push_back(q);
   }
 

@@ -75,13 +75,24 @@ struct WiresOptions {
 ///   x_r = R(u) + rot(M(u), F)(x_s − R(u))              rotate,
 ///   x'  = x_r + F (W(u) − R(u))                        translate,
 /// where M(u) is the rotation taking R's frame at u to W's frame at u and rot(M, F) the rotation
-/// about M's axis by F times its angle. The frames are rotation-minimising (double reflection,
-/// Wang et al. 2008) frames [tangent, normal, binormal], so M(u) takes R'(u) to W'(u) and
-/// carries the curves' twist: the frames start from the direction of the first rest point off
-/// the initial tangent line (the same point of W gives W's), so a rigid motion Q of a non-straight
-/// wire gives M(u) = Q everywhere and moves the region F = 1 rigidly (to rounding). A straight
-/// reference wire has no such point (a turn about its axis would be invisible): W's first frame
-/// is then R's turned by the smallest rotation from R'(0) to W'(0).
+/// about M's axis by F times its angle, the angle taken continuously along the curve, in
+/// [0, 2π] (not reduced to the short way: M's quaternion keeps its sign from sample to sample,
+/// starting with w ≥ 0 at u = 0, so space does not tear where M passes a half turn; a wire whose
+/// M reaches a full turn has rot(M, F) singular there). The frames are rotation-minimising (double
+/// reflection, Wang et al. 2008) frames [tangent, normal, binormal], so M(u) takes R'(u) to W'(u)
+/// and carries the curves' twist, fixed by M(0): R's first frame carried by the best rigid fit Q
+/// of the rest points onto the deformed points (Kabsch), then turned by the smallest rotation
+/// taking Q R'(0) to W'(0). So a rigid motion Q of a non-straight wire gives M(u) = Q everywhere
+/// and moves the region F = 1 rigidly (to rounding). Where that fit is not firm (its turn about
+/// the curve flips between nearly equal wires: W nearly straight, or bent unlike R, e.g. an
+/// S-shape over an arch), M(0)'s turn about W'(0) is faded towards that of the smallest rotation
+/// taking R'(0) to W'(0), in proportion to σ₂ + sign(det H) σ₃ of the points' cross-covariance H
+/// over half of R's spread off its principal line (the value for a rigid motion; full from there
+/// on), so the twist changes little for small changes of W. A straight R (off its line by less
+/// than 1e-12 of its size) uses the smallest rotation alone (a turn about it would be invisible).
+/// Continuity in W cannot hold everywhere together with rigid motions (a W bent like R but
+/// mirrored is R turned a half turn): it fails where that fade is partial and Q's turn is
+/// opposite to the smallest rotation's (a mirrored bend weaker than half of R's).
 ///
 /// Frames and tangents are computed at sample points and M is interpolated between them
 /// (normalised lerp of the quaternions, which is slerp to within the square of the samples'
@@ -103,13 +114,16 @@ struct WiresOptions {
 ///
 /// Properties: R(u) goes to W(u) (to rounding); W = R and s = 1 is the identity bit for bit. The
 /// map is continuous wherever the closest point of R is (it jumps on R's medial axis within r, as
-/// in the paper: keep r below the curve's radius of curvature). Jacobian: analytic, through the
-/// closest point's parameter (dt/dx = R' / (|R'|² − R''·(x − R))), the drop-off and the rotation
-/// (SO(3)'s left Jacobian for the power F of the interpolated rotation), and the blend's
-/// weights; where u(x) is not differentiable (the medial axis, a polyline's vertices' bisector
-/// planes) it is one side's. applyBatch runs in
-/// parallel; every result is bit-identical to apply() for any thread count. Non-finite x is
-/// returned unchanged.
+/// in the paper: keep r below the curve's radius of curvature), except at a closed wire's seam:
+/// a wire whose last point is its first is still treated as open (Catmull-Rom ends reflected, and
+/// R's and W's frames need not close up around the loop, so M at the end differs from M at the
+/// start), and space jumps across the seam where the closest point passes from the end to the
+/// start (by 0.05 at 0.05 from a unit-size loop reshaped by a fifth of its size). Jacobian:
+/// analytic, through the closest point's parameter (dt/dx = R' / (|R'|² − R''·(x − R))), the
+/// drop-off and the rotation (SO(3)'s left Jacobian for the power F of the interpolated rotation),
+/// and the blend's weights; where u(x) is not differentiable (the medial axis, a polyline's
+/// vertices' bisector planes) it is one side's. applyBatch runs in parallel; every result is
+/// bit-identical to apply() for any thread count. Non-finite x is returned unchanged.
 class WiresWarp final : public Warp {
  public:
   /// Throws InvalidInput naming the wire (its index) and the parameter for: no wires, fewer than

@@ -199,6 +199,87 @@ TEST(WiresWarp, RigidMotionHoldsAtAnyPlacement) {
   }
 }
 
+// The largest step between the images of consecutive points.
+double largestStep(const Warp& warp, const std::vector<Vec3>& points) {
+  double largest = 0.0;
+  for (std::size_t i = 0; i + 1 < points.size(); ++i)
+    largest = std::max(largest, glm::length(warp.apply(points[i + 1]) - warp.apply(points[i])));
+  return largest;
+}
+
+// Where the wire's rotation passes a half turn, the partial rotations F M must not switch to the
+// other way round (space tore there): a straight wire curled into an arc whose tangent turns
+// 0° → 240° (arc length kept), and a rigid half turn of a bent wire.
+TEST(WiresWarp, NoTearWhereTheRotationPassesAHalfTurn) {
+  const double length = 4.0, turn = 4.0 * std::acos(-1.0) / 3.0, bend = length / turn;
+  std::vector<Vec3> rest, curled;
+  for (int i = 0; i <= 40; ++i) {
+    const double s = length * i / 40.0;
+    rest.push_back({s, 0.0, 0.0});
+    curled.push_back({bend * std::sin(s / bend), bend * (1.0 - std::cos(s / bend)), 0.0});
+  }
+  const std::vector<Vec3> bentRest = bentCurve();
+  const Mat3 halfTurn = rotationAbout({0.3, -1.0, 0.5}, std::acos(-1.0));
+  for (WireCurve curve : kCurves) {
+    const WiresWarp curl({wireOf(curve, rest, curled, 0.3)});
+    for (const Vec3& offset : {Vec3(0.0, 0.0, 0.15), Vec3(0.0, 0.15, 0.0)}) {
+      std::vector<Vec3> line;
+      for (int i = 0; i <= 4000; ++i) line.push_back(Vec3(length * i / 4000.0, 0.0, 0.0) + offset);
+      // Steps of 1e-3 stretched by at most 1 + 0.15 / bend along the arc (F turns little more).
+      EXPECT_LE(largestStep(curl, line), 3e-3) << wireCurveName(curve);
+    }
+    if (curve == WireCurve::CatmullRom) {
+      // The Jacobian with M's angle beyond π (the tangent turned 180° at x = 3).
+      std::vector<Vec3> beyond;
+      for (int i = 0; i < 20; ++i) beyond.push_back({3.05 + 0.04 * i, 0.05, 0.12});
+      EXPECT_TRUE(test::jacobianMatchesFiniteDifferences(curl, beyond, 1e-6));
+    }
+    // (A polyline's vertices tear slightly at their inner bisectors anyway: see the header.)
+    if (curve == WireCurve::Polyline) continue;
+    const WiresWarp rigid({wireOf(curve, bentRest, moved(bentRest, halfTurn, {}), 0.5)});
+    std::vector<Vec3> beside;
+    for (std::size_t j = 0; j + 1 < bentRest.size(); ++j)
+      for (int i = 0; i < 1000; ++i)
+        beside.push_back(curveAt(curve, bentRest, j, i / 1000.0) + Vec3(0.0, 0.0, 0.3));
+    // Input steps below 1e-3; the half turn's partial rotations scale them by a few at most.
+    EXPECT_LE(largestStep(rigid, beside), 1e-2) << wireCurveName(curve);
+  }
+}
+
+// The tube's twist is continuous in W: ±1e-4 bumps of a nearly straight deformed curve, or of an
+// S-shaped one whose correlation with an arched R changes sign there, move the points little
+// (the best rigid fit turns by a half turn between them, and W's first frame used to follow "the
+// first point off the initial tangent line", turning the tube upside down).
+TEST(WiresWarp, TinyChangesOfTheWireMoveTheTubeLittle) {
+  const auto wire = [](WireCurve curve, std::vector<Vec3> rest, std::vector<Vec3> deformed) {
+    Wire w = wireOf(curve, std::move(rest), std::move(deformed), 0.5);
+    w.innerRadius = 0.3;
+    return w;
+  };
+  const auto bump = [](double y) {
+    return std::vector<Vec3>{{0.0, 0.0, 0.0}, {1.0, y, 0.0}, {2.0, 0.0, 0.0}};
+  };
+  const std::vector<Vec3> arch = {
+      {0.0, 0.0, 0.0}, {1.0, 0.2, 0.0}, {2.0, 0.2, 0.0}, {3.0, 0.0, 0.0}};
+  const auto sShape = [](double e) {
+    return std::vector<Vec3>{
+        {0.0, 0.0, 0.0}, {1.0, 0.2 + e, 0.0}, {2.0, -0.2, 0.0}, {3.0, 0.0, 0.0}};
+  };
+  for (WireCurve curve : kCurves) {
+    const WiresWarp pairs[2][2] = {{WiresWarp({wire(curve, bump(0.2), bump(1e-4))}),
+                                    WiresWarp({wire(curve, bump(0.2), bump(-1e-4))})},
+                                   {WiresWarp({wire(curve, arch, sShape(1e-4))}),
+                                    WiresWarp({wire(curve, arch, sShape(-1e-4))})}};
+    for (const auto& [up, down] : pairs) {
+      for (const Vec3& x : {Vec3(1.0, 0.2, 0.1), Vec3(0.2, 0.04, 0.1), Vec3(1.8, 0.1, -0.1)}) {
+        EXPECT_LE(glm::length(up.apply(x) - down.apply(x)), 1e-3)
+            << wireCurveName(curve) << " " << test::toString(x);
+        EXPECT_NE(up.apply(x), x);  // inside the tube
+      }
+    }
+  }
+}
+
 TEST(WiresWarp, ScaleMovesPointsAwayFromTheCurveByTheDropOff) {
   // A straight wire along x: the closest point is the foot on the axis, d the distance to it.
   const std::vector<Vec3> rest = {{-1.0, 0.0, 0.0}, {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}};
