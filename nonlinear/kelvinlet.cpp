@@ -1,5 +1,6 @@
 #include <spacewarp/nonlinear/kelvinlet.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -255,6 +256,14 @@ Vec3 KelvinletWarp::apply(const Vec3& x) const {
   for (int k = 0; k < options_.steps; ++k)
     y += step.displacement(y - centerOf(options_, k), nullptr);
   return y;
+}
+
+std::size_t KelvinletWarp::batchGrain() const {
+  const int scales = options_.falloff == KelvinletFalloff::Single ? 1
+                     : options_.falloff == KelvinletFalloff::Bi   ? 2
+                                                                  : 3;
+  // Depends only on the options: the ranges, hence the result, not on the thread count.
+  return std::max<std::size_t>(4, 4096 / std::size_t(options_.steps * scales));
 }
 
 UnmappedPoints KelvinletWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,

@@ -102,6 +102,9 @@ class KelvinletWarp final : public Warp {
   const KelvinletOptions& options() const { return options_; }
 
  protected:
+  /// 4096 brush evaluations per range: fewer points when there are many steps and scales, so
+  /// that a stepped brush on a few thousand points still spreads over every thread.
+  std::size_t batchGrain() const override;
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
                             std::size_t end) const override;
 
