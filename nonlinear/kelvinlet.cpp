@@ -66,11 +66,12 @@ KelvinletWarp::KelvinletWarp(const KelvinletOptions& o) : options_(o) {
       edit_ = o.displacement / n;
       break;
     case KelvinletBrush::Twist: {
-      const double len = glm::length(o.axis);
-      if (!isFinite(o.axis) || !(len > 0.0) || !std::isfinite(len))
-        fail("axis must be finite and non-zero");
+      // Scaled by its largest component first, so that |axis| neither underflows (1e-300) nor
+      // overflows (1e300).
+      const double big = maxAbs(o.axis);
+      if (!isFinite(o.axis) || !(big > 0.0)) fail("axis must be finite and non-zero");
       if (!std::isfinite(o.angle)) fail("angle must be finite");
-      axis_ = o.axis / len;
+      axis_ = glm::normalize(o.axis / big);
       amount_ = o.angle / n;
       break;
     }

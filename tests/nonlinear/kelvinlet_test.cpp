@@ -149,6 +149,21 @@ TEST(KelvinletWarp, ExtremeRadiiKeepTheBrushExact) {
   EXPECT_EQ(tiny.apply(kCenter + Vec3(1.0)), kCenter + Vec3(1.0));
 }
 
+// Any finite non-zero axis: |axis|² underflowed for [0, 0, 1e-300] (refused as zero).
+TEST(KelvinletWarp, TwistAxisOfAnyFiniteLength) {
+  KelvinletOptions o;
+  o.brush = KelvinletBrush::Twist;
+  o.angle = 0.8;
+  o.axis = Vec3(0.0, 0.0, 1.0);
+  const Vec3 x(0.3, 0.2, -0.1);
+  const Vec3 expected = KelvinletWarp(o).apply(x);
+  for (const Vec3& axis : {Vec3(0.0, 0.0, 1e-300), Vec3(0.0, 0.0, 1e300),
+                           Vec3(0.0, 0.0, std::numeric_limits<double>::denorm_min())}) {
+    o.axis = axis;
+    EXPECT_EQ(KelvinletWarp(o).apply(x), expected) << axis.z;
+  }
+}
+
 TEST(KelvinletWarp, GrabClosedFormOnTheAxis) {
   // On the line through the centre along the force, r = t f̂: u = s ((a − b)/ρ + aε²/(2ρ³) +
   // b t²/ρ³) f with a = 1, b = 1/(4(1 − ν)), s = 2ε/(3a − 2b).
