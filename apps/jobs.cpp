@@ -133,7 +133,10 @@ void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::pat
     for (std::size_t begin = 0; begin < n; begin += block) {
       const std::size_t count = std::min(block, n - begin);
       const std::span<double> values(rows.data(), count * m);
-      coordinates.weightsBatch(std::span(points.positions).subspan(begin, count), values);
+      // Named like deform's errors: "pts.ply: ShepardCoordinates: 146 of 208 points ...".
+      namingFile(pointsPath.string(), [&] {
+        coordinates.weightsBatch(std::span(points.positions).subspan(begin, count), values);
+      });
       if (extension == ".npy")
         out.write(reinterpret_cast<const char*>(values.data()),
                   static_cast<std::streamsize>(values.size() * sizeof(double)));

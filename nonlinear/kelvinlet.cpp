@@ -1,11 +1,13 @@
 #include <spacewarp/nonlinear/kelvinlet.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
 #include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/nonlinear/detail/graph_index.h>
 
 namespace spacewarp {
 
@@ -47,7 +49,9 @@ bool finiteMatrix(const Mat3& m) { return isFinite(m[0]) && isFinite(m[1]) && is
 }  // namespace
 
 KelvinletWarp::KelvinletWarp(const KelvinletOptions& o) : options_(o) {
-  if (!isFinite(o.center)) fail("center must be finite");
+  // Up to 1e150, so that the centre plus the displacement stays finite.
+  if (!isFinite(o.center) || !detail::withinReach(o.center))
+    fail("center must be finite and within 1e150");
   if (!std::isfinite(o.radius) || !(o.radius > 0.0)) fail("radius must be finite and > 0");
   if (!(o.poisson >= 0.0 && o.poisson <= 0.5)) fail("poisson must be in [0, 0.5]");
   if (o.steps < 1 || o.steps > 10000)
@@ -57,15 +61,17 @@ KelvinletWarp::KelvinletWarp(const KelvinletOptions& o) : options_(o) {
   b_ = a_ / (4.0 * (1.0 - o.poisson));
   switch (o.brush) {
     case KelvinletBrush::Grab:
-      if (!isFinite(o.displacement)) fail("displacement must be finite");
+      if (!isFinite(o.displacement) || !detail::withinReach(o.displacement))
+        fail("displacement must be finite and within 1e150");
       edit_ = o.displacement / n;
       break;
     case KelvinletBrush::Twist: {
-      const double len = glm::length(o.axis);
-      if (!isFinite(o.axis) || !(len > 0.0) || !std::isfinite(len))
-        fail("axis must be finite and non-zero");
+      // Scaled by its largest component first, so that |axis| neither underflows (1e-300) nor
+      // overflows (1e300).
+      const double big = maxAbs(o.axis);
+      if (!isFinite(o.axis) || !(big > 0.0)) fail("axis must be finite and non-zero");
       if (!std::isfinite(o.angle)) fail("angle must be finite");
-      axis_ = o.axis / len;
+      axis_ = glm::normalize(o.axis / big);
       amount_ = o.angle / n;
       break;
     }
@@ -104,6 +110,10 @@ struct Step {
 
   Vec3 displacement(const Vec3& r, Mat3* jac) const {
     const double rho2 = glm::dot(r, r) + eps2;
+    if (!std::isfinite(rho2)) {  // |r| > 1e154 radii: u < 1e-154 of the edit, below resolution
+      if (jac) *jac = Mat3(0.0);
+      return Vec3(0.0);
+    }
     const double rho = std::sqrt(rho2);
     const double i1 = 1.0 / rho;
     const double i3 = i1 / rho2;
@@ -164,28 +174,43 @@ namespace {
 // combination keeps them; the c_j cancel the far field's leading terms (de Goes & James' multi-
 // scale extrapolation: Σ w_j = 0 for "bi", also Σ w_j ε_j² = 0 for "tri", with c_j ∝ w_j N_j,
 // N_j the unnormalised brush's centre value, ∝ 1/ε_j (grab) or 1/ε_j³ (affine brushes)).
+// The steps are evaluated in units of ε (radii 1, 2, 4 at r / ε), so that any finite radius
+// works (ε³ and 1/ρ⁵ overflow for radii beyond ~1e60 or below ~1e-60 in world units): the grab's
+// displacement does not depend on ε at that scale, the affine brushes' is ε times it.
 struct Brush {
   Step scale[3];
   double c[3] = {1.0, 0.0, 0.0};
   int count = 1;
+  double eps = 1.0;
+  bool grab = true;
 
   Vec3 displacement(const Vec3& r, Mat3* jac) const {
-    if (count == 1) return scale[0].displacement(r, jac);
+    const Vec3 unit = r / eps;
     Vec3 u(0.0);
-    if (jac) *jac = Mat3(0.0);
-    for (int j = 0; j < count; ++j) {
-      Mat3 jj(0.0);
-      u += c[j] * scale[j].displacement(r, jac ? &jj : nullptr);
-      if (jac) *jac += c[j] * jj;
+    if (count == 1) {
+      u = scale[0].displacement(unit, jac);
+    } else {
+      if (jac) *jac = Mat3(0.0);
+      for (int j = 0; j < count; ++j) {
+        Mat3 jj(0.0);
+        u += c[j] * scale[j].displacement(unit, jac ? &jj : nullptr);
+        if (jac) *jac += c[j] * jj;
+      }
     }
-    return u;
+    if (grab) {
+      if (jac) *jac /= eps;
+      return u;
+    }
+    return eps * u;
   }
 };
 
 Brush brushOf(const KelvinletOptions& o, const Vec3& edit, const Mat3& editMatrix, const Vec3& axis,
               double amount, double a, double b) {
   Brush brush;
-  const double eps = o.radius;
+  brush.eps = o.radius;
+  brush.grab = o.brush == KelvinletBrush::Grab;
+  const double eps = 1.0;
   double radii[3] = {eps, 2.0 * eps, 4.0 * eps};
   double w[3] = {1.0, 0.0, 0.0};
   if (o.falloff == KelvinletFalloff::Bi) {
@@ -232,6 +257,14 @@ Vec3 KelvinletWarp::apply(const Vec3& x) const {
   for (int k = 0; k < options_.steps; ++k)
     y += step.displacement(y - centerOf(options_, k), nullptr);
   return y;
+}
+
+std::size_t KelvinletWarp::batchGrain() const {
+  const int scales = options_.falloff == KelvinletFalloff::Single ? 1
+                     : options_.falloff == KelvinletFalloff::Bi   ? 2
+                                                                  : 3;
+  // Depends only on the options: the ranges, hence the result, not on the thread count.
+  return std::max<std::size_t>(4, 4096 / std::size_t(options_.steps * scales));
 }
 
 UnmappedPoints KelvinletWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,

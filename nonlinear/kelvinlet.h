@@ -88,8 +88,10 @@ struct KelvinletOptions {
 /// more steps reduce that.
 class KelvinletWarp final : public Warp {
  public:
-  /// Throws InvalidInput naming the option for: a non-finite centre, a radius that is not
-  /// finite and > 0, a Poisson ratio outside [0, 0.5] or NaN, a non-finite displacement, a zero
+  /// Throws InvalidInput naming the option for: a centre that is not finite or beyond 1e150, a
+  /// radius that is not finite and > 0 (any other radius works: the brush is evaluated in units
+  /// of it), a Poisson ratio outside [0, 0.5] or NaN, a displacement that is not finite or beyond
+  /// 1e150 (so the centre plus it stays finite), a zero
   /// or non-finite axis, a non-finite angle, a factor that is not finite and > 0, a non-finite,
   /// non-symmetric or non-traceless matrix, steps outside 1..10000.
   explicit KelvinletWarp(const KelvinletOptions& options);
@@ -100,6 +102,9 @@ class KelvinletWarp final : public Warp {
   const KelvinletOptions& options() const { return options_; }
 
  protected:
+  /// 4096 brush evaluations per range: fewer points when there are many steps and scales, so
+  /// that a stepped brush on a few thousand points still spreads over every thread.
+  std::size_t batchGrain() const override;
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
                             std::size_t end) const override;
 

@@ -293,18 +293,14 @@ ShepardCoordinates::ShepardCoordinates(std::vector<Vec3> handles, const ShepardO
   }
   impl->maxNonZeros = p.size();
   if (impl->local) {
-    // A point within R of handles i and j has them within 2R of each other.
-    const double r2 = std::min(4.0 * options.radius * options.radius * (1.0 + 1e-9),
-                               std::numeric_limits<double>::max());
-    std::size_t most = 1;
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      const double q[3] = {p[i].x, p[i].y, p[i].z};
-      found.clear();
-      tree.radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
-      most = std::max(most, found.size());
-    }
-    impl->maxNonZeros = std::min(most, p.size());
     impl->buildGrid(lo, hi);
+    // Every handle within R of a point is in its cell's list, so the longest list bounds the
+    // non-zeros; counting the handles within 2R of each handle instead costs O(n²) when R
+    // covers them all.
+    std::size_t most = 1;
+    for (std::size_t c = 0; c + 1 < impl->cellStart.size(); ++c)
+      most = std::max<std::size_t>(most, impl->cellStart[c + 1] - impl->cellStart[c]);
+    impl->maxNonZeros = std::min(most, p.size());
   }
   impl_ = std::move(impl);
 }

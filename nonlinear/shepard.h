@@ -52,8 +52,8 @@ struct ShepardOptions {
 /// Cost: O(n) per point for n handles (global). With a radius, a point reads the handles listed
 /// for its cell of a uniform grid (cells of max(R, extent / 64), each listing the handles of its
 /// 3 × 3 × 3 block, about 27 R³ × the handle density; 27 entries per handle in memory) and weighs
-/// the k within R; maxNonZeros() is the most handles within 2R of one handle. About 90 ns of CPU
-/// per point for 16 global handles, 2 µs for 1024 handles with ~67 in reach
+/// the k within R; maxNonZeros() is the longest cell list (a bound, found in O(cells)). About 90 ns
+/// of CPU per point for 16 global handles, 2 µs for 1024 handles with ~67 in reach
 /// (bench/nonlinear_bench_shepard_kelvinlet.cpp).
 class ShepardCoordinates final : public Coordinates {
  public:

@@ -99,6 +99,12 @@ TEST_F(IdwCliTest, PointsOutOfReachExitWith3AndWriteNothing) {
   EXPECT_EQ(r.exitCode, 3);
   EXPECT_THAT(r.err, HasSubstr("points are farther than the radius 0.3 from every handle"));
   EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
+  // weights names the points file as deform does.
+  const test::CliResult w = run("weights --rig " + (dir_ / "idw.json").string() + " " +
+                                (dir_ / "cloud.ply").string() + " -o " + (dir_ / "w.csv").string());
+  EXPECT_EQ(w.exitCode, 3);
+  EXPECT_THAT(w.err, HasSubstr("cloud.ply: ShepardCoordinates: "));
+  EXPECT_FALSE(fs::exists(dir_ / "w.csv"));
   // With a radius that reaches every point the same rig works, and agrees with the library.
   const PolygonSoup near = writeCloud(Vec3(-0.5), Vec3(0.5), 100, 4);
   write("wide.json", R"({"method": "idw", "radius": 2.5, "handles": )" + jsonPoints(handles) +

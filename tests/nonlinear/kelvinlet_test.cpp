@@ -103,6 +103,67 @@ TEST(KelvinletWarp, GrabMovesTheCentreByExactlyTheDisplacement) {
   EXPECT_LT(glm::length(stepped.apply(kCenter) - (kCenter + o.displacement)), 1e-14);
 }
 
+// Evaluated in units of the radius: any finite radius gives the same brush up to scale (the
+// world-unit closed forms overflowed beyond ~1e60: radius 1e150 moved the centre by 0.52 of the
+// displacement, radii 1e-160 and 1e200 gave non-finite points).
+TEST(KelvinletWarp, ExtremeRadiiKeepTheBrushExact) {
+  for (const double eps : {1e-300, 1e-150, 1e150, 1e300}) {
+    for (const KelvinletFalloff falloff :
+         {KelvinletFalloff::Single, KelvinletFalloff::Bi, KelvinletFalloff::Tri}) {
+      KelvinletOptions o = grab(Vec3(1.0, 0.0, 0.0), eps);
+      o.center = Vec3(0.0);
+      o.falloff = falloff;
+      const KelvinletWarp warp(o);
+      EXPECT_LT(glm::length(warp.apply(Vec3(0.0)) - Vec3(1.0, 0.0, 0.0)), 1e-15) << eps;
+      // The same brush at radius 1, scaled: u(ε y; ε f) = ε u₁(y; f) for a grab (a
+      // displacement of ε, so that it is resolved next to ε y; at most 1e150).
+      KelvinletOptions one = o;
+      one.radius = 1.0;
+      const Vec3 y(0.3, -0.7, 1.1);
+      if (eps <= 1e150) {
+        KelvinletOptions scaled = o;
+        scaled.displacement = Vec3(eps, 0.0, 0.0);
+        const Vec3 u = (KelvinletWarp(scaled).apply(eps * y) - eps * y) / eps;
+        EXPECT_LT(glm::length(u - (KelvinletWarp(one).apply(y) - y)), 1e-14) << eps;
+      }
+      const Mat3 jg = warp.jacobian(eps * y);
+      EXPECT_TRUE(isFinite(jg[0]) && isFinite(jg[1]) && isFinite(jg[2])) << eps;
+
+      KelvinletOptions twist;
+      twist.brush = KelvinletBrush::Twist;
+      twist.radius = eps;
+      twist.angle = 0.5;
+      twist.falloff = falloff;
+      const KelvinletWarp t(twist);
+      const Mat3 j = t.jacobian(Vec3(0.0));
+      EXPECT_NEAR(j[0][1], 0.5, 1e-14) << eps;  // I + θ [n]× at the centre
+      EXPECT_TRUE(isFinite(t.apply(eps * y))) << eps;
+      KelvinletOptions twistOne = twist;
+      twistOne.radius = 1.0;
+      const Vec3 ut = (t.apply(eps * y) - eps * y) / eps;
+      EXPECT_LT(glm::length(ut - (KelvinletWarp(twistOne).apply(y) - y)), 1e-14) << eps;
+    }
+  }
+  // Far away in units of a tiny radius (|r|² overflows): no displacement, nothing non-finite.
+  const KelvinletWarp tiny(grab(Vec3(1.0, 0.0, 0.0), 1e-300));
+  EXPECT_EQ(tiny.apply(kCenter + Vec3(1.0)), kCenter + Vec3(1.0));
+}
+
+// Any finite non-zero axis: |axis|² underflowed for [0, 0, 1e-300] (refused as zero).
+TEST(KelvinletWarp, TwistAxisOfAnyFiniteLength) {
+  KelvinletOptions o;
+  o.brush = KelvinletBrush::Twist;
+  o.angle = 0.8;
+  o.axis = Vec3(0.0, 0.0, 1.0);
+  const Vec3 x(0.3, 0.2, -0.1);
+  const Vec3 expected = KelvinletWarp(o).apply(x);
+  for (const Vec3& axis : {Vec3(0.0, 0.0, 1e-300), Vec3(0.0, 0.0, 1e300),
+                           Vec3(0.0, 0.0, std::numeric_limits<double>::denorm_min())}) {
+    o.axis = axis;
+    EXPECT_EQ(KelvinletWarp(o).apply(x), expected) << axis.z;
+  }
+}
+
 TEST(KelvinletWarp, GrabClosedFormOnTheAxis) {
   // On the line through the centre along the force, r = t f̂: u = s ((a − b)/ρ + aε²/(2ρ³) +
   // b t²/ρ³) f with a = 1, b = 1/(4(1 − ν)), s = 2ε/(3a − 2b).
@@ -314,6 +375,10 @@ TEST(KelvinletWarp, RejectsBadParameters) {
   KelvinletOptions o = grab(Vec3(1.0));
   o.center = Vec3(inf, 0.0, 0.0);
   EXPECT_THAT(message(o), HasSubstr("center must be finite"));
+  o.center = Vec3(0.0, 0.0, 1e200);  // the centre plus a displacement could overflow
+  EXPECT_THAT(message(o), HasSubstr("center must be finite and within 1e150"));
+  EXPECT_THAT(message(grab(Vec3(0.0, -1e308, 0.0))),
+              HasSubstr("displacement must be finite and within 1e150"));
   EXPECT_THAT(message(twist(Vec3(0.0), 1.0)), HasSubstr("axis must be finite and non-zero"));
   EXPECT_THAT(message(twist(Vec3(nan, 1.0, 0.0), 1.0)), HasSubstr("axis must be"));
   EXPECT_THAT(message(twist(Vec3(1.0), nan)), HasSubstr("angle must be finite"));

@@ -223,6 +223,28 @@ TEST(ShepardCoordinates, LocalSupportIsZeroBeyondTheRadius) {
   EXPECT_NEAR(w[0], u0 / (u0 + u1), 1e-15);
 }
 
+// maxNonZeros() bounds every point's non-zeros; a radius covering every handle gives n (it was
+// found by a radius search around each handle: O(n²) when R covers them all).
+TEST(ShepardCoordinates, MaxNonZerosBoundsEveryRowAndIsNWhenTheRadiusCoversAll) {
+  std::mt19937 rng(16);
+  const std::vector<Vec3> handles = test::randomPoints(rng, 400, 0.0, 1.0);
+  for (const double radius : {0.15, 0.4, 10.0}) {
+    const ShepardCoordinates coords(handles, withPower(2.0, radius));
+    if (radius == 10.0) {
+      EXPECT_EQ(coords.maxNonZeros(), handles.size());
+    }
+    std::size_t most = 0;
+    for (std::size_t h = 0; h < handles.size(); h += 3) {
+      const std::vector<double> w = weightsOf(coords, handles[h] + Vec3(0.01, -0.02, 0.01));
+      std::size_t nonZero = 0;
+      for (const double v : w) nonZero += v != 0.0 ? 1 : 0;
+      most = std::max(most, nonZero);
+    }
+    EXPECT_LE(most, coords.maxNonZeros()) << radius;
+    EXPECT_GT(most, 0u);
+  }
+}
+
 TEST(ShepardCoordinates, LocalWeightsMatchABruteForceSum) {
   // The grid that finds the handles within reach, against the formula over every handle: with
   // cells of the radius (dense handles) and of 1/64 of the extent (sparse handles, radius much
