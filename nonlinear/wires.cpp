@@ -10,6 +10,7 @@
 
 #include <glm/gtc/quaternion.hpp>
 
+#include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
 
@@ -326,24 +327,27 @@ void validate(const std::vector<Wire>& wires, const WiresOptions& options) {
 
 }  // namespace
 
-std::string wireCurveName(WireCurve curve) {
-  return curve == WireCurve::Polyline ? "polyline" : "catmull-rom";
-}
+namespace {
+
+constexpr detail::EnumNames<WireCurve, 2> kCurveNames = {
+    {{WireCurve::Polyline, "polyline"}, {WireCurve::CatmullRom, "catmull-rom"}}};
+constexpr detail::EnumNames<WireDropoff, 2> kDropoffNames = {
+    {{WireDropoff::Smooth, "smooth"}, {WireDropoff::Linear, "linear"}}};
+
+}  // namespace
+
+std::string wireCurveName(WireCurve curve) { return detail::enumName(kCurveNames, curve); }
 
 WireCurve wireCurveFromName(std::string_view name) {
-  if (name == "polyline") return WireCurve::Polyline;
-  if (name == "catmull-rom") return WireCurve::CatmullRom;
-  throw InvalidInput("wire curve '" + std::string(name) + "' is not one of: polyline, catmull-rom");
+  return detail::enumFromName(kCurveNames, name, "wire curve");
 }
 
 std::string wireDropoffName(WireDropoff dropoff) {
-  return dropoff == WireDropoff::Smooth ? "smooth" : "linear";
+  return detail::enumName(kDropoffNames, dropoff);
 }
 
 WireDropoff wireDropoffFromName(std::string_view name) {
-  if (name == "smooth") return WireDropoff::Smooth;
-  if (name == "linear") return WireDropoff::Linear;
-  throw InvalidInput("wire drop-off '" + std::string(name) + "' is not one of: smooth, linear");
+  return detail::enumFromName(kDropoffNames, name, "wire drop-off");
 }
 
 // One wire, ready to query: both curves, the rotations at the samples, and a uniform grid over
