@@ -1,6 +1,7 @@
 #include <spacewarp/volume/inside_distance.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -198,17 +199,31 @@ class Marcher {
   std::vector<std::pair<double, std::size_t>> heap_;
 };
 
-}  // namespace
+// The dense grid the distances live on: voxel centres at integer multiples of h (meshLevelSet's
+// grid), the model's box padded by kPadVoxels; voxel (i, j, k) is i + nx (j + ny k).
+struct DenseGrid {
+  double h = 0.0;
+  std::array<long long, 3> lo{};  // the first voxel's index (OpenVDB coordinates)
+  std::size_t nx = 0, ny = 0, nz = 0;
 
-InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> handles,
-                                 const InsideDistanceOptions& options)
-    : handles_(std::move(handles)) {
-  const std::string who = "InsideDistances: ";
+  std::size_t count() const { return nx * ny * nz; }
+  Vec3 origin() const {
+    return Vec3(static_cast<double>(lo[0]), static_cast<double>(lo[1]),
+                static_cast<double>(lo[2])) *
+           h;
+  }
+  std::size_t index(std::size_t i, std::size_t j, std::size_t k) const {
+    return i + nx * (j + ny * k);
+  }
+};
+
+void checkInputs(const PolygonSoup& model, const std::vector<Vec3>& handles,
+                 const InsideDistanceOptions& options, const std::string& who) {
   if (!std::isfinite(options.voxelSize) || options.voxelSize < 0.0)
     throw InvalidInput(who + "voxelSize must be finite and >= 0, not " + str(options.voxelSize));
-  if (handles_.empty()) throw InvalidInput(who + "no handles");
-  for (std::size_t i = 0; i < handles_.size(); ++i) {
-    if (!isFinite(handles_[i]))
+  if (handles.empty()) throw InvalidInput(who + "no handles");
+  for (std::size_t i = 0; i < handles.size(); ++i) {
+    if (!isFinite(handles[i]))
       throw InvalidInput(who + "handle " + std::to_string(i) + " is not finite");
   }
   if (model.positions.empty() || model.polygonCount() == 0)
@@ -220,22 +235,19 @@ InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> han
                        str(model.positions[open.a]) + " and " + std::to_string(open.b) + " " +
                        str(model.positions[open.b]) + "): inside distances need a closed surface");
   }
-  const BoundingBox box = boundingBox(model.positions);
-  const double diagonal = box.diagonal();
-  if (!(diagonal > 0.0)) throw InvalidInput(who + "the model is a single point");
-  h_ = options.voxelSize > 0.0 ? options.voxelSize : diagonal / 128.0;
+}
 
-  // The grid: voxel centres at integer multiples of h (meshLevelSet's grid), the box padded.
-  // Counts in double: a tiny voxel gives counts far beyond any integer type.
+// The grid around `box` at voxel h for n handles, its memory checked before anything is
+// allocated. Counts in double: a tiny voxel gives counts far beyond any integer type.
+DenseGrid planGrid(const BoundingBox& box, double h, std::size_t n, const std::string& who) {
   double voxels = 1.0;
   std::array<double, 3> first{}, counts{};
   for (int a = 0; a < 3; ++a) {
-    first[a] = std::floor(box.min[a] / h_) - kPadVoxels;
-    counts[a] = std::ceil(box.max[a] / h_) + kPadVoxels - first[a] + 1.0;
+    first[a] = std::floor(box.min[a] / h) - kPadVoxels;
+    counts[a] = std::ceil(box.max[a] / h) + kPadVoxels - first[a] + 1.0;
     voxels *= counts[a];
   }
-  const std::size_t n = handles_.size();
-  const std::string what = "'voxelSize' " + str(h_) + " (" + str(counts[0]) + " x " +
+  const std::string what = "'voxelSize' " + str(h) + " (" + str(counts[0]) + " x " +
                            str(counts[1]) + " x " + str(counts[2]) + " voxels, " +
                            std::to_string(n) + " handles)";
   const double workers = std::min<double>(static_cast<double>(n),
@@ -254,187 +266,225 @@ InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> han
   }
   detail::checkMemory(bytes, who + what);
   if (!(voxels < 4e9)) throw InvalidInput(who + what + " has too many voxels");
-  std::array<long long, 3> lo{};
+  DenseGrid grid;
+  grid.h = h;
   for (int a = 0; a < 3; ++a) {
-    lo[a] = static_cast<long long>(std::clamp(first[a], -1e15, 1e15));
-    dims_[a] = static_cast<int>(counts[a]);
-  }
-  // OpenVDB's coordinates are 32-bit.
-  for (int a = 0; a < 3; ++a) {
-    if (!(std::abs(static_cast<double>(lo[a])) + dims_[a] < 0x1p30)) {
+    grid.lo[a] = static_cast<long long>(std::clamp(first[a], -1e15, 1e15));
+    // OpenVDB's coordinates are 32-bit.
+    if (!(std::abs(static_cast<double>(grid.lo[a])) + counts[a] < 0x1p30)) {
       throw InvalidInput(who + "the model lies too far from the origin for " + what +
                          " (voxel indices beyond 2^30)");
     }
   }
-  origin_ =
-      Vec3(static_cast<double>(lo[0]), static_cast<double>(lo[1]), static_cast<double>(lo[2])) * h_;
-  const std::size_t nx = static_cast<std::size_t>(dims_[0]);
-  const std::size_t ny = static_cast<std::size_t>(dims_[1]);
-  const std::size_t nz = static_cast<std::size_t>(dims_[2]);
-  const std::size_t count = nx * ny * nz;
+  grid.nx = static_cast<std::size_t>(counts[0]);
+  grid.ny = static_cast<std::size_t>(counts[1]);
+  grid.nz = static_cast<std::size_t>(counts[2]);
+  return grid;
+}
 
-  // The signed distance to the surface at every voxel, and which voxels are inside.
-  const openvdb::FloatGrid::Ptr surface = meshLevelSet(model, h_, 3.0f);
-  std::vector<float> phi(count);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nz), [&](const auto& range) {
+// The signed distance to the model's surface at every voxel of the grid (OpenVDB's level set,
+// background beyond its narrow band).
+std::vector<float> sampleLevelSet(const PolygonSoup& model, const DenseGrid& g) {
+  const openvdb::FloatGrid::Ptr surface = meshLevelSet(model, g.h, 3.0f);
+  std::vector<float> phi(g.count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.nz), [&](const auto& range) {
     const auto accessor = surface->getConstAccessor();
     for (std::size_t k = range.begin(); k != range.end(); ++k) {
-      for (std::size_t j = 0; j < ny; ++j) {
-        for (std::size_t i = 0; i < nx; ++i) {
-          const openvdb::Coord c(static_cast<int>(lo[0] + static_cast<long long>(i)),
-                                 static_cast<int>(lo[1] + static_cast<long long>(j)),
-                                 static_cast<int>(lo[2] + static_cast<long long>(k)));
-          phi[i + nx * (j + ny * k)] = accessor.getValue(c);
+      for (std::size_t j = 0; j < g.ny; ++j) {
+        for (std::size_t i = 0; i < g.nx; ++i) {
+          const openvdb::Coord c(static_cast<int>(g.lo[0] + static_cast<long long>(i)),
+                                 static_cast<int>(g.lo[1] + static_cast<long long>(j)),
+                                 static_cast<int>(g.lo[2] + static_cast<long long>(k)));
+          phi[g.index(i, j, k)] = accessor.getValue(c);
         }
       }
     }
   });
+  return phi;
+}
+
+// Handles must be inside or within the band: trilinear φ at the handle.
+void checkHandlesInside(const std::vector<Vec3>& handles, const std::vector<float>& phi,
+                        const DenseGrid& g, const std::string& who) {
+  const double band = kBandVoxels * g.h;
+  const std::size_t dims[3] = {g.nx, g.ny, g.nz};
+  for (std::size_t hi = 0; hi < handles.size(); ++hi) {
+    const Vec3 u = (handles[hi] - g.origin()) / g.h;
+    bool inGrid = true;
+    for (int a = 0; a < 3; ++a)
+      inGrid = inGrid && u[a] >= 0.0 && u[a] <= static_cast<double>(dims[a]) - 1.0;
+    double value = kInf;
+    if (inGrid) {
+      std::size_t i0[3];
+      double t[3];
+      for (int a = 0; a < 3; ++a) {
+        i0[a] = std::min(static_cast<std::size_t>(std::floor(u[a])), dims[a] - 2);
+        t[a] = u[a] - static_cast<double>(i0[a]);
+      }
+      value = 0.0;
+      for (int c = 0; c < 8; ++c) {
+        const std::size_t di = c & 1, dj = (c >> 1) & 1, dk = (c >> 2) & 1;
+        const double w =
+            (di ? t[0] : 1.0 - t[0]) * (dj ? t[1] : 1.0 - t[1]) * (dk ? t[2] : 1.0 - t[2]);
+        value += w * phi[g.index(i0[0] + di, i0[1] + dj, i0[2] + dk)];
+      }
+    }
+    if (!(value <= band)) {
+      throw InvalidInput(who + "handle " + std::to_string(hi) + " " + str(handles[hi]) +
+                         " is outside the model (" +
+                         (inGrid && value < 3.0 * g.h ? str(value) : "more than " + str(band)) +
+                         " from its surface; handles must be inside or within 2 voxels (" +
+                         str(band) + ") of it)");
+    }
+  }
+}
+
+// Outside the model a voxel takes the distance of its nearest inside voxel, extrapolated: not a
+// shortest path through empty space or along the surface, which would let one part's values
+// undercut another's, or cut concave corners, right at the surface. Nearest inside voxels by
+// propagating them outwards in order of distance (Danielsson-style; exact up to rare ties).
+std::vector<std::size_t> nearestInsideSites(const std::vector<std::uint8_t>& inside,
+                                            const DenseGrid& g) {
+  const std::size_t count = g.count(), nx = g.nx, ny = g.ny, nz = g.nz;
+  std::vector<std::size_t> site(count, count);
+  std::vector<double> key(count, kInf);
+  std::vector<std::pair<double, std::size_t>> heap;
+  for (std::size_t idx = 0; idx < count; ++idx) {
+    if (inside[idx]) {
+      site[idx] = idx;
+      key[idx] = 0.0;
+      heap.emplace_back(0.0, idx);
+    }
+  }
+  std::make_heap(heap.begin(), heap.end(), std::greater<>());
+  const auto position = [&](std::size_t idx) {
+    return Vec3(static_cast<double>(idx % nx), static_cast<double>((idx / nx) % ny),
+                static_cast<double>(idx / (nx * ny)));
+  };
+  while (!heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end(), std::greater<>());
+    const auto [value, idx] = heap.back();
+    heap.pop_back();
+    if (value > key[idx]) continue;
+    const std::size_t i = idx % nx, j = (idx / nx) % ny, k = idx / (nx * ny);
+    const std::size_t steps[6] = {1, 1, nx, nx, nx * ny, nx * ny};
+    const bool ok[6] = {i > 0, i + 1 < nx, j > 0, j + 1 < ny, k > 0, k + 1 < nz};
+    for (int e = 0; e < 6; ++e) {
+      if (!ok[e]) continue;
+      const std::size_t next = e % 2 ? idx + steps[e] : idx - steps[e];
+      if (inside[next]) continue;
+      const double d = glm::length(position(next) - position(site[idx]));
+      if (d < key[next] || (d == key[next] && site[idx] < site[next])) {
+        key[next] = d;
+        site[next] = site[idx];
+        heap.emplace_back(d, next);
+        std::push_heap(heap.begin(), heap.end(), std::greater<>());
+      }
+    }
+  }
+  return site;
+}
+
+// The distances from the handle p at every voxel: exact Euclidean seeds around p, marched over
+// the inside, extrapolated from each outside voxel's nearest inside site, then marched through
+// any voxel for the parts no handle's inside reaches.
+std::vector<double> handleDistances(const Vec3& p, const DenseGrid& g,
+                                    const std::vector<std::uint8_t>& inside,
+                                    const std::vector<std::size_t>& site) {
+  const std::size_t count = g.count(), nx = g.nx, ny = g.ny, nz = g.nz;
+  const double h = g.h;
+  Marcher march({static_cast<int>(nx), static_cast<int>(ny), static_cast<int>(nz)}, h);
+  const Vec3 u = (p - g.origin()) / h;
+  const int r = static_cast<int>(std::ceil(kSeedVoxels));
+  const int dims[3] = {static_cast<int>(nx), static_cast<int>(ny), static_cast<int>(nz)};
+  int from[3], to[3];
+  for (int a = 0; a < 3; ++a) {
+    from[a] = std::max(static_cast<int>(std::floor(u[a])) - r, 0);
+    to[a] = std::min(static_cast<int>(std::ceil(u[a])) + r, dims[a] - 1);
+  }
+  for (int k = from[2]; k <= to[2]; ++k) {
+    for (int j = from[1]; j <= to[1]; ++j) {
+      for (int i = from[0]; i <= to[0]; ++i) {
+        const double dist = glm::length(g.origin() + Vec3(i, j, k) * h - p);
+        if (dist <= kSeedVoxels * h) {
+          march.seed(g.index(static_cast<std::size_t>(i), static_cast<std::size_t>(j),
+                             static_cast<std::size_t>(k)),
+                     dist);
+        }
+      }
+    }
+  }
+  march.run([&](std::size_t idx) { return inside[idx]; });
+  std::vector<double>& marched = march.values();
+  for (std::size_t idx = 0; idx < count; ++idx) {
+    if (inside[idx] || march.known(idx) || !(marched[site[idx]] < kInf)) continue;
+    const std::size_t s = site[idx];
+    const Vec3 step(static_cast<double>(idx % nx) - static_cast<double>(s % nx),
+                    static_cast<double>((idx / nx) % ny) - static_cast<double>((s / nx) % ny),
+                    static_cast<double>(idx / (nx * ny)) - static_cast<double>(s / (nx * ny)));
+    // Linear extrapolation along the distance's gradient at the site (differences over inside
+    // voxels, unit length at most) for the first voxels out, so that a distance that runs along
+    // the surface stays level across it; growing with the way out beyond.
+    const std::size_t strides[3] = {1, nx, nx * ny};
+    const std::size_t coords[3] = {s % nx, (s / nx) % ny, s / (nx * ny)};
+    const std::size_t sizes[3] = {nx, ny, nz};
+    Vec3 grad(0.0);
+    for (int a = 0; a < 3; ++a) {
+      const bool lo = coords[a] > 0 && inside[s - strides[a]];
+      const bool hi = coords[a] + 1 < sizes[a] && inside[s + strides[a]];
+      const double ulo = lo ? marched[s - strides[a]] : marched[s];
+      const double uhi = hi ? marched[s + strides[a]] : marched[s];
+      if (lo || hi) grad[a] = (uhi - ulo) / ((lo && hi ? 2.0 : 1.0) * h);
+    }
+    const double gl = glm::length(grad);
+    if (gl > 1.0) grad /= gl;
+    const double way = h * glm::length(step);
+    const double value =
+        marched[s] + h * glm::dot(grad, step) + std::max(way - kBandVoxels * h, 0.0);
+    march.seed(idx, std::max(value, 0.0));
+  }
+  // Parts of the model that no handle's inside reaches (another component), and their
+  // surroundings: through any voxel.
+  march.run([](std::size_t) { return true; });
+  return std::move(march.values());
+}
+
+}  // namespace
+
+InsideDistances::InsideDistances(const PolygonSoup& model, std::vector<Vec3> handles,
+                                 const InsideDistanceOptions& options)
+    : handles_(std::move(handles)) {
+  const std::string who = "InsideDistances: ";
+  checkInputs(model, handles_, options, who);
+  const BoundingBox box = boundingBox(model.positions);
+  const double diagonal = box.diagonal();
+  if (!(diagonal > 0.0)) throw InvalidInput(who + "the model is a single point");
+  h_ = options.voxelSize > 0.0 ? options.voxelSize : diagonal / 128.0;
+  const std::size_t n = handles_.size();
+  const DenseGrid grid = planGrid(box, h_, n, who);
+  origin_ = grid.origin();
+  dims_ = {static_cast<int>(grid.nx), static_cast<int>(grid.ny), static_cast<int>(grid.nz)};
+
+  const std::vector<float> phi = sampleLevelSet(model, grid);
+  const std::size_t count = grid.count();
   std::vector<std::uint8_t> inside(count);
   std::size_t insideCount = 0;
   for (std::size_t idx = 0; idx < count; ++idx) {
     inside[idx] = phi[idx] < 0.0f;
     insideCount += inside[idx];
   }
-  const double band = kBandVoxels * h_;
   if (insideCount == 0) {
     throw InvalidInput(who + "the model encloses no voxel of " + str(h_) +
                        " (is it closed? a smaller voxelSize resolves thinner models)");
   }
-
-  // Handles must be inside or within the band: trilinear φ at the handle.
-  for (std::size_t hi = 0; hi < n; ++hi) {
-    const Vec3 u = (handles_[hi] - origin_) / h_;
-    bool inGrid = true;
-    for (int a = 0; a < 3; ++a) inGrid = inGrid && u[a] >= 0.0 && u[a] <= dims_[a] - 1.0;
-    double value = kInf;
-    if (inGrid) {
-      int i0[3];
-      double t[3];
-      for (int a = 0; a < 3; ++a) {
-        i0[a] = std::min(static_cast<int>(std::floor(u[a])), dims_[a] - 2);
-        t[a] = u[a] - i0[a];
-      }
-      value = 0.0;
-      for (int c = 0; c < 8; ++c) {
-        const int di = c & 1, dj = (c >> 1) & 1, dk = (c >> 2) & 1;
-        const double w =
-            (di ? t[0] : 1.0 - t[0]) * (dj ? t[1] : 1.0 - t[1]) * (dk ? t[2] : 1.0 - t[2]);
-        value += w * phi[static_cast<std::size_t>(i0[0] + di) +
-                         nx * (static_cast<std::size_t>(i0[1] + dj) +
-                               ny * static_cast<std::size_t>(i0[2] + dk))];
-      }
-    }
-    if (!(value <= band)) {
-      throw InvalidInput(who + "handle " + std::to_string(hi) + " " + str(handles_[hi]) +
-                         " is outside the model (" +
-                         (inGrid && value < 3.0 * h_ ? str(value) : "more than " + str(band)) +
-                         " from its surface; handles must be inside or within 2 voxels (" +
-                         str(band) + ") of it)");
-    }
-  }
-
-  // Outside the model a voxel takes the distance of its nearest inside voxel, extrapolated: not a
-  // shortest path through empty space or along the surface, which would let one part's values
-  // undercut another's, or cut concave corners, right at the surface. Nearest inside voxels by
-  // propagating them outwards in order of distance (Danielsson-style; exact up to rare ties).
-  std::vector<std::size_t> site(count, count);
-  {
-    std::vector<double> key(count, kInf);
-    std::vector<std::pair<double, std::size_t>> heap;
-    for (std::size_t idx = 0; idx < count; ++idx) {
-      if (inside[idx]) {
-        site[idx] = idx;
-        key[idx] = 0.0;
-        heap.emplace_back(0.0, idx);
-      }
-    }
-    std::make_heap(heap.begin(), heap.end(), std::greater<>());
-    const auto position = [&](std::size_t idx) {
-      return Vec3(static_cast<double>(idx % nx), static_cast<double>((idx / nx) % ny),
-                  static_cast<double>(idx / (nx * ny)));
-    };
-    while (!heap.empty()) {
-      std::pop_heap(heap.begin(), heap.end(), std::greater<>());
-      const auto [value, idx] = heap.back();
-      heap.pop_back();
-      if (value > key[idx]) continue;
-      const std::size_t i = idx % nx, j = (idx / nx) % ny, k = idx / (nx * ny);
-      const std::size_t steps[6] = {1, 1, nx, nx, nx * ny, nx * ny};
-      const bool ok[6] = {i > 0, i + 1 < nx, j > 0, j + 1 < ny, k > 0, k + 1 < nz};
-      for (int e = 0; e < 6; ++e) {
-        if (!ok[e]) continue;
-        const std::size_t next = e % 2 ? idx + steps[e] : idx - steps[e];
-        if (inside[next]) continue;
-        const double d = glm::length(position(next) - position(site[idx]));
-        if (d < key[next] || (d == key[next] && site[idx] < site[next])) {
-          key[next] = d;
-          site[next] = site[idx];
-          heap.emplace_back(d, next);
-          std::push_heap(heap.begin(), heap.end(), std::greater<>());
-        }
-      }
-    }
-  }
+  checkHandlesInside(handles_, phi, grid, who);
+  const std::vector<std::size_t> site = nearestInsideSites(inside, grid);
 
   // One march per handle, in parallel; each writes its own entries of values_.
   values_.assign(count * n, 0.0f);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), [&](const auto& range) {
     for (std::size_t hi = range.begin(); hi != range.end(); ++hi) {
-      Marcher march(dims_, h_);
-      const Vec3 p = handles_[hi];
-      const Vec3 u = (p - origin_) / h_;
-      const int r = static_cast<int>(std::ceil(kSeedVoxels));
-      int from[3], to[3];
-      for (int a = 0; a < 3; ++a) {
-        from[a] = std::max(static_cast<int>(std::floor(u[a])) - r, 0);
-        to[a] = std::min(static_cast<int>(std::ceil(u[a])) + r, dims_[a] - 1);
-      }
-      for (int k = from[2]; k <= to[2]; ++k) {
-        for (int j = from[1]; j <= to[1]; ++j) {
-          for (int i = from[0]; i <= to[0]; ++i) {
-            const double dist = glm::length(origin_ + Vec3(i, j, k) * h_ - p);
-            if (dist <= kSeedVoxels * h_) {
-              march.seed(static_cast<std::size_t>(i) +
-                             nx * (static_cast<std::size_t>(j) + ny * static_cast<std::size_t>(k)),
-                         dist);
-            }
-          }
-        }
-      }
-      march.run([&](std::size_t idx) { return inside[idx]; });
-      std::vector<double>& marched = march.values();
-      for (std::size_t idx = 0; idx < count; ++idx) {
-        if (inside[idx] || march.known(idx) || !(marched[site[idx]] < kInf)) continue;
-        const std::size_t s = site[idx];
-        const Vec3 step(static_cast<double>(idx % nx) - static_cast<double>(s % nx),
-                        static_cast<double>((idx / nx) % ny) - static_cast<double>((s / nx) % ny),
-                        static_cast<double>(idx / (nx * ny)) - static_cast<double>(s / (nx * ny)));
-        // Linear extrapolation along the distance's gradient at the site (differences over
-        // inside voxels, unit length at most) for the first voxels out, so that a distance that
-        // runs along the surface stays level across it; growing with the way out beyond.
-        const std::size_t si = s % nx, sj = (s / nx) % ny, sk = s / (nx * ny);
-        const std::size_t strides[3] = {1, nx, nx * ny};
-        const std::size_t coords[3] = {si, sj, sk};
-        const std::size_t sizes[3] = {nx, ny, nz};
-        Vec3 g(0.0);
-        for (int a = 0; a < 3; ++a) {
-          const bool lo = coords[a] > 0 && inside[s - strides[a]];
-          const bool hi = coords[a] + 1 < sizes[a] && inside[s + strides[a]];
-          const double ulo = lo ? marched[s - strides[a]] : marched[s];
-          const double uhi = hi ? marched[s + strides[a]] : marched[s];
-          if (lo || hi) g[a] = (uhi - ulo) / ((lo && hi ? 2.0 : 1.0) * h_);
-        }
-        const double gl = glm::length(g);
-        if (gl > 1.0) g /= gl;
-        const double way = h_ * glm::length(step);
-        const double value =
-            marched[s] + h_ * glm::dot(g, step) + std::max(way - kBandVoxels * h_, 0.0);
-        march.seed(idx, std::max(value, 0.0));
-      }
-      // Parts of the model that no handle's inside reaches (another component), and their
-      // surroundings: through any voxel.
-      march.run([](std::size_t) { return true; });
-      const std::vector<double>& values = march.values();
+      const std::vector<double> values = handleDistances(handles_[hi], grid, inside, site);
       for (std::size_t idx = 0; idx < count; ++idx)
         values_[idx * n + hi] = static_cast<float>(values[idx]);
     }
