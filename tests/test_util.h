@@ -446,4 +446,29 @@ struct OpenBlasThreads {
   bool available() const { return get && set; }
 };
 
+/// A rotation by `angle` radians about `axis` (normalised; Rodrigues).
+inline Mat3 rotation(const Vec3& axis, double angle) {
+  const Vec3 a = glm::normalize(axis);
+  const double c = std::cos(angle), s = std::sin(angle);
+  Mat3 r(c);
+  r += (1.0 - c) * glm::outerProduct(a, a);
+  r[0] += s * glm::cross(a, Vec3(1.0, 0.0, 0.0));
+  r[1] += s * glm::cross(a, Vec3(0.0, 1.0, 0.0));
+  r[2] += s * glm::cross(a, Vec3(0.0, 0.0, 1.0));
+  return r;
+}
+
+/// Point handles and their targets, for the handle-based warps.
+struct HandleRig {
+  std::vector<Vec3> handles, targets;
+};
+
+/// n handles in [-1, 1)^3, each target displaced by up to 0.4 per component.
+inline HandleRig randomHandleRig(std::mt19937& rng, std::size_t n) {
+  HandleRig r;
+  r.handles = randomPoints(rng, n, -1.0, 1.0);
+  for (const Vec3& p : r.handles) r.targets.push_back(p + randomPoint(rng, -0.4, 0.4));
+  return r;
+}
+
 }  // namespace spacewarp::test

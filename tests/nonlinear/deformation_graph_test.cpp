@@ -48,17 +48,7 @@ std::vector<Vec3> boxPoints(const Vec3& lo, const Vec3& hi, std::size_t n, unsig
   return points;
 }
 
-// A rotation by `angle` radians about the unit axis.
-Mat3 rotation(const Vec3& axis, double angle) {
-  const Vec3 a = glm::normalize(axis);
-  const double c = std::cos(angle), s = std::sin(angle);
-  Mat3 r(c);
-  r += (1.0 - c) * glm::outerProduct(a, a);
-  r[0] += s * glm::cross(a, Vec3(1.0, 0.0, 0.0));
-  r[1] += s * glm::cross(a, Vec3(0.0, 1.0, 0.0));
-  r[2] += s * glm::cross(a, Vec3(0.0, 0.0, 1.0));
-  return r;
-}
+using test::rotation;
 
 bool nonIncreasing(const std::vector<double>& e) {
   for (std::size_t i = 1; i < e.size(); ++i)

@@ -22,30 +22,10 @@ using ::testing::HasSubstr;
 
 constexpr MlsMode kModes[] = {MlsMode::Affine, MlsMode::Similarity, MlsMode::Rigid};
 
-// A rotation by `angle` radians about the unit `axis` (Rodrigues).
-Mat3 rotation(const Vec3& axis, double angle) {
-  const Vec3 a = glm::normalize(axis);
-  const double c = std::cos(angle);
-  const double s = std::sin(angle);
-  Mat3 r(c);
-  r += (1.0 - c) * glm::outerProduct(a, a);
-  r[0] += s * glm::cross(a, Vec3(1.0, 0.0, 0.0));
-  r[1] += s * glm::cross(a, Vec3(0.0, 1.0, 0.0));
-  r[2] += s * glm::cross(a, Vec3(0.0, 0.0, 1.0));
-  return r;
-}
+using test::rotation;
 
-struct Rig {
-  std::vector<Vec3> handles, targets;
-};
-
-// n handles in [-1, 1)^3 displaced by up to 0.4 per component.
-Rig randomRig(std::mt19937& rng, std::size_t n) {
-  Rig r;
-  r.handles = test::randomPoints(rng, n, -1.0, 1.0);
-  for (const Vec3& p : r.handles) r.targets.push_back(p + test::randomPoint(rng, -0.4, 0.4));
-  return r;
-}
+using Rig = test::HandleRig;
+constexpr auto randomRig = test::randomHandleRig;
 
 // Points in [-1.5, 1.5)^3 at least `gap` from every handle.
 std::vector<Vec3> pointsAwayFrom(std::mt19937& rng, const std::vector<Vec3>& handles, std::size_t n,

@@ -20,16 +20,8 @@ namespace {
 
 using ::testing::HasSubstr;
 
-struct Rig {
-  std::vector<Vec3> handles, targets;
-};
-
-Rig randomRig(std::mt19937& rng, std::size_t n) {
-  Rig r;
-  r.handles = test::randomPoints(rng, n, -1.0, 1.0);
-  for (const Vec3& p : r.handles) r.targets.push_back(p + test::randomPoint(rng, -0.4, 0.4));
-  return r;
-}
+using Rig = test::HandleRig;
+constexpr auto randomRig = test::randomHandleRig;
 
 ShepardOptions withPower(double power, double radius = std::numeric_limits<double>::infinity()) {
   ShepardOptions o;

@@ -27,13 +27,7 @@ constexpr double kPi = std::numbers::pi;
 // The rigid motion x -> R(axis, angle) (x − center) + center + shift (Rodrigues).
 Mat4 rigid(const Vec3& axis, double angle, const Vec3& center = Vec3(0.0),
            const Vec3& shift = Vec3(0.0)) {
-  const Vec3 a = glm::normalize(axis);
-  const double c = std::cos(angle), s = std::sin(angle);
-  Mat3 r(c);
-  r += (1.0 - c) * glm::outerProduct(a, a);
-  r[0] += s * glm::cross(a, Vec3(1.0, 0.0, 0.0));
-  r[1] += s * glm::cross(a, Vec3(0.0, 1.0, 0.0));
-  r[2] += s * glm::cross(a, Vec3(0.0, 0.0, 1.0));
+  const Mat3 r = test::rotation(axis, angle);
   Mat4 m(r);
   m[3] = glm::dvec4(center - r * center + shift, 1.0);
   return m;
