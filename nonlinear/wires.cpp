@@ -13,6 +13,7 @@
 #include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/nonlinear/detail/box_tree.h>
 #include <spacewarp/nonlinear/detail/chord_tree.h>
 
 namespace spacewarp {
@@ -521,46 +522,70 @@ WiresWarp::WiresWarp(std::vector<Wire> wires, const WiresOptions& options)
   validate(wires_, options_);
   for (std::size_t i = 0; i < wires_.size(); ++i)
     compiled_.push_back(std::make_unique<const Compiled>(wires_[i], i));
+  std::vector<Vec3> lo, hi;
+  for (const auto& c : compiled_) {
+    lo.push_back(c->lo);
+    hi.push_back(c->hi);
+  }
+  index_ = std::make_unique<const detail::BoxTree>(lo, hi, 0.0);
 }
 
 WiresWarp::~WiresWarp() = default;
 
 namespace {
 
-// x' from the moves of the wires (the paper's blend; a single wire's move as it is).
+// x' from the moves of the wires (the paper's blend; a single wire's move as it is). Only the
+// wires whose reach box holds x (found by `index`) can move it; the others' moves are 0, which
+// the blend skips, so visiting those in index order gives the same sums bit for bit.
 template <class Wires>
-Vec3 blend(const Wires& compiled, double m, const Vec3& x) {
+Vec3 blend(const Wires& compiled, const detail::BoxTree& index, double m, const Vec3& x) {
   if (compiled.size() == 1) {
     Vec3 delta;
     return compiled[0]->move(x, delta) ? x + delta : x;
   }
+  constexpr std::size_t kLocal = 16;  // wires near one point, without a heap allocation
+  std::array<std::uint32_t, kLocal> localIds;
+  std::vector<std::uint32_t> heapIds;
+  std::size_t count = 0;
+  index.containing(x, [&](std::uint32_t i) {
+    if (count < kLocal) {
+      localIds[count] = i;
+    } else {
+      if (heapIds.empty()) heapIds.assign(localIds.begin(), localIds.end());
+      heapIds.push_back(i);
+    }
+    ++count;
+  });
+  if (count == 0) return x;
+  std::uint32_t* ids = count <= kLocal ? localIds.data() : heapIds.data();
+  std::sort(ids, ids + count);
   // Weights |Δx_i|^m normalised by the largest |Δx_i| (neither overflow nor underflow).
-  std::array<Vec3, 8> local;
-  std::array<double, 8> len{};
+  std::array<Vec3, kLocal> local;
+  std::array<double, kLocal> len{};
   std::vector<Vec3> heapD;
   std::vector<double> heapL;
   Vec3* dx = local.data();
   double* lx = len.data();
-  if (compiled.size() > local.size()) {
-    heapD.resize(compiled.size());
-    heapL.resize(compiled.size());
+  if (count > kLocal) {
+    heapD.resize(count);
+    heapL.resize(count);
     dx = heapD.data();
     lx = heapL.data();
   }
   double largest = 0.0;
-  for (std::size_t i = 0; i < compiled.size(); ++i) {
-    dx[i] = Vec3(0.0);
-    compiled[i]->move(x, dx[i]);
-    lx[i] = glm::length(dx[i]);
-    largest = std::max(largest, lx[i]);
+  for (std::size_t c = 0; c < count; ++c) {
+    dx[c] = Vec3(0.0);
+    compiled[ids[c]]->move(x, dx[c]);
+    lx[c] = glm::length(dx[c]);
+    largest = std::max(largest, lx[c]);
   }
   if (!(largest > 0.0)) return x;
   Vec3 sum(0.0);
   double weights = 0.0;
-  for (std::size_t i = 0; i < compiled.size(); ++i) {
-    if (!(lx[i] > 0.0)) continue;
-    const double w = m == 0.0 ? 1.0 : m == 1.0 ? lx[i] / largest : std::pow(lx[i] / largest, m);
-    sum += w * dx[i];
+  for (std::size_t c = 0; c < count; ++c) {
+    if (!(lx[c] > 0.0)) continue;
+    const double w = m == 0.0 ? 1.0 : m == 1.0 ? lx[c] / largest : std::pow(lx[c] / largest, m);
+    sum += w * dx[c];
     weights += w;
   }
   return x + sum / weights;
@@ -568,7 +593,9 @@ Vec3 blend(const Wires& compiled, double m, const Vec3& x) {
 
 }  // namespace
 
-Vec3 WiresWarp::apply(const Vec3& x) const { return blend(compiled_, options_.locality, x); }
+Vec3 WiresWarp::apply(const Vec3& x) const {
+  return blend(compiled_, *index_, options_.locality, x);
+}
 
 Mat3 WiresWarp::jacobian(const Vec3& x) const {
   if (compiled_.size() == 1) {
@@ -606,7 +633,8 @@ Mat3 WiresWarp::jacobian(const Vec3& x) const {
 
 UnmappedPoints WiresWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
                                      std::size_t begin, std::size_t end) const {
-  for (std::size_t i = begin; i != end; ++i) out[i] = blend(compiled_, options_.locality, in[i]);
+  for (std::size_t i = begin; i != end; ++i)
+    out[i] = blend(compiled_, *index_, options_.locality, in[i]);
   return {};
 }
 

@@ -13,6 +13,10 @@
 
 namespace spacewarp {
 
+namespace detail {
+class BoxTree;
+}  // namespace detail
+
 /// How a wire's curve passes through its points.
 enum class WireCurve {
   Polyline,    ///< Straight segments between the points.
@@ -150,6 +154,7 @@ class WiresWarp final : public Warp {
   std::vector<Wire> wires_;
   WiresOptions options_;
   std::vector<std::unique_ptr<const Compiled>> compiled_;
+  std::unique_ptr<const detail::BoxTree> index_;  // over the wires' reach boxes
 };
 
 }  // namespace spacewarp

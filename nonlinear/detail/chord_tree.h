@@ -1,7 +1,7 @@
 #pragma once
-// Nearest chord of a polyline: a bounding-volume hierarchy (axis-aligned boxes, median splits)
-// over its chords with a branch-and-bound query. Built once per wire (O(n log n) time, O(n)
-// memory, deterministic); used by WiresWarp for the closest point of a reference curve.
+// Nearest chord of a polyline: a bounding-volume hierarchy (box_tree.h) over its chords with a
+// branch-and-bound query. Built once per wire (O(n log n) time, O(n) memory, deterministic); used
+// by WiresWarp for the closest point of a reference curve.
 
 #include <algorithm>
 #include <cstdint>
@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <spacewarp/core/math.h>
+#include <spacewarp/nonlinear/detail/box_tree.h>
 
 namespace spacewarp::detail {
 
@@ -44,21 +45,9 @@ class ChordTree {
   std::size_t memoryBytes() const;
 
  private:
-  struct Node {
-    Vec3 lo, hi;              // the box of its chords, grown by a rounding margin
-    std::uint32_t begin = 0;  // its chords: order_[begin, begin + count)
-    std::uint32_t count = 0;  // 0 for an inner node
-    std::uint32_t child = 0;  // an inner node's children: child, child + 1
-  };
-  void build(std::uint32_t self, std::uint32_t begin, std::uint32_t end,
-             const std::vector<Vec3>& centre);
-  double boxDistance2(const Node& n, const Vec3& x) const;
-
   std::vector<Vec3> a_, e_;  // chord k: a_k + t e_k, t ∈ [0, 1]
   std::vector<double> inv_;  // 1 / |e_k|²
-  std::vector<std::uint32_t> order_;
-  std::vector<Node> nodes_;  // nodes_[0] is the root
-  double margin_ = 0.0;
+  BoxTree tree_;             // over the chords' boxes
 };
 
 }  // namespace spacewarp::detail

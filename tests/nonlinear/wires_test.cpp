@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -327,6 +328,46 @@ TEST(WiresWarp, SeveralWiresCombineAsInThePaper) {
     }
     EXPECT_GT(overlap, 30u);
   }
+}
+
+// Many small wires (the rig's index over their reach boxes picks the few near each point): the
+// blend of the wires' moves, each wire's move as it is alone, and bit for bit the same in a batch.
+TEST(WiresWarp, ManyScatteredWiresBlendTheWiresNearEachPoint) {
+  std::mt19937 rng(11);
+  std::vector<Wire> wires;
+  for (const Vec3& c : test::randomPoints(rng, 300, -5.0, 5.0)) {
+    const Vec3 d = test::randomPoint(rng, -0.6, 0.6);
+    wires.push_back(wireOf(WireCurve::Polyline, {c - d, c + d},
+                           {c - d, c + d + test::randomPoint(rng, -0.2, 0.2)}, 0.5));
+  }
+  std::vector<std::unique_ptr<WiresWarp>> alone;
+  for (const Wire& w : wires) alone.push_back(std::make_unique<WiresWarp>(std::vector<Wire>{w}));
+  const WiresWarp all(wires);
+  const std::vector<Vec3> points = test::randomPoints(rng, 3000, -5.5, 5.5);
+  std::vector<Vec3> batch(points.size());
+  all.applyBatch(points, batch);
+  std::size_t overlap = 0;
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    const Vec3& x = points[p];
+    Vec3 sum(0.0);
+    double weights = 0.0;
+    std::size_t moving = 0;
+    for (const auto& w : alone) {
+      const Vec3 d = w->apply(x) - x;
+      sum += glm::length(d) * d;  // locality 1: weights |Δx_i|
+      weights += glm::length(d);
+      moving += glm::length(d) > 0.0;
+    }
+    overlap += moving > 1;
+    const Vec3 expected = weights > 0.0 ? x + sum / weights : x;
+    const Vec3 y = all.apply(x);
+    EXPECT_LE(glm::length(y - expected), 1e-13) << test::toString(x);
+    if (moving == 0) {
+      EXPECT_TRUE(test::bitEqual(y, x)) << test::toString(x);
+    }
+    EXPECT_TRUE(test::bitEqual(batch[p], y)) << test::toString(x);
+  }
+  EXPECT_GT(overlap, 20u);
 }
 
 TEST(WiresWarp, JacobianMatchesFiniteDifferencesAwayFromTheMedialAxis) {
