@@ -544,19 +544,24 @@ Vec3 blend(const Wires& compiled, const detail::BoxTree& index, double m, const 
     return compiled[0]->move(x, delta) ? x + delta : x;
   }
   constexpr std::size_t kLocal = 16;  // wires near one point, without a heap allocation
+  constexpr std::size_t kDirect = 8;  // up to this many wires, all are visited
   std::array<std::uint32_t, kLocal> localIds;
   std::vector<std::uint32_t> heapIds;
   std::size_t count = 0;
-  index.containing(x, [&](std::uint32_t i) {
-    if (count < kLocal) {
-      localIds[count] = i;
-    } else {
-      if (heapIds.empty()) heapIds.assign(localIds.begin(), localIds.end());
-      heapIds.push_back(i);
-    }
-    ++count;
-  });
-  if (count == 0) return x;
+  if (compiled.size() <= kDirect) {  // each wire's own box test is cheaper than the index
+    for (; count < compiled.size(); ++count) localIds[count] = static_cast<std::uint32_t>(count);
+  } else {
+    index.containing(x, [&](std::uint32_t i) {
+      if (count < kLocal) {
+        localIds[count] = i;
+      } else {
+        if (heapIds.empty()) heapIds.assign(localIds.begin(), localIds.end());
+        heapIds.push_back(i);
+      }
+      ++count;
+    });
+    if (count == 0) return x;
+  }
   std::uint32_t* ids = count <= kLocal ? localIds.data() : heapIds.data();
   std::sort(ids, ids + count);
   // Weights |Δx_i|^m normalised by the largest |Δx_i| (neither overflow nor underflow).
