@@ -563,7 +563,7 @@ Vec3 blend(const Wires& compiled, const detail::BoxTree& index, double m, const 
     if (count == 0) return x;
   }
   std::uint32_t* ids = count <= kLocal ? localIds.data() : heapIds.data();
-  std::sort(ids, ids + count);
+  if (compiled.size() > kDirect) std::sort(ids, ids + count);
   // Weights |Δx_i|^m normalised by the largest |Δx_i| (neither overflow nor underflow).
   std::array<Vec3, kLocal> local;
   std::array<double, kLocal> len{};

@@ -111,7 +111,7 @@ struct WiresOptions {
 /// skip it in a few comparisons, and a hierarchy over those boxes finds the few wires near a
 /// point among many. Points farther than r from every wire are returned unchanged (bit for bit).
 ///
-/// Cost: about 85 ns of CPU per point for one polyline wire, 160 ns for one Catmull-Rom wire, with
+/// Cost: about 75 ns of CPU per point for one polyline wire, 145 ns for one Catmull-Rom wire, with
 /// a third of the points within r (a two-wire rig in bench/nonlinear_bench_wires.cpp); a wire of
 /// n samples typically costs O(log n) per point near it, and building is O(n log n) time, O(n)
 /// memory.

@@ -6,7 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
-#include <utility>
+#include <utility>  // std::swap
 #include <vector>
 
 #include <spacewarp/core/math.h>
@@ -29,7 +29,9 @@ class BoxTree {
   /// distance) nearer box first, skipping boxes whose squared distance exceeds bound · slack.
   template <class Visit>
   void nearest(const Vec3& x, double bound, double slack, const Visit& visit) const {
-    std::array<std::pair<std::uint32_t, double>, kMaxDepth> stack;
+    // Left uninitialised (std::pair would zero it on every query).
+    std::array<std::uint32_t, kMaxDepth> stackNode;
+    std::array<double, kMaxDepth> stackDistance;
     std::size_t size = 0;
     std::uint32_t node = 0;
     if (!(distance2(0, x) <= bound * slack)) return;
@@ -45,16 +47,19 @@ class BoxTree {
           std::swap(dn, df);
         }
         if (dn <= bound * slack) {
-          if (df <= bound * slack) stack[size++] = {far, df};
+          if (df <= bound * slack) {
+            stackNode[size] = far;
+            stackDistance[size++] = df;
+          }
           node = near;
           continue;
         }
       }
       for (;;) {  // the next pushed box still within the bound
         if (size == 0) return;
-        const auto [next, d] = stack[--size];
-        if (d <= bound * slack) {
-          node = next;
+        --size;
+        if (stackDistance[size] <= bound * slack) {
+          node = stackNode[size];
           break;
         }
       }
