@@ -13,6 +13,8 @@
 #include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/nonlinear/detail/box_tree.h>
+#include <spacewarp/nonlinear/detail/chord_tree.h>
 
 namespace spacewarp {
 
@@ -20,9 +22,10 @@ namespace {
 
 using Quat = glm::dquat;
 
-constexpr int kCatmullRomSamples = 16;  // samples per span (frames and the grid's chords)
-constexpr std::size_t kMaxCells = std::size_t{1} << 20;  // per wire's grid
-constexpr double kMaxVisits = 0x1p24;  // cells visited while listing the chords, per wire
+constexpr int kCatmullRomSamples = 16;  // samples per span (frames and the closest-point chords)
+// Chords per wire: a build holds about 0.4 kB per chord (samples, frames, rotations, the chord
+// tree), so this bounds one wire's build to about 7 GB.
+constexpr double kMaxChords = 0x1p24;
 constexpr int kNewtonSteps = 8;
 
 std::string wireName(std::size_t i) { return "WiresWarp: wire " + std::to_string(i); }
@@ -305,16 +308,15 @@ void validate(const std::vector<Wire>& wires, const WiresOptions& options) {
         }
       }
     }
-    // Each chord of the closest-point grid visits at least one cell, so beyond kMaxVisits chords
-    // no cell size bounds the build: refused before anything is allocated.
+    // Refused before anything is allocated (memory grows with the chords).
     const double chords = static_cast<double>(w.rest.size() - 1) *
                           (w.curve == WireCurve::CatmullRom ? kCatmullRomSamples : 1);
-    if (chords > kMaxVisits)
+    if (chords > kMaxChords)
       throw InvalidInput(who + ": " + std::to_string(w.rest.size()) + " points make " +
                          std::to_string(static_cast<std::size_t>(chords)) +
                          " chords, more than the " +
-                         std::to_string(static_cast<std::size_t>(kMaxVisits)) +
-                         " a wire can have (use fewer points)");
+                         std::to_string(static_cast<std::size_t>(kMaxChords)) +
+                         " a wire can have (about 0.4 kB each to build; use fewer points)");
     if (!std::isfinite(w.radius) || !(w.radius > 0.0))
       throw InvalidInput(who + ": radius must be finite and > 0, not " + std::to_string(w.radius));
     if (!(w.innerRadius >= 0.0) || !(w.innerRadius < w.radius))
@@ -350,21 +352,16 @@ WireDropoff wireDropoffFromName(std::string_view name) {
   return detail::enumFromName(kDropoffNames, name, "wire drop-off");
 }
 
-// One wire, ready to query: both curves, the rotations at the samples, and a uniform grid over
-// the reference curve's sample chords.
+// One wire, ready to query: both curves, the rotations at the samples, and a bounding-volume
+// hierarchy over the reference curve's sample chords.
 struct WiresWarp::Compiled {
   Curve rest, deformed;
-  int perSpan = 1;           // samples per span
-  std::vector<Quat> turn;    // M at each sample
-  std::vector<Vec3> chordA;  // sample chords of R: a + t e, t ∈ [0, 1]
-  std::vector<Vec3> chordE;
-  std::vector<double> chordInv;                                // 1 / |e|²
+  int perSpan = 1;                                             // samples per span
+  std::vector<Quat> turn;                                      // M at each sample
+  std::unique_ptr<const detail::ChordTree> chords;             // sample chords of R
   double radius = 1.0, inner = 0.0, scale = 1.0, reach = 1.0;  // reach = r + chord deviation
   WireDropoff dropoff = WireDropoff::Smooth;
-  Vec3 lo{0.0};
-  double cell = 1.0;
-  std::array<std::size_t, 3> dims{1, 1, 1};
-  std::vector<std::uint32_t> cellStart, items;
+  Vec3 lo{0.0}, hi{0.0};  // R's samples' box grown by the reach: farther points do not move
 
   Compiled(const Wire& w, std::size_t index);
 
@@ -409,110 +406,24 @@ WiresWarp::Compiled::Compiled(const Wire& w, std::size_t index)
   reach = radius + deviation;
 
   Vec3 bl(std::numeric_limits<double>::infinity()), bh = -bl;
-  for (std::size_t k = 0; k + 1 < sr.x.size(); ++k) {
-    chordA.push_back(sr.x[k]);
-    chordE.push_back(sr.x[k + 1] - sr.x[k]);
-    chordInv.push_back(1.0 / glm::dot(chordE.back(), chordE.back()));
-    bl = glm::min(bl, sr.x[k]);
-    bh = glm::max(bh, sr.x[k]);
+  for (const Vec3& p : sr.x) {
+    bl = glm::min(bl, p);
+    bh = glm::max(bh, p);
   }
-  bl = glm::min(bl, sr.x.back());
-  bh = glm::max(bh, sr.x.back());
   lo = bl - Vec3(reach);
-  const Vec3 ext = bh + Vec3(reach) - lo;
-  if (!isFinite(lo) || !isFinite(ext))
+  hi = bh + Vec3(reach);
+  if (!isFinite(lo) || !isFinite(hi) || !isFinite(hi - lo) || !std::isfinite(reach * reach))
     throw InvalidInput(wireName(index) + ": radius reaches beyond the range of doubles");
-  // Cells of an eighth of the reach keep few chords per cell (see below); doubled while the grid
-  // would exceed kMaxCells or listing the chords' boxes would take more than kMaxVisits steps
-  // (long chords far longer than the reach), so the build stays bounded for any input.
-  const auto cellsOf = [&](double size, std::size_t axis) {
-    return std::max(1.0, std::ceil(ext[static_cast<int>(axis)] / size));
-  };
-  const auto rangeOf = [&](double size, std::size_t k, int d) {
-    const double a = chordA[k][d], b = a + chordE[k][d];
-    return std::floor((std::max(a, b) + reach - lo[d]) / size) -
-           std::floor((std::min(a, b) - reach - lo[d]) / size) + 1.0;
-  };
-  cell = std::max(0.125 * reach, std::max({ext.x, ext.y, ext.z}) / 1024.0);
-  for (;;) {
-    const double count = cellsOf(cell, 0) * cellsOf(cell, 1) * cellsOf(cell, 2);
-    double visits = 0.0;
-    for (std::size_t k = 0; k < chordA.size() && visits <= kMaxVisits; ++k)
-      visits += rangeOf(cell, k, 0) * rangeOf(cell, k, 1) * rangeOf(cell, k, 2);
-    if (count <= static_cast<double>(kMaxCells) && visits <= kMaxVisits) break;
-    cell *= 2.0;
-  }
-  for (std::size_t a = 0; a < 3; ++a) dims[a] = static_cast<std::size_t>(cellsOf(cell, a));
-  const std::size_t cells = dims[0] * dims[1] * dims[2];
-
-  // A cell lists the chords that can be the closest one (within reach) to a point x of it. With
-  // c the cell's centre, h half its diagonal and d_k = dist(c, chord k), dist(x, chord k) lies
-  // in [d_k − h, d_k + h]; so chord k can be the closest only if d_k − h <= min_j d_j + h, and
-  // within reach only if d_k − h <= reach.
-  const double half = 0.5 * std::sqrt(3.0) * cell;
-  const double near = reach + half;
-  // Three passes over the (cell, chord) pairs rather than storing them (up to kMaxVisits):
-  // each cell's nearest chord, then the count of kept chords per cell, then the lists.
-  const auto forEachPair = [&](const auto& visit) {
-    for (std::size_t k = 0; k < chordA.size(); ++k) {
-      const Vec3 a = chordA[k], b = a + chordE[k];
-      std::array<std::size_t, 3> c0{}, c1{};
-      for (int d = 0; d < 3; ++d) {
-        const double l = (std::min(a[d], b[d]) - reach - lo[d]) / cell;
-        const double h = (std::max(a[d], b[d]) + reach - lo[d]) / cell;
-        c0[d] = static_cast<std::size_t>(std::clamp(std::floor(l), 0.0, double(dims[d] - 1)));
-        c1[d] = static_cast<std::size_t>(std::clamp(std::floor(h), 0.0, double(dims[d] - 1)));
-      }
-      for (std::size_t z = c0[2]; z <= c1[2]; ++z)
-        for (std::size_t y = c0[1]; y <= c1[1]; ++y)
-          for (std::size_t x = c0[0]; x <= c1[0]; ++x) {
-            const Vec3 centre = lo + cell * Vec3(double(x) + 0.5, double(y) + 0.5, double(z) + 0.5);
-            const double t = std::clamp(glm::dot(centre - a, chordE[k]) * chordInv[k], 0.0, 1.0);
-            const double d = glm::length(centre - (a + t * chordE[k]));
-            if (d <= near) visit((z * dims[1] + y) * dims[0] + x, static_cast<std::uint32_t>(k), d);
-          }
-    }
-  };
-  std::vector<double> nearest(cells, std::numeric_limits<double>::infinity());
-  forEachPair(
-      [&](std::size_t c, std::uint32_t, double d) { nearest[c] = std::min(nearest[c], d); });
-  cellStart.assign(cells + 1, 0);
-  forEachPair([&](std::size_t c, std::uint32_t, double d) {
-    if (d <= nearest[c] + 2.0 * half) ++cellStart[c + 1];
-  });
-  for (std::size_t c = 0; c < cells; ++c) cellStart[c + 1] += cellStart[c];
-  items.resize(cellStart[cells]);  // at most kMaxVisits: fits the 32-bit offsets
-  std::vector<std::uint32_t> fill(cellStart.begin(), cellStart.end() - 1);
-  forEachPair([&](std::size_t c, std::uint32_t k, double d) {
-    if (d <= nearest[c] + 2.0 * half) items[fill[c]++] = k;  // in index order per cell
-  });
+  chords = std::make_unique<const detail::ChordTree>(sr.x);
 }
 
 bool WiresWarp::Compiled::move(const Vec3& x, Vec3& delta, Mat3* jacobian) const {
-  const Vec3 g = (x - lo) / cell;
-  if (!(g.x >= 0.0 && g.y >= 0.0 && g.z >= 0.0 && g.x < double(dims[0]) && g.y < double(dims[1]) &&
-        g.z < double(dims[2])))
-    return false;  // outside the grid (or not finite)
-  const std::size_t c =
-      (std::size_t(g.z) * dims[1] + std::size_t(g.y)) * dims[0] + std::size_t(g.x);
-  double best = reach * reach;
-  std::uint32_t bestK = 0;
-  double bestT = 0.0;
-  bool found = false;
-  for (std::uint32_t i = cellStart[c]; i < cellStart[c + 1]; ++i) {
-    const std::uint32_t k = items[i];
-    const Vec3 rel = x - chordA[k];
-    const double t = std::clamp(glm::dot(rel, chordE[k]) * chordInv[k], 0.0, 1.0);
-    const Vec3 off = rel - t * chordE[k];
-    const double d2 = glm::dot(off, off);
-    if (d2 < best) {
-      best = d2;
-      bestK = k;
-      bestT = t;
-      found = true;
-    }
-  }
-  if (!found) return false;
+  if (!(x.x >= lo.x && x.y >= lo.y && x.z >= lo.z && x.x <= hi.x && x.y <= hi.y && x.z <= hi.z))
+    return false;  // beyond the reach (or not finite): a few comparisons per far wire
+  detail::ChordTree::Hit hit;
+  if (!chords->nearest(x, reach * reach, hit)) return false;
+  const std::uint32_t bestK = hit.chord;
+  const double bestT = hit.t;
 
   // The closest point of R: span j, t ∈ [0, 1].
   std::size_t j = bestK / static_cast<std::uint32_t>(perSpan);
@@ -611,46 +522,75 @@ WiresWarp::WiresWarp(std::vector<Wire> wires, const WiresOptions& options)
   validate(wires_, options_);
   for (std::size_t i = 0; i < wires_.size(); ++i)
     compiled_.push_back(std::make_unique<const Compiled>(wires_[i], i));
+  std::vector<Vec3> lo, hi;
+  for (const auto& c : compiled_) {
+    lo.push_back(c->lo);
+    hi.push_back(c->hi);
+  }
+  index_ = std::make_unique<const detail::BoxTree>(lo, hi, 0.0);
 }
 
 WiresWarp::~WiresWarp() = default;
 
 namespace {
 
-// x' from the moves of the wires (the paper's blend; a single wire's move as it is).
+// x' from the moves of the wires (the paper's blend; a single wire's move as it is). Only the
+// wires whose reach box holds x (found by `index`) can move it; the others' moves are 0, which
+// the blend skips, so visiting those in index order gives the same sums bit for bit.
 template <class Wires>
-Vec3 blend(const Wires& compiled, double m, const Vec3& x) {
+Vec3 blend(const Wires& compiled, const detail::BoxTree& index, double m, const Vec3& x) {
   if (compiled.size() == 1) {
     Vec3 delta;
     return compiled[0]->move(x, delta) ? x + delta : x;
   }
+  constexpr std::size_t kLocal = 16;  // wires near one point, without a heap allocation
+  constexpr std::size_t kDirect = 8;  // up to this many wires, all are visited
+  std::array<std::uint32_t, kLocal> localIds;
+  std::vector<std::uint32_t> heapIds;
+  std::size_t count = 0;
+  if (compiled.size() <= kDirect) {  // each wire's own box test is cheaper than the index
+    for (; count < compiled.size(); ++count) localIds[count] = static_cast<std::uint32_t>(count);
+  } else {
+    index.containing(x, [&](std::uint32_t i) {
+      if (count < kLocal) {
+        localIds[count] = i;
+      } else {
+        if (heapIds.empty()) heapIds.assign(localIds.begin(), localIds.end());
+        heapIds.push_back(i);
+      }
+      ++count;
+    });
+    if (count == 0) return x;
+  }
+  std::uint32_t* ids = count <= kLocal ? localIds.data() : heapIds.data();
+  if (compiled.size() > kDirect) std::sort(ids, ids + count);
   // Weights |Δx_i|^m normalised by the largest |Δx_i| (neither overflow nor underflow).
-  std::array<Vec3, 8> local;
-  std::array<double, 8> len{};
+  std::array<Vec3, kLocal> local;
+  std::array<double, kLocal> len{};
   std::vector<Vec3> heapD;
   std::vector<double> heapL;
   Vec3* dx = local.data();
   double* lx = len.data();
-  if (compiled.size() > local.size()) {
-    heapD.resize(compiled.size());
-    heapL.resize(compiled.size());
+  if (count > kLocal) {
+    heapD.resize(count);
+    heapL.resize(count);
     dx = heapD.data();
     lx = heapL.data();
   }
   double largest = 0.0;
-  for (std::size_t i = 0; i < compiled.size(); ++i) {
-    dx[i] = Vec3(0.0);
-    compiled[i]->move(x, dx[i]);
-    lx[i] = glm::length(dx[i]);
-    largest = std::max(largest, lx[i]);
+  for (std::size_t c = 0; c < count; ++c) {
+    dx[c] = Vec3(0.0);
+    compiled[ids[c]]->move(x, dx[c]);
+    lx[c] = glm::length(dx[c]);
+    largest = std::max(largest, lx[c]);
   }
   if (!(largest > 0.0)) return x;
   Vec3 sum(0.0);
   double weights = 0.0;
-  for (std::size_t i = 0; i < compiled.size(); ++i) {
-    if (!(lx[i] > 0.0)) continue;
-    const double w = m == 0.0 ? 1.0 : m == 1.0 ? lx[i] / largest : std::pow(lx[i] / largest, m);
-    sum += w * dx[i];
+  for (std::size_t c = 0; c < count; ++c) {
+    if (!(lx[c] > 0.0)) continue;
+    const double w = m == 0.0 ? 1.0 : m == 1.0 ? lx[c] / largest : std::pow(lx[c] / largest, m);
+    sum += w * dx[c];
     weights += w;
   }
   return x + sum / weights;
@@ -658,7 +598,9 @@ Vec3 blend(const Wires& compiled, double m, const Vec3& x) {
 
 }  // namespace
 
-Vec3 WiresWarp::apply(const Vec3& x) const { return blend(compiled_, options_.locality, x); }
+Vec3 WiresWarp::apply(const Vec3& x) const {
+  return blend(compiled_, *index_, options_.locality, x);
+}
 
 Mat3 WiresWarp::jacobian(const Vec3& x) const {
   if (compiled_.size() == 1) {
@@ -696,7 +638,8 @@ Mat3 WiresWarp::jacobian(const Vec3& x) const {
 
 UnmappedPoints WiresWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> out,
                                      std::size_t begin, std::size_t end) const {
-  for (std::size_t i = begin; i != end; ++i) out[i] = blend(compiled_, options_.locality, in[i]);
+  for (std::size_t i = begin; i != end; ++i)
+    out[i] = blend(compiled_, *index_, options_.locality, in[i]);
   return {};
 }
 

@@ -13,6 +13,10 @@
 
 namespace spacewarp {
 
+namespace detail {
+class BoxTree;
+}  // namespace detail
+
 /// How a wire's curve passes through its points.
 enum class WireCurve {
   Polyline,    ///< Straight segments between the points.
@@ -100,14 +104,17 @@ struct WiresOptions {
 /// directions (so M is continuous along the curve); for Catmull-Rom 16 samples per span, exact
 /// spline tangents. Closest points: exact for polylines; for Catmull-Rom the nearest of the
 /// samples' chords refined by Newton's method on the cubic (to rounding, away from the curve's
-/// medial axis, where the closest point jumps anyway). A uniform grid over R's chords lists per
-/// cell only the chords that can be the closest one to a point of the cell; its cells are r/8,
-/// doubled as needed to keep at most 2^20 cells and 2^24 steps to build per wire. Points outside
-/// every wire's grid or farther than r are returned unchanged (bit for bit).
+/// medial axis, where the closest point jumps anyway). The nearest chord comes from a
+/// bounding-volume hierarchy over R's chords (detail/chord_tree.h: median splits, O(n) memory,
+/// branch and bound; ties to the lowest chord index, as a scan would), so its cost grows with the
+/// log of the sample count, not with the density. Points outside a wire's box grown by its reach
+/// skip it in a few comparisons, and a hierarchy over those boxes finds the few wires near a
+/// point among many. Points farther than r from every wire are returned unchanged (bit for bit).
 ///
-/// Cost: about 65 ns of CPU per point for one polyline wire, 125 ns for one Catmull-Rom wire, with
-/// a third of the points within r (a two-wire rig in bench/nonlinear_bench_wires.cpp); building
-/// is a grid per wire, milliseconds.
+/// Cost: about 75 ns of CPU per point for one polyline wire, 145 ns for one Catmull-Rom wire, with
+/// a third of the points within r (a two-wire rig in bench/nonlinear_bench_wires.cpp); a wire of
+/// n samples typically costs O(log n) per point near it, and building is O(n log n) time, O(n)
+/// memory.
 ///
 /// Several wires: x' = x + Σ Δx_i w_i / Σ w_i with Δx_i the move of wire i alone and
 /// w_i = |Δx_i|^m (0 for Δx_i = 0). One wire: x' is that wire's x' exactly.
@@ -130,7 +137,9 @@ class WiresWarp final : public Warp {
   /// 2 points, mismatched counts, non-finite points, repeated consecutive points, a radius that is
   /// not finite and > 0, an inner radius outside [0, r), a scale that is not finite and > 0, or a
   /// locality that is not finite and ≥ 0; also for a curve that spans too far for squared
-  /// lengths to be finite (~1e154) or a radius that takes the grid beyond doubles.
+  /// lengths to be finite (~1e154), a radius that takes the wire's reach beyond doubles, or more
+  /// than 2^24 chords (polyline: points − 1; Catmull-Rom: 16 per span), about 0.4 kB each to
+  /// build.
   explicit WiresWarp(std::vector<Wire> wires, const WiresOptions& options = {});
   ~WiresWarp() override;
 
@@ -150,6 +159,7 @@ class WiresWarp final : public Warp {
   std::vector<Wire> wires_;
   WiresOptions options_;
   std::vector<std::unique_ptr<const Compiled>> compiled_;
+  std::unique_ptr<const detail::BoxTree> index_;  // over the wires' reach boxes
 };
 
 }  // namespace spacewarp

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -329,6 +330,46 @@ TEST(WiresWarp, SeveralWiresCombineAsInThePaper) {
   }
 }
 
+// Many small wires (the rig's index over their reach boxes picks the few near each point): the
+// blend of the wires' moves, each wire's move as it is alone, and bit for bit the same in a batch.
+TEST(WiresWarp, ManyScatteredWiresBlendTheWiresNearEachPoint) {
+  std::mt19937 rng(11);
+  std::vector<Wire> wires;
+  for (const Vec3& c : test::randomPoints(rng, 300, -5.0, 5.0)) {
+    const Vec3 d = test::randomPoint(rng, -0.6, 0.6);
+    wires.push_back(wireOf(WireCurve::Polyline, {c - d, c + d},
+                           {c - d, c + d + test::randomPoint(rng, -0.2, 0.2)}, 0.5));
+  }
+  std::vector<std::unique_ptr<WiresWarp>> alone;
+  for (const Wire& w : wires) alone.push_back(std::make_unique<WiresWarp>(std::vector<Wire>{w}));
+  const WiresWarp all(wires);
+  const std::vector<Vec3> points = test::randomPoints(rng, 3000, -5.5, 5.5);
+  std::vector<Vec3> batch(points.size());
+  all.applyBatch(points, batch);
+  std::size_t overlap = 0;
+  for (std::size_t p = 0; p < points.size(); ++p) {
+    const Vec3& x = points[p];
+    Vec3 sum(0.0);
+    double weights = 0.0;
+    std::size_t moving = 0;
+    for (const auto& w : alone) {
+      const Vec3 d = w->apply(x) - x;
+      sum += glm::length(d) * d;  // locality 1: weights |Δx_i|
+      weights += glm::length(d);
+      moving += glm::length(d) > 0.0;
+    }
+    overlap += moving > 1;
+    const Vec3 expected = weights > 0.0 ? x + sum / weights : x;
+    const Vec3 y = all.apply(x);
+    EXPECT_LE(glm::length(y - expected), 1e-13) << test::toString(x);
+    if (moving == 0) {
+      EXPECT_TRUE(test::bitEqual(y, x)) << test::toString(x);
+    }
+    EXPECT_TRUE(test::bitEqual(batch[p], y)) << test::toString(x);
+  }
+  EXPECT_GT(overlap, 20u);
+}
+
 TEST(WiresWarp, JacobianMatchesFiniteDifferencesAwayFromTheMedialAxis) {
   std::mt19937 rng(5);
   const std::vector<Vec3> rest = bentCurve();
@@ -447,6 +488,43 @@ TEST(WiresWarp, ManyLongSegmentsWithATinyRadiusBuildQuickly) {
   EXPECT_TRUE(test::bitEqual(warp.apply(off), off));
 }
 
+// A densely sampled wire (100,000 points, the gentle curve of a finely tessellated model) builds
+// and answers: its points go onto the deformed wire, points beyond the radius stay, and a batch
+// is apply() bit for bit. (The nearest chord itself is checked against brute force in
+// chord_tree_test.cpp.)
+TEST(WiresWarp, DenseWireOf100000PointsBuildsAndAnswers) {
+  const std::size_t n = 100000;
+  std::vector<Vec3> rest(n), deformed(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double s = static_cast<double>(k) / static_cast<double>(n - 1);
+    rest[k] = Vec3(s, 0.05 * std::sin(3.0 * s), 0.0);
+    deformed[k] = rest[k] + Vec3(0.0, 0.2 * s * s, 0.0);
+  }
+  const WiresWarp warp({wireOf(WireCurve::Polyline, rest, deformed, 0.3)});
+  for (std::size_t k = 0; k + 1 < n; k += 9973) {
+    EXPECT_LE(glm::length(warp.apply(rest[k]) - deformed[k]), 1e-12) << k;
+    const Vec3 mid = 0.5 * (rest[k] + rest[k + 1]);
+    EXPECT_LE(glm::length(warp.apply(mid) - 0.5 * (deformed[k] + deformed[k + 1])), 1e-12) << k;
+  }
+  std::mt19937 rng(5);
+  const std::vector<Vec3> points = test::randomPoints(rng, 400, -0.4, 1.4);
+  std::vector<Vec3> batch(points.size());
+  warp.applyBatch(points, batch);
+  std::size_t moved = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vec3 y = warp.apply(points[i]);
+    EXPECT_TRUE(test::bitEqual(batch[i], y)) << test::toString(points[i]);
+    // The curve lies in the plane z = 0 within y ∈ [0, 0.05]: farther than 0.3 from that strip
+    // (in z or beyond its x range) is beyond the radius.
+    const Vec3& x = points[i];
+    if (std::abs(x.z) >= 0.3 || x.x <= -0.3 || x.x >= 1.3)
+      EXPECT_TRUE(test::bitEqual(y, x)) << test::toString(x);
+    else if (!(y == x))
+      ++moved;
+  }
+  EXPECT_GT(moved, 20u);
+}
+
 // A Catmull-Rom hairpin (p[k+1] == p[k−1]) has a zero tangent at p[k]: it used to give NaN
 // positions and Jacobians silently; now refused naming the wire and the points. A polyline takes
 // the same points (its tangent there is the outgoing segment's).
@@ -465,8 +543,9 @@ TEST(WiresWarp, RefusesCatmullRomHairpins) {
     EXPECT_TRUE(isFinite(polyline.apply(Vec3(x, 0.1, 0.05)))) << x;
 }
 
-// A wire of more chords than the grid can list used to build forever (the cell doubled to
-// infinity); now refused before anything is built.
+// A wire of more chords than the grid could list used to build forever (the cell doubled to
+// infinity); the chord tree has no such limit, but memory grows with the chords: refused before
+// anything is built.
 TEST(WiresWarp, RefusesWiresOfTooManyChordsUpFront) {
   const std::size_t n = (std::size_t{1} << 20) + 2;  // 16 chords per Catmull-Rom span: > 2^24
   std::vector<Vec3> rest(n), deformed(n);
