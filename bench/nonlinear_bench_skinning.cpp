@@ -108,12 +108,8 @@ void BM_SkinningBindingDeformDqs(benchmark::State& state) {
 }
 BENCHMARK(BM_SkinningBindingDeformDqs)->Unit(benchmark::kMillisecond)->UseRealTime();
 
-// The warp of space: 1M query points, weights of the nearest of 100k weighted model vertices.
-void BM_SkinningWarpNearestVertex(benchmark::State& state) {
-  const auto mode = static_cast<SkinningMode>(state.range(0));
-  const std::span<const Vec3> model(cloud().data(), 100'000);
-  const std::span<const Vec3> in(cloud().data() + 100'000, 1'000'000);
-  const SkinningWarp warp(bones(), {model.begin(), model.end()}, weightsOf(model), mode);
+// Warps `in` once per iteration and reports points per second.
+void applyBatchLoop(benchmark::State& state, const Warp& warp, std::span<const Vec3> in) {
   std::vector<Vec3> out(in.size());
   for (auto _ : state) {
     warp.applyBatch(in, out);
@@ -123,6 +119,15 @@ void BM_SkinningWarpNearestVertex(benchmark::State& state) {
   reportPoints(state, out.size());
   state.counters["points/s"] =
       benchmark::Counter(double(out.size()), benchmark::Counter::kIsIterationInvariantRate);
+}
+
+// The warp of space: 1M query points, weights of the nearest of 100k weighted model vertices.
+void BM_SkinningWarpNearestVertex(benchmark::State& state) {
+  const auto mode = static_cast<SkinningMode>(state.range(0));
+  const std::span<const Vec3> model(cloud().data(), 100'000);
+  const std::span<const Vec3> in(cloud().data() + 100'000, 1'000'000);
+  const SkinningWarp warp(bones(), {model.begin(), model.end()}, weightsOf(model), mode);
+  applyBatchLoop(state, warp, in);
 }
 BENCHMARK(BM_SkinningWarpNearestVertex)
     ->Arg(int(SkinningMode::Linear))
@@ -136,15 +141,7 @@ void BM_SkinningWarpCoordinates(benchmark::State& state) {
   const auto mode = static_cast<SkinningMode>(state.range(0));
   const std::span<const Vec3> in(cloud().data(), 100'000);
   const SkinningWarp warp(bones(), std::make_shared<MlsAffineCoordinates>(handles()), {mode, 4});
-  std::vector<Vec3> out(in.size());
-  for (auto _ : state) {
-    warp.applyBatch(in, out);
-    benchmark::DoNotOptimize(out.data());
-    benchmark::ClobberMemory();
-  }
-  reportPoints(state, out.size());
-  state.counters["points/s"] =
-      benchmark::Counter(double(out.size()), benchmark::Counter::kIsIterationInvariantRate);
+  applyBatchLoop(state, warp, in);
 }
 BENCHMARK(BM_SkinningWarpCoordinates)
     ->Arg(int(SkinningMode::Linear))
