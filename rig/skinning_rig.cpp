@@ -14,6 +14,7 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/nonlinear/mls.h>
+#include <spacewarp/nonlinear/shepard.h>
 #include <spacewarp/nonlinear/skinning.h>
 #include <spacewarp/rbf/rbf_coordinates.h>
 
@@ -245,16 +246,21 @@ Rig skinningRig(RigReader& r) {
     r.fail("handles", "must have one point per bone (" + std::to_string(bones.size()) + "), not " +
                           std::to_string(handles.size()));
   const std::string kind = r.has("coordinates") ? r.string("coordinates") : "rbf";
-  if (kind != "rbf" && kind != "mls-affine")
-    r.fail("coordinates", "'" + kind + "' is not one of: mls-affine, rbf");
+  if (kind != "rbf" && kind != "mls-affine" && kind != "idw")
+    r.fail("coordinates", "'" + kind + "' is not one of: idw, mls-affine, rbf");
   r.finish();
-  // Both coordinates reproduce affine functions, so they need 4 handles not in one plane.
+  std::shared_ptr<const Coordinates> coordinates;
+  if (kind == "idw") {  // Shepard's weights: non-negative, any number of distinct handles
+    coordinates = std::make_shared<ShepardCoordinates>(std::move(handles));
+    if (r.checking()) return {};
+    return {std::make_shared<SkinningWarp>(bones, coordinates, options), coordinates};
+  }
+  // RBF and affine MLS reproduce affine functions, so they need 4 handles not in one plane.
   const std::string needs = "the " + kind + " coordinates of the handles need at least 4 " +
                             "handles not in one plane (so at least 4 bones) to reproduce affine " +
                             "motions";
   const std::string fewer = "; with fewer bones give 'weights' and 'model' files";
   if (handles.size() < 4) r.fail("handles", needs + fewer);
-  std::shared_ptr<const Coordinates> coordinates;
   try {
     if (kind == "mls-affine") {
       coordinates = std::make_shared<MlsAffineCoordinates>(std::move(handles));

@@ -17,6 +17,7 @@
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/nonlinear/mls.h>
+#include <spacewarp/nonlinear/shepard.h>
 #include <spacewarp/nonlinear/skinning.h>
 #include "apps/cli_test_util.h"
 
@@ -110,6 +111,29 @@ TEST_F(SkinningCliTest, DeformWithAWeightsFileMatchesTheLibraryBitForBit) {
           ASSERT_EQ(out.positions[i], warp.apply(input->positions[i])) << file << " " << mode;
       }
     }
+  }
+}
+
+// Shepard's weights need no affine reproduction: three bones, three handles, all weights kept
+// (non-negative, so DQS blends without sign flips).
+TEST_F(SkinningCliTest, IdwCoordinatesSkinWithAnyNumberOfBones) {
+  const std::vector<Vec3> handles = {{-1, 0, 0}, {0, 0.3, 0.1}, {1, -0.2, 0.4}};
+  const PolygonSoup cloud = writeCloud(Vec3(-1.0), Vec3(1.0), 300, 7);
+  for (const char* mode : {"lbs", "dqs"}) {
+    write("rig.json", std::string(R"({"method": "skinning", "mode": ")") + mode +
+                          R"(", "bones": )" + kBones + R"(, "handles": )" +
+                          test::jsonPoints(handles) + R"(, "coordinates": "idw"})");
+    const SkinningWarp warp(bones(), std::make_shared<ShepardCoordinates>(handles),
+                            {skinningModeFromName(mode), 0});
+    const test::CliResult r = deform("rig.json");
+    ASSERT_EQ(r.exitCode, 0) << mode << ": " << r.err;
+    const PolygonSoup out = readSoup(dir_ / "out.ply");
+    ASSERT_EQ(out.size(), cloud.size());
+    for (std::size_t i = 0; i < out.size(); ++i)
+      ASSERT_EQ(out.positions[i], warp.apply(cloud.positions[i])) << mode << " point " << i;
+    // At a handle the point follows its bone exactly (Shepard interpolates).
+    EXPECT_LE(glm::length(warp.apply(handles[1]) - Vec3(bones()[1] * glm::dvec4(handles[1], 1.0))),
+              1e-12);
   }
 }
 
@@ -265,7 +289,7 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{"UnknownCoordinates",
                      R"({"method": "skinning", "bones": )" + kBones + R"(, "handles": )" +
                          kHandles + R"(, "coordinates": "harmonic"})",
-                     3, "'coordinates' 'harmonic' is not one of: mls-affine, rbf"},
+                     3, "'coordinates' 'harmonic' is not one of: idw, mls-affine, rbf"},
         test::BadRig{
             "TooFewHandlesForTheCoordinates",
             R"({"method": "skinning", "bones": )" + kBones + R"(, "handles": )" + kHandles + "}", 3,
