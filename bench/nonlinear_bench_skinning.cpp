@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <benchmark/benchmark.h>
+#include <glm/gtc/matrix_transform.hpp>
 
 #include <spacewarp/nonlinear/mls.h>
 #include <spacewarp/nonlinear/skinning.h>
@@ -39,12 +40,7 @@ std::vector<Mat4> bones() {
   for (std::size_t i = 0; i < kBones; ++i) {
     const double angle = 0.7 * std::sin(double(i) + 1.0);
     const Vec3 axis = glm::normalize(Vec3(std::cos(double(i)), std::sin(2.0 * double(i)), 1.0));
-    const double c = std::cos(angle), s = std::sin(angle);
-    Mat3 r(c);
-    r += (1.0 - c) * glm::outerProduct(axis, axis);
-    r[0] += s * glm::cross(axis, Vec3(1.0, 0.0, 0.0));
-    r[1] += s * glm::cross(axis, Vec3(0.0, 1.0, 0.0));
-    r[2] += s * glm::cross(axis, Vec3(0.0, 0.0, 1.0));
+    const Mat3 r(glm::rotate(Mat4(1.0), angle, axis));
     Mat4 m(r);
     m[3] = glm::dvec4(h[i] - r * h[i] + Vec3(0.05 * double(i % 5), 0.0, 0.02), 1.0);
     out.push_back(m);

@@ -21,31 +21,31 @@ using ::testing::HasSubstr;
 
 const Vec3 kCenter(0.5, -1.0, 2.0);
 
-KelvinletOptions grab(const Vec3& d, double eps = 0.7, double nu = 0.45) {
+// A brush at kCenter; the helpers below add its own parameters.
+KelvinletOptions brush(KelvinletBrush kind, double eps, double nu = 0.45) {
   KelvinletOptions o;
-  o.brush = KelvinletBrush::Grab;
+  o.brush = kind;
   o.center = kCenter;
   o.radius = eps;
   o.poisson = nu;
+  return o;
+}
+
+KelvinletOptions grab(const Vec3& d, double eps = 0.7, double nu = 0.45) {
+  KelvinletOptions o = brush(KelvinletBrush::Grab, eps, nu);
   o.displacement = d;
   return o;
 }
 
 KelvinletOptions twist(const Vec3& axis, double angle, double eps = 0.7) {
-  KelvinletOptions o;
-  o.brush = KelvinletBrush::Twist;
-  o.center = kCenter;
-  o.radius = eps;
+  KelvinletOptions o = brush(KelvinletBrush::Twist, eps);
   o.axis = axis;
   o.angle = angle;
   return o;
 }
 
 KelvinletOptions scale(double factor, double eps = 0.7) {
-  KelvinletOptions o;
-  o.brush = KelvinletBrush::Scale;
-  o.center = kCenter;
-  o.radius = eps;
+  KelvinletOptions o = brush(KelvinletBrush::Scale, eps);
   o.factor = factor;
   return o;
 }
@@ -61,11 +61,7 @@ Mat3 pinchMatrix() {
 }
 
 KelvinletOptions pinch(const Mat3& m, double eps = 0.7, double nu = 0.45) {
-  KelvinletOptions o;
-  o.brush = KelvinletBrush::Pinch;
-  o.center = kCenter;
-  o.radius = eps;
-  o.poisson = nu;
+  KelvinletOptions o = brush(KelvinletBrush::Pinch, eps, nu);
   o.matrix = m;
   return o;
 }
