@@ -14,7 +14,7 @@ ifeq ($(CI),true)
   CMAKE_FLAGS += -DSPACEWARP_WARNINGS_AS_ERRORS=ON
 endif
 
-.PHONY: all deps configure build python-install demo test sanitize bench fuzz format clean
+.PHONY: all deps configure build python-install demo test sanitize bench bench-stream bench-view fuzz format clean
 
 all: build
 
@@ -53,12 +53,24 @@ bench: build
 	  --benchmark_report_aggregates_only=true --benchmark_counters_tabular=true
 	PYTHONPATH=$(BUILD)/python $(PYTHON) bench/python_overhead.py
 
-# Runs each fuzzer (the OBJ, OFF and PLY readers, the rig reader, the VDB input) for FUZZ_SECONDS (default 60).
+# Streaming deform of a generated binary PLY of POINTS points (default 200M, ~2.4 GB, deleted
+# afterwards) against a plain copy of the same file: wall time, throughput, peak memory.
+bench-stream: build
+	$(PYTHON) bench/stream_bench.py --spacewarp $(BUILD)/apps/spacewarp $(if $(POINTS),--points $(POINTS))
+
+# `spacewarp view` in headless Chromium: drag-to-frame latency and server deform time for the
+# armadillo (../shared/data; else the demo's bar) and generated clouds of SIZES million points.
+bench-view: configure
+	cmake --build $(BUILD) -j $(JOBS) --target spacewarp_cli spacewarp_web
+	node bench/view_latency.mjs --spacewarp $(BUILD)/apps/spacewarp --web-dir $(BUILD)/web/dist \
+	  --modules web/node_modules $(if $(SIZES),--sizes $(SIZES))
+
+# Runs each fuzzer (the OBJ, OFF and PLY readers, the rig reader, the VDB input, warp archives) for FUZZ_SECONDS (default 60).
 fuzz: deps
 	./tests/fuzz/run.sh
 
 format:
-	clang-format -i $$(git ls-files '*.h' '*.cpp')
+	clang-format -i $$(git ls-files '*.h' '*.cpp' 'web/*.js' 'web/*.mjs' 'tests/web/*.mjs' 'bench/*.mjs')
 
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD) build-fuzz out

@@ -14,6 +14,8 @@ void addCageMethodOptions(CLI::App* command, CageMethodOptions& options);
 
 /// Throws a usage error (exit 2) naming the first option of addCageMethodOptions given on
 /// `command` that `method` does not use; `method` "" stands for a rig, whose keys set them.
-void checkCageMethodOptions(const CLI::App& command, const std::string& method);
+/// `flag`: the option that named the method(s), for the message (compare passes --methods).
+void checkCageMethodOptions(const CLI::App& command, const std::string& method,
+                            const std::string& flag = "--method");
 
 }  // namespace spacewarp::cli

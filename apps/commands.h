@@ -59,5 +59,6 @@ Command addInverseCommand(CLI::App& app, const CliContext& context);
 Command addWeightsCommand(CLI::App& app, const CliContext& context);
 Command addCompareCommand(CLI::App& app, const CliContext& context);
 Command addDemoCommand(CLI::App& app, const CliContext& context);
+Command addViewCommand(CLI::App& app, const CliContext& context);
 
 }  // namespace spacewarp::cli

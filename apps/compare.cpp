@@ -283,10 +283,14 @@ void checkComparisonMemory(const CompareRequest& request,
                        sizeof(double) * static_cast<double>(std::max(kBindBlockValues, m)) +
                        measurePropertiesMemory(m, method.cageControls ? cage.triangleCount() : 0);
     // Harmonic coordinates grow with the tet count: name it when it was given.
-    const std::string tets =
-        name == "harmonic" && request.cageOptions.harmonicTets > 0
-            ? " with --tets " + std::to_string(request.cageOptions.harmonicTets)
-            : "";
+    std::string tets;
+    if (name == "harmonic" && request.cageOptions.harmonicTets > 0)
+      tets = " with --tets " + std::to_string(request.cageOptions.harmonicTets);
+    if (name == "harmonic" && request.cageOptions.harmonicPrecision > 0) {
+      std::ostringstream level;  // 5, 5.5: as the user wrote it
+      level << request.cageOptions.harmonicPrecision;
+      tets = " with --precision " + level.str();
+    }
     detail::checkMemory(shared + own, request.cage.string() + ": comparing method '" + name + "'" +
                                           tets + " on this " + std::to_string(cage.vertexCount()) +
                                           "-vertex cage");

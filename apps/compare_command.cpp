@@ -145,9 +145,13 @@ Command addCompareCommand(CLI::App& app, const CliContext& context) {
       ->capture_default_str();
   addCageMethodOptions(cmd, args->request.cageOptions);
   cmd->add_option("-o,--output", args->output, "output folder")->required();
-  cmd->callback([args] {
+  cmd->callback([args, cmd] {
     if (args->slice.empty() && args->point.empty())
       throw CLI::RequiredError("--slice or --point and --normal");
+    // As deform: harmonic's options without harmonic among the methods would not be read.
+    const std::vector<std::string> methods = split(args->methods);
+    if (!methods.empty() && std::find(methods.begin(), methods.end(), "harmonic") == methods.end())
+      checkCageMethodOptions(*cmd, args->methods, "--methods");
   });
   return {cmd, [args, &context] { runCompare(*args, context); }};
 }

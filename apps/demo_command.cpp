@@ -365,6 +365,8 @@ void runDemo(const fs::path& dir, const CliContext& context) {
               (volumesSupported() ? ", bar_<method>.vdb" : "") +
               "; edits bar_arap.obj, bar_cage-arap.obj) and " +
               (dir / "compare" / "report.md").string() + " with compare.png");
+  context.say("pose it in the browser: spacewarp view " + (dir / "bar.obj").string() + " --cage " +
+              (dir / "cage.obj").string() + " --save-dir " + dir.string());
 }
 
 }  // namespace

@@ -22,6 +22,7 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/atomic_file.h>
 #include "apps/commands.h"
@@ -133,7 +134,7 @@ int run(int argc, char** argv) {
       addInfoCommand(app, context),    addDeformCommand(app, context),
       addEditCommand(app, context),    addInverseCommand(app, context),
       addWeightsCommand(app, context), addCompareCommand(app, context),
-      addDemoCommand(app, context),
+      addDemoCommand(app, context),    addViewCommand(app, context),
   };
   // --threads and --quiet may be given before or after the subcommand's name; declaring them
   // on every subcommand too (same variables) also lists them in its --help.
@@ -161,6 +162,14 @@ int run(int argc, char** argv) {
   if (context.threads > 0)
     threads.emplace(tbb::global_control::max_allowed_parallelism,
                     static_cast<std::size_t>(context.threads));
+  // A bad SPACEWARP_SIMD is the environment's fault, not an input file's: a usage error now,
+  // before a command reads anything (the kernels would otherwise report it with a file's name).
+  try {
+    (void)detail::simd::activePath();
+  } catch (const InvalidInput& e) {
+    std::fprintf(stderr, "spacewarp: error: %s\n", printable(e.what()).c_str());
+    return kUsage;
+  }
   for (const Command& command : commands) {
     if (!command.app->parsed()) continue;
     running = "spacewarp " + command.app->get_name();

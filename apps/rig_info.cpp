@@ -199,6 +199,7 @@ class Describer {
                            " point constraints (smoothness " + get("smoothness", "1e-4") + ")");
     else
       line("posed by", count(rig_, "controlPoints") + " posed control points");
+    if (get("basis") == "bspline") line("ends", get("ends", "extrapolate"));
     line("outside", get("outside", "identity"));
     line("does",
          "moves points inside the box by the lattice's displacement of its controls; "
@@ -243,7 +244,10 @@ class Describer {
                        " vertices, applied to the posed vertices";
     if (method == "green") does += " (and the faces' normals: shape-preserving)";
     if (method == "harmonic") {
-      line("tets", get("tets", "200000 (default)"));
+      if (rig_.contains("precision"))
+        line("precision", get("precision", "") + " (a target tet count, see --precision)");
+      else
+        line("tets", get("tets", "200000 (default)"));
       line("cache", get("cache", "none"));
       line("outside", get("outside", "raise"));
       does +=

@@ -24,12 +24,14 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 #include "bench/bench.h"
 
 #include <spacewarp/coords/cage.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/coords/mean_value.h>
 #include <spacewarp/core/binding.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
 
@@ -166,6 +168,24 @@ void BM_MvcWeightsArmadilloCloud1M(benchmark::State& state) {
   reportPairs(state, a.cloud.size(), a.cage->triangleCount());
 }
 
+// The kernel alone, on one thread, on the simd::Path state.range(0) forced: the armadillo
+// model's weights into an allocated matrix. Every path gives the same bits (simd_paths_test).
+template <bool green>
+void BM_KernelArmadilloModel(benchmark::State& state) {
+  Armadillo& a = armadillo();
+  const Coordinates& coordinates =
+      green ? static_cast<const Coordinates&>(*a.green) : static_cast<const Coordinates&>(*a.mvc);
+  std::vector<double> rows(a.model.size() * coordinates.columnCount(), 0.0);
+  detail::simd::forcePath(static_cast<detail::simd::Path>(state.range(0)));
+  tbb::task_arena one(1);
+  for (auto _ : state) {
+    one.execute([&] { coordinates.weightsBatch(a.model, rows); });
+    benchmark::DoNotOptimize(rows.data());
+  }
+  detail::simd::forcePath(std::nullopt);
+  reportPairs(state, a.model.size(), a.cage->triangleCount());
+}
+
 // Bytes per second of the two memory-bound passes over the 1M-point weight matrix, for the
 // ratio printed at the end.
 double gDeformRate = 0.0, gReadRate = 0.0;
@@ -241,6 +261,21 @@ void registerCoordsBenchmarks() {
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
         ->Iterations(2);
+    for (int p = 0; p < detail::simd::kPathCount; ++p) {
+      const auto path = static_cast<detail::simd::Path>(p);
+      if (!detail::simd::pathSupported(path)) continue;
+      const std::string suffix = std::string("/") + detail::simd::pathName(path);
+      benchmark::RegisterBenchmark(("BM_MvcKernelArmadilloModel" + suffix).c_str(),
+                                   BM_KernelArmadilloModel<false>)
+          ->Arg(p)
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
+      benchmark::RegisterBenchmark(("BM_GreenKernelArmadilloModel" + suffix).c_str(),
+                                   BM_KernelArmadilloModel<true>)
+          ->Arg(p)
+          ->Unit(benchmark::kMillisecond)
+          ->UseRealTime();
+    }
     benchmark::RegisterBenchmark("BM_MvcWeightsArmadilloCloud1M", BM_MvcWeightsArmadilloCloud1M)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()

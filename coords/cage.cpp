@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 
@@ -334,6 +335,25 @@ double Cage::windingNumber(const Vec3& x) const {
     total += 2.0 * std::atan2(numerator, denominator);
   }
   return total / (4.0 * std::numbers::pi);
+}
+
+void Cage::save(ArchiveWriter& out) const {
+  out.tag("cage");
+  out.string(name_);
+  out.vec3s(vertices_);
+  out.u32s(inputOffsets_);
+  out.u32s(inputIndices_);
+}
+
+Cage Cage::load(ArchiveReader& in) {
+  if (const std::string tag = in.string(); tag != "cage")
+    in.fail("expected a cage, found '" + printable(tag) + "'");
+  const std::string name = in.string();
+  PolygonSoup soup;
+  soup.positions = in.vec3s();
+  soup.faceOffsets = in.u32s();
+  soup.faceIndices = in.u32s();
+  return Cage(soup, name);
 }
 
 }  // namespace spacewarp

@@ -13,6 +13,11 @@
 #include <spacewarp/core/geometry.h>
 
 namespace spacewarp {
+class ArchiveReader;
+class ArchiveWriter;
+}  // namespace spacewarp
+
+namespace spacewarp {
 
 using Triangle = glm::u32vec3;  ///< Three vertex indices.
 
@@ -67,6 +72,11 @@ class Cage {
   double volume() const { return volume_; }
 
   /// The name given at construction (usually the file), which prefixes its messages.
+  /// Archive (core/archive.h): tag "cage", the name and the input polygons as given; load()
+  /// rebuilds the cage through the constructor (same checks, same triangulation).
+  void save(ArchiveWriter& out) const;
+  static Cage load(ArchiveReader& in);
+
   const std::string& name() const { return name_; }
   /// The cage-relative frame (bounding-box center, power-of-two scale).
   const CageFrame& frame() const { return frame_; }

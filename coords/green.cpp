@@ -1,8 +1,10 @@
 #include <spacewarp/coords/green.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -13,6 +15,7 @@
 #include <vector>
 
 #include <spacewarp/coords/detail/green_kernels.h>
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
@@ -72,6 +75,7 @@ struct GreenData {
   std::vector<Face> faces;
   std::vector<RestFrame> frames;
   double surfaceTolerance2 = 0.0;  // (surfaceTolerance × diagonal)², world units²
+  double largestCoordinate = 0.0;  // max |coordinate| of the vertices, world units
 };
 
 }  // namespace detail
@@ -84,18 +88,22 @@ constexpr double kInv4Pi = 0.25 * std::numbers::inv_pi;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // ---- lanes ----
-// The evaluation runs kLanes points at once on detail::simd's vectors (see core/detail/simd.h for
-// the rules they follow). A lane's values never depend on another lane's (the only branches skip
-// work that no lane of the group needs, see anyLane()), and a single point (weights(), locate())
-// runs through the same code with every lane set to it, so a row is bit-identical whichever
-// call, lane, group of points or thread computes it.
+// The evaluation runs N points at once on detail::simd's vectors VD of N doubles (see
+// core/detail/simd.h for the rules they follow): N = 4 up to x86-64-v3, 8 on x86-64-v4. A lane's
+// values never depend on another lane's or on N (the only branches skip work that no lane of the
+// group needs, see anyLane()), and a single point (weights(), locate()) runs through the same
+// code with every lane set to it, so a row is bit-identical whichever call, lane, width, group of
+// points or thread computes it.
 using namespace detail::simd;
 
-// Points per parallel task in weightsBatch (a multiple of kLanes).
+// Points per parallel task in weightsBatch (a multiple of every path's lane count).
 constexpr std::size_t kPointsPerTask = 64;
 
 // x = 2^e m with m ∈ [1, 2), for finite x > 0 (normal or subnormal): mant = m, expo = e + 1023.
-[[gnu::always_inline]] inline void splitLanes(const VD& x, VD& mant, VI& expo) {
+template <class VD>
+[[gnu::always_inline]] inline void splitLanes(const VD& x, VD& mant, MaskOf<VD>& expo) {
+  using VI = MaskOf<VD>;
+  using VU = BitsOf<VD>;
   const VI subnormal = x < 0x1p-1022;
   const VU bits = reinterpret_cast<VU>(subnormal ? x * 0x1p54 : x);
   mant = reinterpret_cast<VD>((bits & std::uint64_t{0x000fffffffffffff}) |
@@ -121,7 +129,9 @@ constexpr double kLn2Lo = 0x1.a39ef35793c76p-33;
 constexpr double kLg[7] = {0x1.5555555555593p-1, 0x1.999999997fa04p-2, 0x1.2492494229359p-2,
                            0x1.c71c51d8e78afp-3, 0x1.7466496cb03dep-3, 0x1.39a09d078c69fp-3,
                            0x1.2f112df3e5244p-3};
+template <class VD>
 [[gnu::always_inline]] inline void logRatioLanes(const VD& num, const VD& den, VD& y) {
+  using VI = MaskOf<VD>;
   VD a, b;
   VI ea, eb;
   splitLanes(num, a, ea);
@@ -164,7 +174,9 @@ constexpr double kSectorAtanLo[5] = {0.0, -0x1.cd37686760c17p-59, 0x1.8ab6e3cf7a
 constexpr double kSectorBound[4] = {0.0626, 0x1.7e8e639a21440p-3, 0x1.7acd608564de1p-2,
                                     0x1.71075a3cdcf19p-1};
 constexpr double kPiHi = 0x1.921fb54442d18p+1, kPiLo = 0x1.1a62633145c07p-53;
+template <class VD>
 [[gnu::always_inline]] inline void angleLanes(const VD& y, const VD& x, VD& out) {
+  using VI = MaskOf<VD>;
   const VD zero{};
   VD ax, ay;
   absLanes(x, ax);
@@ -202,13 +214,15 @@ constexpr double kPiHi = 0x1.921fb54442d18p+1, kPiLo = 0x1.1a62633145c07p-53;
   const VI xNeg = reinterpret_cast<VI>(x) < 0, yNeg = reinterpret_cast<VI>(y) < 0;
   const VD offHi = swap ? zero + 0.5 * kPiHi : (xNeg ? zero + kPiHi : zero);
   const VD offLo = swap ? zero + 0.5 * kPiLo : (xNeg ? zero + kPiLo : zero);
-  const VD signedA = (swap ^ xNeg) ? -a : a;
+  // swap ^ xNeg as nested selects (see facePass()).
+  const VD signedA = swap ? (xNeg ? a : -a) : (xNeg ? -a : a);
   const VD r = offHi + (offLo + signedA);
   out = hi == 0.0 ? zero : (yNeg ? -r : r);
 }
 
 using detail::AlignedBuffer;
 
+template <class VD>
 struct VertexLanes {
   VD r[3];  // v − x
   VD length;
@@ -227,6 +241,7 @@ struct VertexLanes {
 // Each triangle evaluates its solid angle around its edge with the smallest P / (R_a R_b)
 // (1 + the cosine of the angle the edge subtends), the one where cancellation would occur, so the
 // two triangles of an edge that x is close to use the same q, P and S.
+template <class VD>
 struct EdgeLanes {
   VD log;        // L, 0 when x is on the segment (the triangles using it are surface ones)
   VD p;          // P
@@ -237,18 +252,20 @@ struct EdgeLanes {
 };
 
 // h and d of one triangle for the current points, kept for the nearest-triangle search.
+template <class VD>
 struct FaceLanes {
   VD h;
   VD d[3];
 };
 
 // Per-thread work space of one group of points.
+template <class VD>
 struct Scratch {
-  AlignedBuffer<VertexLanes> vertices;
+  AlignedBuffer<VertexLanes<VD>> vertices;
   AlignedBuffer<VD> phi;  // per vertex
-  AlignedBuffer<EdgeLanes> edges;
+  AlignedBuffer<EdgeLanes<VD>> edges;
   AlignedBuffer<VD> edgeDist2;  // squared distance from x to the segment
-  AlignedBuffer<FaceLanes> faces;
+  AlignedBuffer<FaceLanes<VD>> faces;
   AlignedBuffer<VD> psi;  // per triangle
   // In: 0-2 the points' x, y, z; 3 the lanes of the surface pass (non-zero). Out: 4 the sum of
   // the solid angles, 5 near a plane (non-zero), 6 the smallest squared distance to an edge.
@@ -269,12 +286,13 @@ struct Scratch {
 // its own target.
 
 // r = v − x and R = |r| of every vertex for the points in s.io[0..2].
-[[gnu::always_inline]] inline void vertexTerms(const detail::GreenData& g, Scratch& s) {
+template <class VD>
+[[gnu::always_inline]] inline void vertexTerms(const detail::GreenData& g, Scratch<VD>& s) {
   const VD px = s.io[0], py = s.io[1], pz = s.io[2];
-  VertexLanes* __restrict vl = s.vertices.data();
+  VertexLanes<VD>* __restrict vl = s.vertices.data();
   for (std::size_t i = 0; i < g.vertices.size(); ++i) {
     const Vec3& v = g.vertices[i];
-    VertexLanes& t = vl[i];
+    VertexLanes<VD>& t = vl[i];
     t.r[0] = v.x - px;
     t.r[1] = v.y - py;
     t.r[2] = v.z - pz;
@@ -284,9 +302,11 @@ struct Scratch {
 
 // The terms of one edge (see EdgeLanes) from its end points' terms; dist2 is the squared
 // distance from x to the segment.
+template <class VD>
 [[gnu::always_inline]] inline void edgeTerms(const detail::GreenData::Edge& edge,
-                                             const VertexLanes& a, const VertexLanes& b,
-                                             EdgeLanes& out, VD& dist2) {
+                                             const VertexLanes<VD>& a, const VertexLanes<VD>& b,
+                                             EdgeLanes<VD>& out, VD& dist2) {
+  using VI = MaskOf<VD>;
   const VD zero{};
   const double e[3] = {edge.direction.x, edge.direction.y, edge.direction.z};
   const double len = edge.length;
@@ -315,7 +335,9 @@ struct Scratch {
   const VD rarb = ra * rb;
   const VD dot = a.r[0] * b.r[0] + a.r[1] * b.r[1] + a.r[2] * b.r[2];
   const VD pFar = rarb + dot;
-  const VI close = ~(pFar >= 0.5 * rarb);
+  // Not ≥ (NaN included), as a comparison of the mask with 0: ~(a >= b) is an unordered
+  // comparison, which GCC 12 evaluates lane by lane in scalar code.
+  const VI close = (pFar >= 0.5 * rarb) == 0;
   out.p = pFar;
   for (int c = 0; c < 3; ++c) {
     out.s[c] = ra * b.r[c] + rb * a.r[c];
@@ -341,17 +363,24 @@ struct Scratch {
   logRatioLanes(num, den, log);
   // Not finite only for x on the segment: every triangle using the edge then touches x and is
   // a surface triangle, whose terms do not use L.
-  const VI finite = (num > 0.0) & (num < kInf) & (den > 0.0) & (den < kInf);
-  out.log = finite ? log : zero;
+  // num and den in (0, ∞), by one unsigned comparison of the larger of their bits minus one
+  // (0, negatives, ∞ and NaN wrap around or exceed the largest finite double's bits minus one):
+  // GCC 12 evaluates combined double comparisons lane by lane in scalar code in x86-64-v4
+  // functions.
+  using VU = BitsOf<VD>;
+  const VU bn = reinterpret_cast<VU>(num) - 1, bd = reinterpret_cast<VU>(den) - 1;
+  const VU worst = bn > bd ? bn : bd;
+  out.log = worst < std::uint64_t{0x7fefffffffffffff} ? log : zero;
 }
 
 // The vertex and edge terms of the points in s.io[0..2]; the smallest squared distance from a
 // point to an edge goes to s.io[6].
-SPACEWARP_SIMD_CLONES void edgePass(const detail::GreenData& g, Scratch& s) {
+template <class VD>
+[[gnu::always_inline]] inline void edgePass(const detail::GreenData& g, Scratch<VD>& s) {
   const VD zero{};
   vertexTerms(g, s);
-  const VertexLanes* __restrict vl = s.vertices.data();
-  EdgeLanes* __restrict el = s.edges.data();
+  const VertexLanes<VD>* __restrict vl = s.vertices.data();
+  EdgeLanes<VD>* __restrict el = s.edges.data();
   VD* __restrict edgeDist2 = s.edgeDist2.data();
   VD minDist2 = zero + kInf;
   for (std::size_t index = 0; index < g.edges.size(); ++index) {
@@ -369,9 +398,11 @@ constexpr int kOpposite[3] = {2, 0, 1};  // the corner opposite edge i
 // The solid angle Ω of face f seen from x (v: its corners' terms, e: its edges'), evaluated
 // around the edge with the smallest closeness (the first of equals): edge 0 unless some lane
 // is close to an edge.
+template <class VD>
 [[gnu::always_inline]] inline void faceSolidAngle(const detail::GreenData::Face& f,
-                                                  const VertexLanes* const (&v)[3],
-                                                  const EdgeLanes* const (&e)[3], VD& omega) {
+                                                  const VertexLanes<VD>* const (&v)[3],
+                                                  const EdgeLanes<VD>* const (&e)[3], VD& omega) {
+  using VI = MaskOf<VD>;
   const Vec3& n = f.normal;
   const VI pick1 = e[1]->closeness < e[0]->closeness;
   const VD closeness01 = pick1 ? e[1]->closeness : e[0]->closeness;
@@ -383,9 +414,12 @@ constexpr int kOpposite[3] = {2, 0, 1};  // the corner opposite edge i
     qv[i] = e[0]->q[i];
     c[i] = v[kOpposite[0]]->r[i];
   }
-  if (anyLane(pick1 | pick2)) {
-    const VertexLanes& c1 = *v[kOpposite[1]];
-    const VertexLanes& c2 = *v[kOpposite[2]];
+  // Whether some lane picks edge 1 or 2, through a select rather than pick1 | pick2 (see
+  // facePass()): anyLane() reads the sign bits.
+  const VD zero{}, minusOne = zero - 1.0;
+  if (anyLane(pick1 ? minusOne : (pick2 ? minusOne : zero))) {
+    const VertexLanes<VD>& c1 = *v[kOpposite[1]];
+    const VertexLanes<VD>& c2 = *v[kOpposite[2]];
     p = pick2 ? e[2]->p : (pick1 ? e[1]->p : p);
     r02 = pick2 ? e[2]->r02 : (pick1 ? e[1]->r02 : r02);
     cLength = pick2 ? c2.length : (pick1 ? c1.length : cLength);
@@ -410,24 +444,32 @@ constexpr int kOpposite[3] = {2, 0, 1};  // the corner opposite edge i
 // flags in s.io[5] the points within the surface tolerance of some triangle's plane. In the
 // surface pass, for the lanes set in s.io[3], the triangles touching x (within the tolerance)
 // contribute their principal value: no double layer (Ω = 0, h = 0) and the single layer at h = 0.
-SPACEWARP_SIMD_CLONES void facePass(const detail::GreenData& g, Scratch& s, bool surface) {
+template <class VD>
+[[gnu::always_inline]] inline void facePass(const detail::GreenData& g, Scratch<VD>& s,
+                                            bool surface) {
+  using VI = MaskOf<VD>;
   const VD zero{};
   const VD infinity = zero + kInf;
   const double tol2 = g.surfaceTolerance2;
-  const VI surfaceLanes = s.io[3] != 0.0;
-  const VertexLanes* __restrict vl = s.vertices.data();
-  const EdgeLanes* __restrict el = s.edges.data();
+  // Masks are combined through selects of doubles, not with & and |: GCC 12 evaluates
+  // combined comparisons lane by lane in scalar code in x86-64-v4 functions. NaN fails every
+  // comparison.
+  const VD nan = zero + std::numeric_limits<double>::quiet_NaN();
+  const VD surfaceOnly =
+      s.io[3] != 0.0 ? zero : nan;  // added to a distance: NaN off the surface lanes
+  const VertexLanes<VD>* __restrict vl = s.vertices.data();
+  const EdgeLanes<VD>* __restrict el = s.edges.data();
   const VD* __restrict edgeDist2 = s.edgeDist2.data();
-  FaceLanes* __restrict fl = s.faces.data();
+  FaceLanes<VD>* __restrict fl = s.faces.data();
   VD* __restrict phi = s.phi.data();
   VD* __restrict psi = s.psi.data();
   for (std::size_t i = 0; i < g.vertices.size(); ++i) phi[i] = zero;
   VD omegaSum = zero;
-  VI nearPlane = surfaceLanes & 0;
+  VD nearPlane = zero;
   for (std::size_t j = 0; j < g.faces.size(); ++j) {
     const detail::GreenData::Face& f = g.faces[j];
-    const VertexLanes* const v[3] = {&vl[f.vertex[0]], &vl[f.vertex[1]], &vl[f.vertex[2]]};
-    const EdgeLanes* const e[3] = {&el[f.edge[0]], &el[f.edge[1]], &el[f.edge[2]]};
+    const VertexLanes<VD>* const v[3] = {&vl[f.vertex[0]], &vl[f.vertex[1]], &vl[f.vertex[2]]};
+    const EdgeLanes<VD>* const e[3] = {&el[f.edge[0]], &el[f.edge[1]], &el[f.edge[2]]};
     const Vec3& n = f.normal;
     VD h = n.x * v[0]->r[0] + n.y * v[0]->r[1] + n.z * v[0]->r[2];
     VD d[3];
@@ -451,11 +493,11 @@ SPACEWARP_SIMD_CLONES void facePass(const detail::GreenData& g, Scratch& s, bool
         edge2 = di < edge2 ? di : edge2;
       }
       const VD dist2 = edge2 == kInf ? h * h : edge2;
-      const VI touching = surfaceLanes & (dist2 <= tol2);
+      const VI touching = dist2 + surfaceOnly <= tol2;
       omega = touching ? zero : omega;
       h = touching ? zero : h;
     } else {
-      nearPlane |= h * h <= tol2;
+      nearPlane = h * h <= tol2 ? zero + 1.0 : nearPlane;
     }
     omegaSum += omega;
 
@@ -473,7 +515,30 @@ SPACEWARP_SIMD_CLONES void facePass(const detail::GreenData& g, Scratch& s, bool
     phi[f.vertex[2]] += w - phi0 - phi1;
   }
   s.io[4] = omegaSum;
-  s.io[5] = nearPlane ? zero + 1.0 : zero;
+  s.io[5] = nearPlane;
+}
+
+// The passes for each simd::Path: four lanes (ymm) up to x86-64-v3, eight (zmm) on x86-64-v4.
+// This file is compiled with -ffp-contract=off, so every path gives the same bits.
+using V4D = Lanes<4>::D;
+using V8D = Lanes<8>::D;
+void edgePassBaseline(const detail::GreenData& g, Scratch<V4D>& s) { edgePass(g, s); }
+SPACEWARP_SIMD_TARGET_V3 void edgePassV3(const detail::GreenData& g, Scratch<V4D>& s) {
+  edgePass(g, s);
+}
+SPACEWARP_SIMD_TARGET_V4 void edgePassV4(const detail::GreenData& g, Scratch<V8D>& s) {
+  edgePass(g, s);
+}
+void facePassBaseline(const detail::GreenData& g, Scratch<V4D>& s, bool surface) {
+  facePass(g, s, surface);
+}
+SPACEWARP_SIMD_TARGET_V3 void facePassV3(const detail::GreenData& g, Scratch<V4D>& s,
+                                         bool surface) {
+  facePass(g, s, surface);
+}
+SPACEWARP_SIMD_TARGET_V4 void facePassV4(const detail::GreenData& g, Scratch<V8D>& s,
+                                         bool surface) {
+  facePass(g, s, surface);
 }
 
 // The nearest triangle found so far, with what the exterior and surface formulas need of it.
@@ -489,7 +554,8 @@ struct Nearest {
 // the lowest index. The squared distance to a triangle is that to its plane if the projection p
 // is inside it, else that to the nearest edge p is outside of (the nearest point is on such an
 // edge).
-Nearest findNearest(const detail::GreenData& g, const Scratch& s, int l) {
+template <class VD>
+Nearest findNearest(const detail::GreenData& g, const Scratch<VD>& s, int l) {
   Nearest nearest;
   for (std::size_t j = 0; j < g.faces.size(); ++j) {
     const detail::GreenData::Face& f = g.faces[j];
@@ -512,23 +578,28 @@ Nearest findNearest(const detail::GreenData& g, const Scratch& s, int l) {
   return nearest;
 }
 
-// The rows of count ≤ kLanes points, written at rows + i * stride (V + F entries each), and, if
-// `locations` is set, where they are (the nearest triangle is then searched for every point;
-// otherwise only for points outside or near the surface). Unused lanes repeat the last point.
+// The rows of count ≤ N points (N the lanes of VD), written at rows + i * stride (V + F entries
+// each), by the passes of one path, and, if `locations` is set, where they are (the nearest
+// triangle is then searched for every point; otherwise only for points outside or near the
+// surface). Unused lanes repeat the last point.
+template <class VD>
 void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count, double* rows,
-              std::size_t stride, GreenCoordinates::Location* locations) {
-  static thread_local Scratch scratch;
-  Scratch& s = scratch;
+              std::size_t stride, GreenCoordinates::Location* locations,
+              void (*edgePassOf)(const detail::GreenData&, Scratch<VD>&),
+              void (*facePassOf)(const detail::GreenData&, Scratch<VD>&, bool)) {
+  constexpr int kN = kLanesOf<VD>;
+  static thread_local Scratch<VD> scratch;
+  Scratch<VD>& s = scratch;
   s.reserve(g);
-  for (int l = 0; l < kLanes; ++l) {
+  for (int l = 0; l < kN; ++l) {
     const Vec3& x = points[std::min(static_cast<std::size_t>(l), count - 1)];
     s.io[0][l] = x.x;
     s.io[1][l] = x.y;
     s.io[2][l] = x.z;
     s.io[3][l] = 0.0;
   }
-  edgePass(g, s);
-  facePass(g, s, false);
+  edgePassOf(g, s);
+  facePassOf(g, s, false);
 
   const std::size_t nv = g.vertices.size(), nf = g.faces.size();
   auto copyRow = [&](std::size_t l) {
@@ -536,8 +607,8 @@ void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count,
     for (std::size_t i = 0; i < nv; ++i) row[i] = s.phi[i][l];
     for (std::size_t j = 0; j < nf; ++j) row[nv + j] = s.psi[j][l];
   };
-  GreenCoordinates::Location loc[kLanes];
-  Nearest nearest[kLanes];
+  GreenCoordinates::Location loc[kN];
+  Nearest nearest[kN];
   bool anySurface = false;
   for (std::size_t l = 0; l < count; ++l) {
     copyRow(l);
@@ -558,7 +629,7 @@ void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count,
     }
   }
   // Surface: principal value plus (1 − σ) times the hat values at the point.
-  if (anySurface) facePass(g, s, true);
+  if (anySurface) facePassOf(g, s, true);
   for (std::size_t l = 0; l < count; ++l) {
     double* row = rows + l * stride;
     const detail::GreenData::Face& f = g.faces[nearest[l].face];
@@ -576,14 +647,65 @@ void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count,
   }
 }
 
+// Far enough from the origin (from ~1e110 world units) the kernels' products of lengths
+// overflow and a row turns to NaN, whose sign bit differs between paths: refuse it instead.
+// Out of line, so that evaluateRange's code (and speed) stays as it was.
+// Only rows of points (or cages) beyond kOverflowScan world units are scanned: nearer, the
+// products stay far from overflow, and scanning every row cost 4% of the armadillo kernel.
+constexpr double kOverflowScan = 1e100;
+[[gnu::noinline]] void refuseNonFiniteRows(const detail::GreenData& g, const Vec3* points,
+                                           std::size_t count, const double* rows,
+                                           std::size_t stride) {
+  // (Integer tests of the exponent bits, which vectorise: std::isfinite per weight cost 5% of
+  // the armadillo kernel's time.)
+  constexpr std::uint64_t kExponent = 0x7ff0000000000000;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Vec3& x = points[i];
+    const double largest = std::max({std::fabs(x.x), std::fabs(x.y), std::fabs(x.z)});
+    if (!(largest > kOverflowScan || g.largestCoordinate > kOverflowScan)) continue;
+    const double* row = rows + i * stride;
+    std::uint64_t nonFinite = 0;
+    for (std::size_t c = 0; c < stride; ++c)
+      nonFinite |= (~std::bit_cast<std::uint64_t>(row[c]) & kExponent) == 0;
+    if (nonFinite == 0) continue;
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "GreenCoordinates: the point (%.17g, %.17g, %.17g) is too far from the cage: "
+                  "its weights overflow",
+                  points[i].x, points[i].y, points[i].z);
+    throw InvalidInput(text);
+  }
+}
+
+// The rows (and locations, if set) of any number of points, N at a time on activePath().
+void evaluateRange(const detail::GreenData& g, const Vec3* points, std::size_t count, double* rows,
+                   std::size_t stride, GreenCoordinates::Location* locations) {
+  const Path path = activePath();
+  const std::size_t lanes = path == Path::V4 ? 8 : 4;
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    GreenCoordinates::Location* at = locations ? locations + i : nullptr;
+    if (path == Path::V4) {
+      evaluate<V8D>(g, points + i, n, rows + i * stride, stride, at, edgePassV4, facePassV4);
+    } else if (path == Path::V3) {
+      evaluate<V4D>(g, points + i, n, rows + i * stride, stride, at, edgePassV3, facePassV3);
+    } else {
+      evaluate<V4D>(g, points + i, n, rows + i * stride, stride, at, edgePassBaseline,
+                    facePassBaseline);
+    }
+  }
+  refuseNonFiniteRows(g, points, count, rows, stride);
+}
+
 // ---- the elementary functions on arrays, for their tests (detail::greenLogRatio, greenAtan2) ----
 
-template <bool kLog>
+template <bool kLog, class VD>
 [[gnu::always_inline]] inline void lanewise(const double* a, const double* b, double* out,
                                             std::size_t n) {
-  for (std::size_t i = 0; i < n; i += kLanes) {
+  constexpr int kN = kLanesOf<VD>;
+  for (std::size_t i = 0; i < n; i += kN) {
     VD va, vb, y;
-    for (int l = 0; l < kLanes; ++l) {
+    for (int l = 0; l < kN; ++l) {
       const std::size_t k = std::min(i + static_cast<std::size_t>(l), n - 1);
       va[l] = a[k];
       vb[l] = b[k];
@@ -593,24 +715,35 @@ template <bool kLog>
     } else {
       angleLanes(va, vb, y);
     }
-    for (std::size_t l = 0; l < kLanes && i + l < n; ++l) out[i + l] = y[l];
+    for (std::size_t l = 0; l < kN && i + l < n; ++l) out[i + l] = y[l];
   }
 }
 
-SPACEWARP_SIMD_CLONES void logRatioDispatched(const double* num, const double* den, double* out,
-                                              std::size_t n) {
-  lanewise<true>(num, den, out, n);
-}
 void logRatioBaseline(const double* num, const double* den, double* out, std::size_t n) {
-  lanewise<true>(num, den, out, n);
+  lanewise<true, V4D>(num, den, out, n);
 }
-SPACEWARP_SIMD_CLONES void atan2Dispatched(const double* y, const double* x, double* out,
-                                           std::size_t n) {
-  lanewise<false>(y, x, out, n);
+SPACEWARP_SIMD_TARGET_V3 void logRatioV3(const double* num, const double* den, double* out,
+                                         std::size_t n) {
+  lanewise<true, V4D>(num, den, out, n);
+}
+SPACEWARP_SIMD_TARGET_V4 void logRatioV4(const double* num, const double* den, double* out,
+                                         std::size_t n) {
+  lanewise<true, V8D>(num, den, out, n);
 }
 void atan2Baseline(const double* y, const double* x, double* out, std::size_t n) {
-  lanewise<false>(y, x, out, n);
+  lanewise<false, V4D>(y, x, out, n);
 }
+SPACEWARP_SIMD_TARGET_V3 void atan2V3(const double* y, const double* x, double* out,
+                                      std::size_t n) {
+  lanewise<false, V4D>(y, x, out, n);
+}
+SPACEWARP_SIMD_TARGET_V4 void atan2V4(const double* y, const double* x, double* out,
+                                      std::size_t n) {
+  lanewise<false, V8D>(y, x, out, n);
+}
+using LanewiseFn = void (*)(const double*, const double*, double*, std::size_t);
+constexpr LanewiseFn kLogRatio[kPathCount] = {logRatioBaseline, logRatioV3, logRatioV4};
+constexpr LanewiseFn kAtan2[kPathCount] = {atan2Baseline, atan2V3, atan2V4};
 
 void checkSizes(const char* what, std::size_t a, std::size_t b, std::size_t out) {
   if (a != b || a != out) {
@@ -628,15 +761,16 @@ void greenLogRatio(std::span<const double> num, std::span<const double> den, std
                    bool baseline) {
   checkSizes("greenLogRatio", num.size(), den.size(), out.size());
   if (out.empty()) return;
-  (baseline ? logRatioBaseline : logRatioDispatched)(num.data(), den.data(), out.data(),
-                                                     out.size());
+  if (baseline) return logRatioBaseline(num.data(), den.data(), out.data(), out.size());
+  kLogRatio[static_cast<int>(activePath())](num.data(), den.data(), out.data(), out.size());
 }
 
 void greenAtan2(std::span<const double> y, std::span<const double> x, std::span<double> out,
                 bool baseline) {
   checkSizes("greenAtan2", y.size(), x.size(), out.size());
   if (out.empty()) return;
-  (baseline ? atan2Baseline : atan2Dispatched)(y.data(), x.data(), out.data(), out.size());
+  if (baseline) return atan2Baseline(y.data(), x.data(), out.data(), out.size());
+  kAtan2[static_cast<int>(activePath())](y.data(), x.data(), out.data(), out.size());
 }
 
 }  // namespace detail
@@ -654,6 +788,9 @@ GreenCoordinates::GreenCoordinates(std::shared_ptr<const Cage> cage, GreenOption
   const std::span<const Vec3> v = cage_->vertices();
   const std::span<const Triangle> tris = cage_->triangles();
   impl->vertices.assign(v.begin(), v.end());
+  for (const Vec3& p : v)
+    impl->largestCoordinate =
+        std::max({impl->largestCoordinate, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
   const double tol = options_.surfaceTolerance * cage_->diagonal();
   impl->surfaceTolerance2 = tol * tol;
 
@@ -711,7 +848,7 @@ std::size_t GreenCoordinates::columnCount() const {
 
 void GreenCoordinates::weights(const Vec3& x, std::span<double> row) const {
   checkWeightsArguments(x, row.size());
-  evaluate(*impl_, &x, 1, row.data(), row.size(), nullptr);
+  evaluateRange(*impl_, &x, 1, row.data(), row.size(), nullptr);
 }
 
 std::size_t GreenCoordinates::batchGrain() const { return kPointsPerTask; }
@@ -719,10 +856,7 @@ std::size_t GreenCoordinates::batchGrain() const { return kPointsPerTask; }
 UnmappedPoints GreenCoordinates::weightsRange(std::span<const Vec3> points, std::span<double> rows,
                                               std::size_t begin, std::size_t end) const {
   const std::size_t m = columnCount();
-  for (std::size_t i = begin; i < end; i += kLanes) {
-    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
-    evaluate(*impl_, points.data() + i, count, rows.data() + i * m, m, nullptr);
-  }
+  evaluateRange(*impl_, points.data() + begin, end - begin, rows.data() + begin * m, m, nullptr);
   return {};
 }
 
@@ -752,8 +886,21 @@ GreenCoordinates::Location GreenCoordinates::locate(const Vec3& x) const {
   thread_local std::vector<double> row;
   row.resize(columnCount());
   Location location;
-  evaluate(*impl_, &x, 1, row.data(), row.size(), &location);
+  evaluateRange(*impl_, &x, 1, row.data(), row.size(), &location);
   return location;
+}
+
+void GreenCoordinates::save(ArchiveWriter& out) const {
+  out.tag("green");
+  cage_->save(out);
+  out.f64(options_.surfaceTolerance);
+}
+
+std::shared_ptr<const GreenCoordinates> GreenCoordinates::load(ArchiveReader& in) {
+  auto cage = std::make_shared<const Cage>(Cage::load(in));
+  GreenOptions options;
+  options.surfaceTolerance = in.f64();
+  return std::make_shared<const GreenCoordinates>(std::move(cage), options);
 }
 
 }  // namespace spacewarp

@@ -135,8 +135,13 @@ class GreenCoordinates final : public Coordinates {
   /// its distance to the surface and the winding number. Throws InvalidInput if x is not finite.
   Location locate(const Vec3& x) const;
 
+  /// Archive (core/archive.h): tag "green", the cage and the options.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const GreenCoordinates> load(ArchiveReader& in);
+
  protected:
-  /// Four points at a time through the same kernels as weights(): bit-identical rows.
+  /// Four points at a time (eight on x86-64-v4) through the same kernels as weights():
+  /// bit-identical rows.
   std::size_t batchGrain() const override;
   UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
                               std::size_t begin, std::size_t end) const override;

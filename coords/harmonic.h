@@ -80,6 +80,21 @@ struct HarmonicOptions {
   HarmonicOutsidePolicy outside = HarmonicOutsidePolicy::Throw;
 };
 
+/// The precision levels of the harmonic set-up, a simple knob over the tet budget (the rig key
+/// "precision", the command line's --precision, Python's precision=): level p targets
+/// 200000 · 4^(p − 5) tets (HarmonicOptions::targetTetCount), so 5 is the default resolution and
+/// each level quadruples the tets (edges about 1.6 times shorter). Levels between the whole
+/// ones (5.5: 400,000 tets) land between them on the accuracy/time frontier. On the Ju et al.
+/// armadillo (15k model vertices, 110-vertex cage; bench/harmonic_frontier.py) the max deviation
+/// from a converged solve, relative to the cage's diagonal,
+/// went 1.4e-2, 8.3e-3, 5.1e-3, 3.6e-3, 1.4e-3 from level 2 to 6 (README, "Harmonic coordinates").
+constexpr int kHarmonicMinPrecision = 1, kHarmonicMaxPrecision = 7;
+
+/// The target tet count of precision level `precision` (see kHarmonicMinPrecision), any number
+/// in [1, 7]: 781 at 1, 200000 at 5, 3.2M at 7 (whole levels exactly, others rounded to the
+/// nearest count). Throws InvalidInput, naming the value, outside [1, 7] or not finite.
+std::size_t harmonicPrecisionTets(double precision);
+
 /// Harmonic coordinates of a closed, outward-oriented triangle cage. One column per cage vertex
 /// (controlPointCount() = columnCount() = cage vertex count). Every method is const and
 /// thread-safe; every row is bit-identical whether it comes from weights() or weightsBatch(),
@@ -186,6 +201,12 @@ class HarmonicCoordinates final : public Coordinates {
   std::span<const double> vertexValues() const;
   /// The absolute tet volume bound the mesh was made with (world units³).
   double meshVolumeBound() const;
+
+  /// Archive (core/archive.h): tag "harmonic", the cage, the options and the solved field in
+  /// the format of save(path) (mesh and vertex values, checksummed). load(ArchiveReader&)
+  /// checks it as load(path) does and solves nothing.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const HarmonicCoordinates> load(ArchiveReader& in);
 
  protected:
   /// A HarmonicWarp: a 4-term mix of per-vertex displacements per point.

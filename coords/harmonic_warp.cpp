@@ -8,13 +8,14 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 
 HarmonicWarp::HarmonicWarp(std::shared_ptr<const HarmonicCoordinates> coordinates,
                            std::span<const Vec3> posed)
-    : coordinates_(std::move(coordinates)) {
+    : coordinates_(std::move(coordinates)), posed_(posed.begin(), posed.end()) {
   if (!coordinates_) throw InvalidInput("HarmonicWarp: the coordinates are null");
   const std::size_t k = coordinates_->controlPointCount();
   cageDisplacement_.resize(k);
@@ -113,6 +114,19 @@ Mat3 HarmonicWarp::jacobian(const Vec3& x) const {
     for (int c = 0; c < 3; ++c)
       j[c] += vertexDisplacement_[tet[static_cast<std::size_t>(a)]] * g[a][c];
   return j;
+}
+
+void HarmonicWarp::save(ArchiveWriter& out) const {
+  out.tag("harmonic-warp");
+  out.coordinates(*coordinates_);
+  out.vec3s(posed_);
+}
+
+std::shared_ptr<const HarmonicWarp> HarmonicWarp::load(ArchiveReader& in) {
+  auto coordinates = std::dynamic_pointer_cast<const HarmonicCoordinates>(in.coordinates());
+  if (!coordinates) in.fail("a harmonic warp's coordinates are not harmonic coordinates");
+  const std::vector<Vec3> posed = in.vec3s();
+  return std::make_shared<const HarmonicWarp>(std::move(coordinates), posed);
 }
 
 }  // namespace spacewarp

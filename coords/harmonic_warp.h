@@ -32,6 +32,11 @@ class HarmonicWarp final : public Warp {
 
   const HarmonicCoordinates& coordinates() const { return *coordinates_; }
 
+  /// Archive (core/archive.h): tag "harmonic-warp", the coordinates (their solved field) and
+  /// the posed cage; load() mixes the displacements again (no solve).
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const HarmonicWarp> load(ArchiveReader& in);
+
  protected:
   std::size_t batchGrain() const override;
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
@@ -44,6 +49,7 @@ class HarmonicWarp final : public Warp {
   bool displacement(const Vec3& x, Vec3& d) const;
 
   std::shared_ptr<const HarmonicCoordinates> coordinates_;
+  std::vector<Vec3> posed_;               // as given, for save()
   std::vector<Vec3> cageDisplacement_;    // p'_c − p_c
   std::vector<Vec3> vertexDisplacement_;  // per mesh vertex: Σ_c U_vc (p'_c − p_c)
 };

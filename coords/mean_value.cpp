@@ -75,9 +75,11 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
 
 namespace spacewarp {
 
@@ -97,7 +99,15 @@ constexpr double kTauW = 1e-13;
 constexpr double kHard = 1e-3;
 constexpr double kTauRepro = 1e-13;
 
-// Points per parallel task in weightsBatch (a multiple of kLanes; fixed, for determinism).
+// Farther than this many cage diagonals from the cage's box centre a point is refused: there the
+// row's weights grow like the distance and the per-triangle terms cancel in them and in their sum
+// (W falls like d⁻⁴ while its terms fall like d⁻²), so even the careful path's long double loses
+// ε (d / diagonal)² of the distance in linear reproduction (measured 1.7e-12 at 1e3 diagonals,
+// 1.6e-6 at 1e6, 11% at 1e9). At 3000 diagonals that is about 2e-11.
+constexpr double kFarLimit = 3000.0;
+
+// Points per parallel task in weightsBatch (a multiple of every path's lane count; fixed, for
+// determinism).
 constexpr std::size_t kPointsPerTask = 64;
 
 constexpr double kPi = std::numbers::pi;
@@ -113,17 +123,26 @@ constexpr double kAsin[10] = {0.166666666666666541491,   0.075000000000170839426
                               0.00692529909733411594078, 0.016467470525355094967};
 
 // ---- lanes ----
-// The fast passes work on detail::simd's vectors of kLanes doubles (see core/detail/simd.h for
-// the rules they follow). A single point (weights()) runs through the same code in lane 0, so a
-// row is bit-identical whichever call, lane or thread computes it. Vectors are kept in 64-byte
-// aligned buffers, because the baseline target aligns these types less than the x86-64-v3 clone
-// assumes.
+// The fast passes work on detail::simd's vectors of N doubles (see core/detail/simd.h for the
+// rules they follow): N = 4 on the baseline and x86-64-v3 paths, 8 on x86-64-v4. A single point
+// (weights()) runs through the same code in lane 0, and no lane's value depends on another lane
+// or on N, so a row is bit-identical whichever call, lane, width or thread computes it. Vectors
+// are kept in 64-byte aligned buffers, because the baseline target aligns these types less than
+// the wider targets assume.
 using namespace detail::simd;
 
-// 1 + t R(t), so that asin(z) = z (1 + t R(t)) for t = z².
-inline void asinFactor(const VD& t, VD& q) {
-  VD r = t * kAsin[9] + kAsin[8];
-  for (int i = 7; i >= 0; --i) r = r * t + kAsin[i];
+// 1 + t R(t), so that asin(z) = z (1 + t R(t)) for t = z². R by Estrin's scheme: a chain of 5
+// dependent operations rather than Horner's 18, which bounded the edge loop by latency (t ≤ 0.15
+// and the coefficients shrink, so the rounding is as small as Horner's).
+template <class V>
+[[gnu::always_inline]] inline void asinFactor(const V& t, V& q) {
+  const V t2 = t * t;
+  const V t4 = t2 * t2;
+  const V p01 = kAsin[0] + kAsin[1] * t, p23 = kAsin[2] + kAsin[3] * t;
+  const V p45 = kAsin[4] + kAsin[5] * t, p67 = kAsin[6] + kAsin[7] * t;
+  const V p89 = kAsin[8] + kAsin[9] * t;
+  const V p03 = p01 + p23 * t2, p47 = p45 + p67 * t2;
+  const V r = (p03 + p47 * t4) + p89 * (t4 * t4);
   q = 1.0 + t * r;
 }
 
@@ -143,10 +162,13 @@ struct CageData {
   std::vector<double> tnx, tny, tnz, tarea2;  // N_T = (p1 − p0) × (p2 − p0) and |N_T|
   double diagonal = 0.0;
   double snapLength = 0.0;
+  Vec3 center{0.0};  // of the bounding box
 };
 
-// Per-thread buffers of one pass over kLanes points.
+// Per-thread buffers of one pass over N points.
+template <int N>
 struct Scratch {
+  using VD = typename Lanes<N>::D;
   AlignedBuffer<VD> vx, vy, vz, ux, uy, uz, d, inv, acc;  // per vertex (acc: Σ_T w)
   AlignedBuffer<VD> cx, cy, cz, k, cn, ew;                // per edge
   AlignedBuffer<VD> tw0, tw1, tw2, terr;                  // per triangle: w, error estimate
@@ -166,8 +188,8 @@ struct Scratch {
 // The stages of fastPass(), always inlined so that each clone compiles them for its own target.
 
 // Vertices: v = p − x, d = |v|, u = v / d; clears acc. Flags snap candidates (near a vertex).
-[[gnu::always_inline]] inline void vertexTerms(const CageData& cd, Scratch& s, VD& cand) {
-  using V = VD;
+template <int N, class V = typename Lanes<N>::D>
+[[gnu::always_inline]] inline void vertexTerms(const CageData& cd, Scratch<N>& s, V& cand) {
   const V zero{}, one = zero + 1.0;
   const V X = s.io[0], Y = s.io[1], Z = s.io[2];
   const double snap2 = 2.0 * cd.snapLength;
@@ -201,8 +223,8 @@ struct Scratch {
 
 // Edges, once for both of their triangles: C, θ / |C| and the error terms. Flags snap
 // candidates (near an edge).
-[[gnu::always_inline]] inline void edgeTerms(const CageData& cd, Scratch& s, VD& cand) {
-  using V = VD;
+template <int N, class V = typename Lanes<N>::D>
+[[gnu::always_inline]] inline void edgeTerms(const CageData& cd, Scratch<N>& s, V& cand) {
   const V zero{}, one = zero + 1.0;
   const double snap2 = 2.0 * cd.snapLength;
   const V* __restrict vx = s.vx.data();
@@ -259,9 +281,9 @@ struct Scratch {
 
 // Triangles: weights and error estimates; sums the kept weights into wsum and Σ |w| d into
 // repro. Flags snap candidates (near a face's plane).
-[[gnu::always_inline]] inline void triangleWeights(const CageData& cd, Scratch& s, VD& cand,
-                                                   VD& wsum, VD& repro) {
-  using V = VD;
+template <int N, class V = typename Lanes<N>::D>
+[[gnu::always_inline]] inline void triangleWeights(const CageData& cd, Scratch<N>& s, V& cand,
+                                                   V& wsum, V& repro) {
   const V zero{}, one = zero + 1.0;
   const double snap2 = 2.0 * cd.snapLength;
   const V* __restrict vx = s.vx.data();
@@ -312,14 +334,18 @@ struct Scratch {
     const V a0 = w0 < 0.0 ? -w0 : w0, a1 = w1 < 0.0 ? -w1 : w1, a2 = w2 < 0.0 ? -w2 : w2;
     const V wmax01 = a0 < a1 ? a1 : a0;
     const V wmax = wmax01 < a2 ? a2 : wmax01;
-    const auto hard = ~(absDet > 0.0) | ~(err <= kHard * wmax);
-    tw0[t] = hard ? zero : w0;
-    tw1[t] = hard ? zero : w1;
-    tw2[t] = hard ? zero : w2;
-    terr[t] = hard ? infinity : err;
-    wsum += hard ? zero : w0 + w1 + w2;
+    // Kept where |D| > 0 and err ≤ kHard wmax (NaN fails both), as one comparison: GCC 12
+    // evaluates combined comparisons (& or | of masks) lane by lane in scalar code in
+    // x86-64-v4 functions.
+    const V errIfDet = absDet > 0.0 ? err : zero + std::numeric_limits<double>::quiet_NaN();
+    const auto kept = errIfDet <= kHard * wmax;
+    tw0[t] = kept ? w0 : zero;
+    tw1[t] = kept ? w1 : zero;
+    tw2[t] = kept ? w2 : zero;
+    terr[t] = kept ? err : infinity;
+    wsum += kept ? w0 + w1 + w2 : zero;
     // Σ |w| d: the scale of the terms that cancel in Σ_k w_k v_k = 0 (the conditioning κ).
-    repro += hard ? zero : a0 * dd[i0] + a1 * dd[i1] + a2 * dd[i2];
+    repro += kept ? a0 * dd[i0] + a1 * dd[i1] + a2 * dd[i2] : zero;
     const double area2 = cd.tarea2[t];
     cand = absDet <= area2 * snap2 + (8.0 * kEps * area2) * dmin ? one : cand;
   }
@@ -327,8 +353,9 @@ struct Scratch {
 
 // Acceptance against the weight sum, and accumulation per vertex; the rejected triangles go to
 // s.flagged with the lanes that need the careful path.
-[[gnu::always_inline]] inline void acceptTriangles(const CageData& cd, Scratch& s, const VD& wsum) {
-  using V = VD;
+template <int N, class V = typename Lanes<N>::D>
+[[gnu::always_inline]] inline void acceptTriangles(const CageData& cd, Scratch<N>& s,
+                                                   const V& wsum) {
   const V zero{};
   V* __restrict acc = s.acc.data();
   const V* __restrict tw0 = s.tw0.data();
@@ -343,7 +370,7 @@ struct Scratch {
     acc[cd.tv[3 * t + 1]] += ok ? tw1[t] : zero;
     acc[cd.tv[3 * t + 2]] += ok ? tw2[t] : zero;
     std::uint32_t mask = 0;
-    for (int l = 0; l < kLanes; ++l) mask |= static_cast<std::uint32_t>(ok[l] == 0) << l;
+    for (int l = 0; l < N; ++l) mask |= static_cast<std::uint32_t>(ok[l] == 0) << l;
     if (mask != 0) s.flagged.emplace_back(static_cast<std::uint32_t>(t), mask);
   }
 }
@@ -351,7 +378,9 @@ struct Scratch {
 // The fast passes for the points in s.io[0..2] (x, y, z). Leaves acc (Σ of the accepted
 // triangle weights), io[3] (snap candidates), io[4] (reproduction error estimate) and flagged
 // (triangles for the careful path).
-SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
+template <int N>
+[[gnu::always_inline]] inline void fastPass(const CageData& cd, Scratch<N>& s) {
+  using VD = typename Lanes<N>::D;
   const VD zero{};
   VD cand = zero, repro = zero, wsum = zero;
   vertexTerms(cd, s, cand);
@@ -361,6 +390,12 @@ SPACEWARP_SIMD_CLONES void fastPass(const CageData& cd, Scratch& s) {
   s.io[3] = cand;
   s.io[4] = repro;
 }
+
+// fastPass for each simd::Path: four lanes (ymm) up to x86-64-v3, eight (zmm) on x86-64-v4. This
+// file is compiled with -ffp-contract=off, so every path gives the same bits.
+void fastPassBaseline(const CageData& cd, Scratch<4>& s) { fastPass(cd, s); }
+SPACEWARP_SIMD_TARGET_V3 void fastPassV3(const CageData& cd, Scratch<4>& s) { fastPass(cd, s); }
+SPACEWARP_SIMD_TARGET_V4 void fastPassV4(const CageData& cd, Scratch<8>& s) { fastPass(cd, s); }
 
 // ---- careful path (long double) ----
 
@@ -559,49 +594,91 @@ void carefulRow(const CageData& cd, const Vec3& x, std::vector<Real>& acc, std::
   for (std::size_t v = 0; v < cd.nV; ++v) row[v] = static_cast<double>(acc[v] / sum);
 }
 
-// The rows of `count` ≤ kLanes points, written at rows + i * nV. Unused lanes repeat the last
-// point; every lane runs the same instructions, so a row does not depend on its lane.
-void computeRows(const CageData& cd, const Vec3* points, std::size_t count, double* rows) {
-  static thread_local Scratch scratch;
-  Scratch& s = scratch;
+// The rows of `count` ≤ N points, written at rows + i * nV, by `pass` (fastPass for one path).
+// Unused lanes repeat the last point; every lane runs the same instructions, so a row does not
+// depend on its lane.
+template <int N>
+void computeRows(const CageData& cd, const Vec3* points, std::size_t count, double* rows,
+                 void (*pass)(const CageData&, Scratch<N>&)) {
+  static thread_local Scratch<N> scratch;
+  Scratch<N>& s = scratch;
   s.reserve(cd);
-  for (int l = 0; l < kLanes; ++l) {
+  for (int l = 0; l < N; ++l) {
     const Vec3& x = points[std::min(static_cast<std::size_t>(l), count - 1)];
     s.io[0][l] = x.x;
     s.io[1][l] = x.y;
     s.io[2][l] = x.z;
   }
-  fastPass(cd, s);
+  pass(cd, s);
+  // Per lane: snapping, the careful path's triangles (into acc) and the conditioning estimate.
+  bool done[N] = {};
+  double kappa[N];
   for (std::size_t i = 0; i < count; ++i) {
     const int l = static_cast<int>(i);
     const Vec3& x = points[i];
     const std::span<double> row(rows + i * cd.nV, cd.nV);
-    if (s.io[3][l] != 0.0 && snapRow(cd, x, row)) continue;
-    bool onFace = false;
-    double kappa = s.io[4][l];
+    done[i] = s.io[3][l] != 0.0 && snapRow(cd, x, row);
+    kappa[i] = s.io[4][l];
     for (const auto& [t, mask] : s.flagged) {
+      if (done[i]) break;
       if (!(mask >> l & 1u)) continue;
       const CarefulTriangle r = carefulTriangle(cd, x, t);
       if (r.onFace) {
         faceRow(cd, x, t, row);
-        onFace = true;
+        done[i] = true;
         break;
       }
       for (int c = 0; c < 3; ++c) {
         const std::uint32_t v = cd.tv[3 * t + c];
         const double w = static_cast<double>(r.w[c]);
         s.acc[v][l] += w;
-        kappa += std::fabs(w) * std::sqrt(vertexDistance2(cd, v, x));
+        kappa[i] += std::fabs(w) * std::sqrt(vertexDistance2(cd, v, x));
       }
     }
-    if (onFace) continue;
-    double sum = 0.0;
-    for (std::size_t v = 0; v < cd.nV; ++v) sum += s.acc[v][l];
-    if (std::isfinite(sum) && sum != 0.0 &&
-        kEps * kappa <= kTauRepro * std::fabs(sum) * cd.diagonal) {
-      for (std::size_t v = 0; v < cd.nV; ++v) row[v] = s.acc[v][l] / sum;
+  }
+  // The sums and the normalised weights of all lanes at once: each lane's sum runs over the
+  // vertices in order and each weight is one division, as lane by lane, in N times fewer
+  // instructions.
+  using VD = typename Lanes<N>::D;
+  VD sum{};
+  for (std::size_t v = 0; v < cd.nV; ++v) sum += s.acc[v];
+  for (std::size_t v = 0; v < cd.nV; ++v) s.acc[v] /= sum;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (done[i]) continue;
+    const int l = static_cast<int>(i);
+    const std::span<double> row(rows + i * cd.nV, cd.nV);
+    if (std::isfinite(sum[l]) && sum[l] != 0.0 &&
+        kEps * kappa[i] <= kTauRepro * std::fabs(sum[l]) * cd.diagonal) {
+      for (std::size_t v = 0; v < cd.nV; ++v) row[v] = s.acc[v][l];
     } else {
-      carefulRow(cd, x, s.accLong, row);
+      carefulRow(cd, points[i], s.accLong, row);
+    }
+  }
+}
+
+// The rows of any number of points, written at rows + i * nV, N at a time on activePath().
+// Throws InvalidInput for a point beyond kFarLimit diagonals.
+void computeRange(const CageData& cd, const Vec3* points, std::size_t count, double* rows) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const double distance = glm::length(points[i] - cd.center) / cd.diagonal;
+    if (!(distance <= kFarLimit)) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "MeanValueCoordinates: the point %s is %.3g cage diagonals from the cage; "
+                    "mean value weights lose their accuracy beyond %g diagonals",
+                    pointText(points[i]).c_str(), distance, kFarLimit);
+      throw InvalidInput(text);
+    }
+  }
+  const Path path = activePath();
+  const std::size_t lanes = path == Path::V4 ? 8 : 4;
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    double* out = rows + i * cd.nV;
+    if (path == Path::V4) {
+      computeRows<8>(cd, points + i, n, out, fastPassV4);
+    } else {
+      computeRows<4>(cd, points + i, n, out, path == Path::V3 ? fastPassV3 : fastPassBaseline);
     }
   }
 }
@@ -646,6 +723,8 @@ CageData buildCageData(const Cage& cage, double snapTolerance) {
   }
   cd.nE = cd.ea.size();
   cd.diagonal = cage.diagonal();
+  const BoundingBox box = boundingBox(cage.vertices());
+  cd.center = 0.5 * (box.min + box.max);
   cd.snapLength = snapTolerance * cage.diagonal();
   return cd;
 }
@@ -685,7 +764,7 @@ const MeanValueOptions& MeanValueCoordinates::options() const { return impl_->op
 
 void MeanValueCoordinates::weights(const Vec3& x, std::span<double> row) const {
   checkWeightsArguments(x, row.size());
-  computeRows(impl_->data, &x, 1, row.data());
+  computeRange(impl_->data, &x, 1, row.data());
 }
 
 std::size_t MeanValueCoordinates::batchGrain() const { return kPointsPerTask; }
@@ -693,12 +772,22 @@ std::size_t MeanValueCoordinates::batchGrain() const { return kPointsPerTask; }
 UnmappedPoints MeanValueCoordinates::weightsRange(std::span<const Vec3> points,
                                                   std::span<double> rows, std::size_t begin,
                                                   std::size_t end) const {
-  const std::size_t m = columnCount();
-  for (std::size_t i = begin; i < end; i += kLanes) {
-    const std::size_t count = std::min<std::size_t>(kLanes, end - i);
-    computeRows(impl_->data, points.data() + i, count, rows.data() + i * m);
-  }
+  computeRange(impl_->data, points.data() + begin, end - begin,
+               rows.data() + begin * columnCount());
   return {};
+}
+
+void MeanValueCoordinates::save(ArchiveWriter& out) const {
+  out.tag("mean-value");
+  impl_->cage->save(out);
+  out.f64(impl_->options.snapTolerance);
+}
+
+std::shared_ptr<const MeanValueCoordinates> MeanValueCoordinates::load(ArchiveReader& in) {
+  auto cage = std::make_shared<const Cage>(Cage::load(in));
+  MeanValueOptions options;
+  options.snapTolerance = in.f64();
+  return std::make_shared<const MeanValueCoordinates>(std::move(cage), options);
 }
 
 }  // namespace spacewarp

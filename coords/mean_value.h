@@ -64,8 +64,13 @@ class MeanValueCoordinates final : public Coordinates {
   const Cage& cage() const;
   const MeanValueOptions& options() const;
 
+  /// Archive (core/archive.h): tag "mean-value", the cage and the options.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const MeanValueCoordinates> load(ArchiveReader& in);
+
  protected:
-  /// Four points at a time through the vectorised kernels; SolverError as weights().
+  /// Four points at a time (eight on x86-64-v4) through the vectorised kernels; SolverError as
+  /// weights().
   std::size_t batchGrain() const override;
   UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
                               std::size_t begin, std::size_t end) const override;

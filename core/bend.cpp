@@ -5,6 +5,7 @@
 #include <limits>
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -148,6 +149,27 @@ UnmappedPoints BendWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> ou
   const BendKernel k{frame_.origin, frame_.axis, direction_, params_.rate, frame_.lo, frame_.hi};
   for (std::size_t i = begin; i != end; ++i) out[i] = bendPoint(k, in[i]);
   return {};
+}
+
+void BendWarp::save(ArchiveWriter& out) const {
+  out.tag("bend");
+  out.vec3(params_.origin);
+  out.vec3(params_.axis);
+  out.vec3(params_.direction);
+  out.f64(params_.rate);
+  out.f64(params_.lo);
+  out.f64(params_.hi);
+}
+
+std::shared_ptr<const BendWarp> BendWarp::load(ArchiveReader& in) {
+  BendOptions params;
+  params.origin = in.vec3();
+  params.axis = in.vec3();
+  params.direction = in.vec3();
+  params.rate = in.f64();
+  params.lo = in.f64();
+  params.hi = in.f64();
+  return std::make_shared<const BendWarp>(params);
 }
 
 }  // namespace spacewarp

@@ -3,6 +3,7 @@
 // region along a spine is wrapped onto a circular arc of curvature `rate`.
 
 #include <limits>
+#include <memory>
 #include <span>
 
 #include <spacewarp/core/detail/axis_frame.h>
@@ -65,6 +66,10 @@ class BendWarp final : public Warp {
   const BendOptions& params() const { return params_; }
   /// The unit spine a.
   const Vec3& axis() const { return frame_.axis; }
+
+  /// Archive (core/archive.h): tag "bend", the parameters as given.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const BendWarp> load(ArchiveReader& in);
   /// The unit direction d towards the center of curvature, perpendicular to the axis.
   const Vec3& direction() const { return direction_; }
 

@@ -2,13 +2,14 @@
 
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
 
 CoordinateWarp::CoordinateWarp(std::shared_ptr<const Coordinates> coordinates,
                                std::span<const Vec3> posed)
-    : coordinates_(std::move(coordinates)) {
+    : coordinates_(std::move(coordinates)), posed_(posed.begin(), posed.end()) {
   if (!coordinates_) throw InvalidInput("CoordinateWarp: the coordinates are null");
   const std::size_t m = coordinates_->columnCount();
   std::vector<Vec3> rest(m);
@@ -71,6 +72,18 @@ Mat3 CoordinateWarp::jacobian(const Vec3& x) const {
   for (std::size_t c = 0; c < gradients.size(); ++c)
     for (int k = 0; k < 3; ++k) j[k] += displacement_[c] * gradients[c][k];
   return j;
+}
+
+void CoordinateWarp::save(ArchiveWriter& out) const {
+  out.tag("coordinate-warp");
+  out.coordinates(*coordinates_);
+  out.vec3s(posed_);
+}
+
+std::shared_ptr<const CoordinateWarp> CoordinateWarp::load(ArchiveReader& in) {
+  std::shared_ptr<const Coordinates> coordinates = in.coordinates();
+  const std::vector<Vec3> posed = in.vec3s();
+  return std::make_shared<const CoordinateWarp>(std::move(coordinates), posed);
 }
 
 }  // namespace spacewarp

@@ -27,6 +27,11 @@ class CoordinateWarp final : public Warp {
 
   const Coordinates& coordinates() const { return *coordinates_; }
 
+  /// Archive (core/archive.h): tag "coordinate-warp", the coordinates (nested) and the posed
+  /// control points.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const CoordinateWarp> load(ArchiveReader& in);
+
  protected:
   /// Weights block by block through Coordinates::weightsBatch, so that multi-point kernels
   /// (mean-value, Green) are used; their rows are bit-identical to weights(), so this equals
@@ -39,6 +44,7 @@ class CoordinateWarp final : public Warp {
   std::shared_ptr<const Coordinates> coordinates_;
   Vec3 displaceSparse(const Vec3& x, std::span<SparseWeight> slots) const;
 
+  std::vector<Vec3> posed_;         // as given, for save()
   std::vector<Vec3> displacement_;  // C(posed) − C(rest), columnCount() entries
   bool sparse_ = false;             // sum over sparseWeights() (as Binding decides)
 };

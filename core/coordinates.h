@@ -24,6 +24,9 @@
 
 namespace spacewarp {
 
+class ArchiveReader;
+class ArchiveWriter;
+
 /// One non-zero entry of a sparse weight row.
 struct SparseWeight {
   std::uint32_t column = 0;
@@ -76,6 +79,10 @@ class Coordinates {
   /// them analytically; returns false (leaving `out` unspecified) if they do not, and callers
   /// fall back to finite differences.
   virtual bool weightGradients(const Vec3& x, std::span<Vec3> out) const;
+
+  /// Writes these coordinates to an archive (core/archive.h): their tag, then what rebuilds
+  /// them (solved state included). The default throws InvalidInput naming the type.
+  virtual void save(ArchiveWriter& out) const;
 
  protected:
   /// Throws InvalidInput unless x is finite and row.size() == columnCount().

@@ -59,6 +59,9 @@ void PolygonSoup::validate() const {
     if (faceOffsets[p + 1] < faceOffsets[p] || faceOffsets[p + 1] - faceOffsets[p] < 3) {
       throw InvalidInput("polygon " + std::to_string(p) + " has fewer than 3 vertices");
     }
+    // Offsets that overshoot the index array and come back (only the last is checked above).
+    if (faceOffsets[p + 1] > faceIndices.size())
+      throw InvalidInput("polygon " + std::to_string(p) + " ends past the face index array");
     for (std::uint32_t v : polygon(p)) {
       if (v >= positions.size()) {
         throw InvalidInput("polygon " + std::to_string(p) + " refers to vertex " +

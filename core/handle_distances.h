@@ -11,6 +11,9 @@
 
 namespace spacewarp {
 
+class ArchiveReader;
+class ArchiveWriter;
+
 /// Distances d_i(x) from n fixed handles p_i to any point x. Immutable once built; every method
 /// is const and thread-safe, and deterministic (the same x gives bit-identical results).
 class HandleDistances {
@@ -28,6 +31,10 @@ class HandleDistances {
   /// `gradients` (n entries, unit-free; any value at x = p_i, where d_i is not differentiable).
   virtual void distancesAndGradients(const Vec3& x, std::span<double> distances,
                                      std::span<Vec3> gradients) const = 0;
+
+  /// Writes these distances to an archive (core/archive.h): their tag, then what rebuilds them
+  /// (solved state included). The default throws InvalidInput naming the type.
+  virtual void save(ArchiveWriter& out) const;
 };
 
 }  // namespace spacewarp

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -64,6 +65,25 @@ UnmappedPoints TaperWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> o
   const TaperKernel k{frame_.origin, frame_.axis, params_.rate, frame_.lo, frame_.hi};
   for (std::size_t i = begin; i != end; ++i) out[i] = taperPoint(k, in[i]);
   return {};
+}
+
+void TaperWarp::save(ArchiveWriter& out) const {
+  out.tag("taper");
+  out.vec3(params_.origin);
+  out.vec3(params_.axis);
+  out.f64(params_.rate);
+  out.f64(params_.lo);
+  out.f64(params_.hi);
+}
+
+std::shared_ptr<const TaperWarp> TaperWarp::load(ArchiveReader& in) {
+  TaperOptions params;
+  params.origin = in.vec3();
+  params.axis = in.vec3();
+  params.rate = in.f64();
+  params.lo = in.f64();
+  params.hi = in.f64();
+  return std::make_shared<const TaperWarp>(params);
 }
 
 }  // namespace spacewarp

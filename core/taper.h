@@ -3,6 +3,7 @@
 // cross-sections perpendicular to an axis scale by a factor that varies linearly along it.
 
 #include <limits>
+#include <memory>
 #include <span>
 
 #include <spacewarp/core/detail/axis_frame.h>
@@ -49,6 +50,10 @@ class TaperWarp final : public Warp {
   const TaperOptions& params() const { return params_; }
   /// The unit axis.
   const Vec3& axis() const { return frame_.axis; }
+
+  /// Archive (core/archive.h): tag "taper", the parameters as given.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const TaperWarp> load(ArchiveReader& in);
   /// The scale r(ŝ) = 1 + rate clamp(s, lo, hi) of the cross-section at axial coordinate s.
   double scaleAt(double s) const { return 1.0 + params_.rate * frame_.clamp(s); }
 

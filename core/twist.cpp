@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -71,6 +72,25 @@ UnmappedPoints TwistWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> o
   const TwistKernel k = kernelOf(frame_, params_.rate);
   for (std::size_t i = begin; i != end; ++i) out[i] = twistPoint(k, in[i]);
   return {};
+}
+
+void TwistWarp::save(ArchiveWriter& out) const {
+  out.tag("twist");
+  out.vec3(params_.origin);
+  out.vec3(params_.axis);
+  out.f64(params_.rate);
+  out.f64(params_.lo);
+  out.f64(params_.hi);
+}
+
+std::shared_ptr<const TwistWarp> TwistWarp::load(ArchiveReader& in) {
+  TwistOptions params;
+  params.origin = in.vec3();
+  params.axis = in.vec3();
+  params.rate = in.f64();
+  params.lo = in.f64();
+  params.hi = in.f64();
+  return std::make_shared<const TwistWarp>(params);
 }
 
 }  // namespace spacewarp

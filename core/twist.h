@@ -3,6 +3,7 @@
 // every point turns about an axis by an angle proportional to its position along the axis.
 
 #include <limits>
+#include <memory>
 #include <span>
 
 #include <spacewarp/core/detail/axis_frame.h>
@@ -44,6 +45,10 @@ class TwistWarp final : public Warp {
   const TwistOptions& params() const { return params_; }
   /// The unit axis.
   const Vec3& axis() const { return frame_.axis; }
+
+  /// Archive (core/archive.h): tag "twist", the parameters as given.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const TwistWarp> load(ArchiveReader& in);
 
  protected:
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,

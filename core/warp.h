@@ -14,6 +14,8 @@
 namespace spacewarp {
 
 class Warp;
+class ArchiveReader;
+class ArchiveWriter;
 
 /// The points of a batch that a warp or coordinate function could not map (outside its domain,
 /// e.g. outside a cage): how many, the index of the first, and (for warps) which warp's kernel
@@ -68,6 +70,11 @@ class Warp {
   /// they may be the same span. Throws InvalidInput when the sizes differ, and what
   /// throwUnmapped() throws when some points could not be warped.
   void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const;
+
+  /// Writes this warp to an archive (core/archive.h): its tag, then what rebuilds it (solved
+  /// state included, so that loading does not solve again). The default throws InvalidInput
+  /// naming the type: a warp that cannot be saved (one made in Python, an internal cache).
+  virtual void save(ArchiveWriter& out) const;
 
  protected:
   /// Points per range of applyBatch(): enough work to amortise a task, few enough to balance.

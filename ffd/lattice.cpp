@@ -1,8 +1,10 @@
 #include <spacewarp/ffd/lattice.h>
 
 #include <cmath>
+#include <cstdint>
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/detail/lattice_basis.h>
@@ -12,6 +14,9 @@ namespace spacewarp {
 namespace {
 
 const char* const kAxisNames[3] = {"axes[0]", "axes[1]", "axes[2]"};
+
+// The archived basis value of a B-spline lattice with LatticeEnds::Repeat (see save()).
+constexpr std::uint32_t kBSplineRepeatValue = 3;
 
 void validate(const LatticeOptions& p) {
   const std::string who = "Lattice: ";
@@ -35,6 +40,10 @@ void validate(const LatticeOptions& p) {
                            " are not orthogonal (the axes must be orthonormal)");
     }
   }
+  if (p.ends != LatticeEnds::Extrapolate && p.ends != LatticeEnds::Repeat)
+    throw InvalidInput(who + "the ends are neither extrapolate nor repeat");
+  if (p.ends == LatticeEnds::Repeat && p.basis != LatticeBasis::BSpline)
+    throw InvalidInput(who + "the ends 'repeat' apply to the bspline basis only");
   const int minimum = p.basis == LatticeBasis::BSpline ? 4 : 2;
   double total = 1.0;
   for (int a = 0; a < 3; ++a) {
@@ -135,7 +144,9 @@ std::size_t Lattice::sparseWeights(const Vec3& x, std::span<SparseWeight> out,
         count[a] = 2;
         break;
       case LatticeBasis::BSpline:
-        start[a] = detail::bsplineAxis(u[a], n, w[a], dw[a]);
+        start[a] = params_.ends == LatticeEnds::Repeat
+                       ? detail::bsplineRepeatAxis(u[a], n, w[a], dw[a])
+                       : detail::bsplineAxis(u[a], n, w[a], dw[a]);
         count[a] = 4;
         break;
       case LatticeBasis::Bernstein:
@@ -166,6 +177,38 @@ std::size_t Lattice::sparseWeights(const Vec3& x, std::span<SparseWeight> out,
     }
   }
   return written;
+}
+
+void Lattice::save(ArchiveWriter& out) const {
+  out.vec3(params_.origin);
+  for (const Vec3& axis : params_.axes) out.vec3(axis);
+  out.vec3(params_.extents);
+  for (const int r : params_.resolution) out.i32(r);
+  // The ends ride in the basis value (3: B-spline with repeated ends), so that the format stays
+  // version 2: archives written before read as extrapolate, and an older build refuses a
+  // repeat lattice by that value instead of reading it as another lattice.
+  if (params_.ends == LatticeEnds::Repeat)
+    out.u32(kBSplineRepeatValue);
+  else
+    out.enumeration(params_.basis);
+  out.enumeration(params_.outside);
+  out.f64(params_.falloff);
+}
+
+Lattice Lattice::load(ArchiveReader& in) { return Lattice(loadOptions(in)); }
+
+LatticeOptions Lattice::loadOptions(ArchiveReader& in) {
+  LatticeOptions params;
+  params.origin = in.vec3();
+  for (Vec3& axis : params.axes) axis = in.vec3();
+  params.extents = in.vec3();
+  for (int& r : params.resolution) r = in.i32();
+  const std::uint32_t basis = in.enumeration<std::uint32_t>(kBSplineRepeatValue + 1);
+  params.basis = basis == kBSplineRepeatValue ? LatticeBasis::BSpline : LatticeBasis(basis);
+  params.ends = basis == kBSplineRepeatValue ? LatticeEnds::Repeat : LatticeEnds::Extrapolate;
+  params.outside = in.enumeration<LatticeOutside>(3);
+  params.falloff = in.f64();
+  return params;
 }
 
 }  // namespace spacewarp

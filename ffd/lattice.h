@@ -14,7 +14,8 @@
 //   Boundary convention: one phantom control beyond each face, extrapolated linearly from the
 //   last two (c₋₁ = 2c₀ − c₁), so the spline interpolates the face controls, has zero second
 //   derivative across the faces ("natural" ends) and the regular rest grid is exactly the
-//   identity up to and including the faces.
+//   identity up to and including the faces. LatticeEnds::Repeat instead repeats the face
+//   control as the phantom (c₋₁ = c₀), as Blender's lattice does: see LatticeEnds.
 //
 // Points on the box planes belong to the box: a point at u = 1 uses the last cell (see PyGeM
 // issue #272), and points within 1e-12 box extents of a face are evaluated on the face.
@@ -30,6 +31,22 @@ namespace spacewarp {
 
 /// The basis of a lattice (see the top of this header).
 enum class LatticeBasis { Trilinear, Bernstein, BSpline };
+
+/// The phantom controls of the B-spline basis beyond each face (the other bases have none).
+/// Both act on displacements, so the rest lattice is the identity with either; they differ
+/// only within the first and last cell along each axis (one cell: 1/(resolution − 1) of the
+/// box) and agree exactly deeper inside.
+enum class LatticeEnds {
+  /// c₋₁ = 2c₀ − c₁: the spline interpolates the face controls and reproduces affine poses of
+  /// the grid (a scaled or sheared lattice scales or shears every point) up to the faces.
+  Extrapolate,
+  /// c₋₁ = c₀ (Blender's lattice: its control indices clamp at the ends): a face control weighs
+  /// 5/6 on its face and its neighbour 1/6, so the spline does not interpolate the face controls
+  /// and an affine pose is reproduced only deeper than one cell from the faces: on a face the
+  /// point moves by (5 d₀ + d₁) / 6 (d₀ the face control's displacement, d₁ its neighbour's)
+  /// where extrapolate moves it by d₀.
+  Repeat,
+};
 
 /// What happens to points outside the box. d(p) is the lattice displacement at the point p of
 /// the box surface nearest to x.
@@ -61,6 +78,8 @@ struct LatticeOptions {
   std::array<int, 3> resolution{2, 2, 2};
   /// The basis. Default: trilinear.
   LatticeBasis basis = LatticeBasis::Trilinear;
+  /// The B-spline basis's ends. Default: extrapolate. Repeat needs the B-spline basis.
+  LatticeEnds ends = LatticeEnds::Extrapolate;
   /// The outside-the-box policy. Default: outside points do not move.
   LatticeOutside outside = LatticeOutside::Identity;
   /// The falloff distance of LatticeOutside::Falloff, relative to the box diagonal; finite and
@@ -82,6 +101,15 @@ class Lattice {
   explicit Lattice(const LatticeOptions& params);
 
   const LatticeOptions& params() const { return params_; }
+
+  /// Archive (core/archive.h): the options (no tag: a lattice is always part of a warp or of
+  /// coordinates); load() rebuilds the lattice through the constructor.
+  void save(ArchiveWriter& out) const;
+  static Lattice load(ArchiveReader& in);
+  /// The parameters load() builds the lattice from, not built yet: a loader that stores arrays
+  /// sized by the resolution compares them first, so that hostile bytes cannot make it build
+  /// a huge lattice before being refused.
+  static LatticeOptions loadOptions(ArchiveReader& in);
   LatticeBasis basis() const { return params_.basis; }
   const std::array<int, 3>& resolution() const { return params_.resolution; }
 

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/lattice_warp.h>
 
@@ -36,6 +37,15 @@ bool LatticeCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) con
 std::shared_ptr<const Warp> LatticeCoordinates::makeWarpFor(std::shared_ptr<const Coordinates>,
                                                             std::span<const Vec3> posed) const {
   return std::make_shared<LatticeWarp>(lattice_, posed);
+}
+
+void LatticeCoordinates::save(ArchiveWriter& out) const {
+  out.tag("lattice");
+  lattice_.save(out);
+}
+
+std::shared_ptr<const LatticeCoordinates> LatticeCoordinates::load(ArchiveReader& in) {
+  return std::make_shared<const LatticeCoordinates>(Lattice::load(in));
 }
 
 }  // namespace spacewarp

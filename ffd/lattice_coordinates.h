@@ -2,6 +2,7 @@
 // The coordinates of a lattice: the FFD basis functions B_ijk as the weights of the Coordinates
 // interface, so that lattices bind (Binding), export (`spacewarp weights`) and pose like cages.
 
+#include <memory>
 #include <span>
 
 #include <spacewarp/core/coordinates.h>
@@ -31,6 +32,10 @@ class LatticeCoordinates final : public Coordinates {
   std::size_t sparseWeights(const Vec3& x, std::span<SparseWeight> out) const override;
   /// Analytic ∇w_c (controlPointCount() entries, per world unit); always returns true.
   bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
+
+  /// Archive (core/archive.h): tag "lattice", the lattice.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const LatticeCoordinates> load(ArchiveReader& in);
 
  protected:
   /// A LatticeWarp (the basis evaluated per axis, not a dense row per point).

@@ -3,6 +3,7 @@
 #include <cstring>
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/ffd/detail/lattice_basis.h>
@@ -94,6 +95,12 @@ SPACEWARP_SIMD_CLONES void bsplineRange(const Kernel& k, const Vec3* in, Vec3* o
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceFixed<4, detail::bsplineAxis>(k, in[i]);
 }
 
+SPACEWARP_SIMD_CLONES void bsplineRepeatRange(const Kernel& k, const Vec3* in, Vec3* out,
+                                              std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i)
+    out[i] = displaceFixed<4, detail::bsplineRepeatAxis>(k, in[i]);
+}
+
 SPACEWARP_SIMD_CLONES void bernsteinRange(const Kernel& k, const Vec3* in, Vec3* out,
                                           std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) out[i] = displaceBernstein(k, in[i]);
@@ -101,12 +108,12 @@ SPACEWARP_SIMD_CLONES void bernsteinRange(const Kernel& k, const Vec3* in, Vec3*
 
 using RangeFunction = void (*)(const Kernel&, const Vec3*, Vec3*, std::size_t);
 
-RangeFunction rangeFunctionOf(LatticeBasis basis) {
-  switch (basis) {
+RangeFunction rangeFunctionOf(const LatticeOptions& options) {
+  switch (options.basis) {
     case LatticeBasis::Trilinear:
       return trilinearRange;
     case LatticeBasis::BSpline:
-      return bsplineRange;
+      return options.ends == LatticeEnds::Repeat ? bsplineRepeatRange : bsplineRange;
     case LatticeBasis::Bernstein:
       break;
   }
@@ -151,7 +158,7 @@ Kernel kernelOf(const Lattice& lattice, const std::vector<double>& displacement)
 Vec3 LatticeWarp::apply(const Vec3& x) const {
   const Kernel k = kernelOf(lattice_, displacement_);
   Vec3 out;
-  rangeFunctionOf(lattice_.basis())(k, &x, &out, 1);
+  rangeFunctionOf(lattice_.params())(k, &x, &out, 1);
   return out;
 }
 
@@ -160,7 +167,7 @@ UnmappedPoints LatticeWarp::applyRange(std::span<const Vec3> in, std::span<Vec3>
   // One call per range of points (not per point); each point is computed on its own, so the
   // split does not affect the result.
   const Kernel k = kernelOf(lattice_, displacement_);
-  rangeFunctionOf(lattice_.basis())(k, in.data() + begin, out.data() + begin, end - begin);
+  rangeFunctionOf(lattice_.params())(k, in.data() + begin, out.data() + begin, end - begin);
   return {};
 }
 
@@ -176,6 +183,29 @@ Mat3 LatticeWarp::jacobian(const Vec3& x) const {
     for (int c = 0; c < 3; ++c) j[c] += disp * gradients[e][c];
   }
   return j;
+}
+
+void LatticeWarp::save(ArchiveWriter& out) const {
+  out.tag("lattice-warp");
+  lattice_.save(out);
+  out.vec3s(posed_);
+}
+
+std::shared_ptr<const LatticeWarp> LatticeWarp::load(ArchiveReader& in) {
+  const LatticeOptions params = Lattice::loadOptions(in);
+  const std::size_t posedAt = in.position();
+  const std::vector<Vec3> posed = in.vec3s();
+  // The posed points must be one per control point: checked before the lattice is built (its
+  // size follows the resolution, which hostile bytes could make huge).
+  const auto [l, m, n] = params.resolution;
+  const double controls = double(l) * double(m) * double(n);
+  if (l < 1 || m < 1 || n < 1 || controls != double(posed.size())) {
+    in.seek(posedAt);
+    in.fail("the lattice warp stores " + std::to_string(posed.size()) +
+            " posed control points, but its resolution " + std::to_string(l) + " x " +
+            std::to_string(m) + " x " + std::to_string(n) + " needs one per control point");
+  }
+  return std::make_shared<const LatticeWarp>(Lattice(params), posed);
 }
 
 }  // namespace spacewarp

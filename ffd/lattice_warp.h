@@ -2,6 +2,7 @@
 // The Warp of a posed lattice: x' = x + Σ_c w_c(x) (P_c − P⁰_c), evaluated by a fast batch
 // kernel specialised per basis.
 
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -26,6 +27,11 @@ class LatticeWarp final : public Warp {
   const Lattice& lattice() const { return lattice_; }
   /// The posed control points.
   std::span<const Vec3> controlPoints() const { return posed_; }
+
+  /// Archive (core/archive.h): tag "lattice-warp", the lattice and the posed (or fitted)
+  /// control points: a fitted lattice is not fitted again.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const LatticeWarp> load(ArchiveReader& in);
 
  protected:
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,

@@ -7,9 +7,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/nonlinear/detail/graph_index.h>
 #include <spacewarp/nonlinear/detail/graph_solver.h>
@@ -38,6 +42,50 @@ DeformationGraphWarp::DeformationGraphWarp(std::shared_ptr<const detail::GraphIn
                                            std::vector<Mat3> a, std::vector<Vec3> t)
     : index_(std::move(index)), a_(std::move(a)), t_(std::move(t)) {
   for (Mat3& m : a_) m -= Mat3(1.0);  // stored as B = A − I
+}
+
+DeformationGraphWarp::DeformationGraphWarp(std::shared_ptr<const detail::GraphIndex> index,
+                                           std::vector<Mat3> b, std::vector<Vec3> t, Stored)
+    : index_(std::move(index)), a_(std::move(b)), t_(std::move(t)) {}
+
+void DeformationGraphWarp::save(ArchiveWriter& out) const {
+  out.tag("deformation-graph");
+  out.i32(index_->k);
+  out.vec3s(index_->nodes);
+  std::vector<double> b;  // B_j column by column, 9 per node
+  b.reserve(a_.size() * 9);
+  for (const Mat3& m : a_)
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) b.push_back(m[c][r]);
+  out.doubles(b);
+  out.vec3s(t_);
+}
+
+std::shared_ptr<const DeformationGraphWarp> DeformationGraphWarp::load(ArchiveReader& in) {
+  const int k = in.i32();
+  std::vector<Vec3> nodes = in.vec3s();
+  const std::vector<double> b = in.doubles();
+  std::vector<Vec3> t = in.vec3s();
+  if (nodes.empty()) in.fail("deformation-graph: no nodes");
+  requireFinite("nodes", nodes);
+  requireK(k, nodes.size());
+  if (nodes.size() > std::numeric_limits<std::uint32_t>::max())
+    in.fail("deformation-graph: " + std::to_string(nodes.size()) + " nodes (at most 2^32 - 1)");
+  if (b.size() != nodes.size() * 9 || t.size() != nodes.size()) {
+    in.fail("deformation-graph: " + std::to_string(b.size()) + " matrix entries and " +
+            std::to_string(t.size()) + " translations for " + std::to_string(nodes.size()) +
+            " nodes (9 and 1 per node)");
+  }
+  std::vector<Mat3> maps(nodes.size());
+  for (std::size_t j = 0; j < maps.size(); ++j) {
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) maps[j][c][r] = b[j * 9 + std::size_t(c) * 3 + std::size_t(r)];
+    if (!isFinite(maps[j][0]) || !isFinite(maps[j][1]) || !isFinite(maps[j][2]) || !isFinite(t[j]))
+      in.fail("deformation-graph: the map of node " + std::to_string(j) + " is not finite");
+  }
+  auto index = std::make_shared<const detail::GraphIndex>(std::move(nodes), k);
+  return std::shared_ptr<const DeformationGraphWarp>(
+      new DeformationGraphWarp(std::move(index), std::move(maps), std::move(t), Stored{}));
 }
 
 Vec3 DeformationGraphWarp::apply(const Vec3& x) const {

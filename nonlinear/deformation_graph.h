@@ -17,6 +17,9 @@
 
 namespace spacewarp {
 
+class ArchiveReader;
+class ArchiveWriter;
+
 namespace detail {
 struct GraphIndex;   // nodes, KD-tree and lookup grid (nonlinear/detail/graph_index.h)
 struct SolverCache;  // normal equations and factor kept between solves (detail/solver_cache.h)
@@ -128,6 +131,13 @@ class DeformationGraphWarp final : public Warp {
   Mat3 jacobian(const Vec3& x) const override;
   /// Parallel (TBB), allocation-free per point, bit-identical to apply() for any thread count.
 
+  /// Archive tag "deformation-graph": k, the nodes and the solved state (A_j − I as stored, and
+  /// t_j). Neither the handles nor the solve's options are saved: a loaded warp cannot re-solve.
+  void save(ArchiveWriter& out) const override;
+  /// Rebuilds the node index from the nodes (deterministic: the same neighbours) and takes the
+  /// state as stored, after checking k, the counts and that everything is finite.
+  static std::shared_ptr<const DeformationGraphWarp> load(ArchiveReader& in);
+
  protected:
   std::size_t batchGrain() const override;
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
@@ -136,6 +146,10 @@ class DeformationGraphWarp final : public Warp {
                                   std::span<const Vec3> in) const override;
 
  private:
+  struct Stored {};  // selects the constructor from stored B_j = A_j − I
+  DeformationGraphWarp(std::shared_ptr<const detail::GraphIndex> index, std::vector<Mat3> b,
+                       std::vector<Vec3> t, Stored);
+
   std::shared_ptr<const detail::GraphIndex> index_;
   std::vector<Mat3> a_;
   std::vector<Vec3> t_;

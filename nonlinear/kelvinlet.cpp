@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
@@ -289,6 +291,38 @@ Mat3 KelvinletWarp::jacobian(const Vec3& x) const {
     j = (Mat3(1.0) + ju) * j;
   }
   return j;
+}
+
+void KelvinletWarp::save(ArchiveWriter& out) const {
+  const KelvinletOptions& o = options_;
+  out.tag("kelvinlet");
+  out.enumeration(o.brush);
+  out.vec3(o.center);
+  out.f64(o.radius);
+  out.f64(o.poisson);
+  out.vec3(o.displacement);
+  out.vec3(o.axis);
+  out.f64(o.angle);
+  out.f64(o.factor);
+  out.mat3(o.matrix);
+  out.enumeration(o.falloff);
+  out.i32(o.steps);
+}
+
+std::shared_ptr<const KelvinletWarp> KelvinletWarp::load(ArchiveReader& in) {
+  KelvinletOptions o;
+  o.brush = in.enumeration<KelvinletBrush>(kBrushNames.size());
+  o.center = in.vec3();
+  o.radius = in.f64();
+  o.poisson = in.f64();
+  o.displacement = in.vec3();
+  o.axis = in.vec3();
+  o.angle = in.f64();
+  o.factor = in.f64();
+  o.matrix = in.mat3();
+  o.falloff = in.enumeration<KelvinletFalloff>(kFalloffNames.size());
+  o.steps = in.i32();
+  return std::make_shared<const KelvinletWarp>(o);
 }
 
 }  // namespace spacewarp

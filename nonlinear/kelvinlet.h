@@ -5,12 +5,16 @@
 // over a radius ε around a centre: smooth everywhere, decaying with distance, and no control
 // structure at all.
 
+#include <memory>
 #include <string>
 #include <string_view>
 
 #include <spacewarp/core/warp.h>
 
 namespace spacewarp {
+
+class ArchiveReader;
+class ArchiveWriter;
 
 /// The brush kinds of the paper.
 enum class KelvinletBrush {
@@ -100,6 +104,12 @@ class KelvinletWarp final : public Warp {
   Mat3 jacobian(const Vec3& x) const override;
 
   const KelvinletOptions& options() const { return options_; }
+
+  /// Archive tag "kelvinlet": every option (brush, centre, radius, Poisson ratio, each brush's
+  /// parameters, falloff, steps).
+  void save(ArchiveWriter& out) const override;
+  /// Rebuilt through the constructor.
+  static std::shared_ptr<const KelvinletWarp> load(ArchiveReader& in);
 
  protected:
   /// 4096 brush evaluations per range: fewer points when there are many steps and scales, so

@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
@@ -453,6 +454,38 @@ void MlsAffineCoordinates::weights(const Vec3& x, std::span<double> row) const {
   }
   const double inv = 1.0 / s.sum;
   for (std::size_t j = 0; j < m.n; ++j) row[j] = w[j] * (inv + glm::dot(m.p[j] - s.pc, z));
+}
+
+void MlsWarp::save(ArchiveWriter& out) const {
+  out.tag("mls");
+  out.vec3s(handles_);
+  out.vec3s(targets_);
+  out.enumeration(options_.mode);
+  out.f64(options_.alpha);
+  out.boolean(options_.distances != nullptr);
+  if (options_.distances) out.distances(*options_.distances);
+}
+
+std::shared_ptr<const MlsWarp> MlsWarp::load(ArchiveReader& in) {
+  std::vector<Vec3> handles = in.vec3s();
+  std::vector<Vec3> targets = in.vec3s();
+  MlsOptions options;
+  options.mode = in.enumeration<MlsMode>(kModeNames.size());
+  options.alpha = in.f64();
+  if (in.boolean()) options.distances = in.distances();
+  return std::make_shared<const MlsWarp>(std::move(handles), std::move(targets), options);
+}
+
+void MlsAffineCoordinates::save(ArchiveWriter& out) const {
+  out.tag("mls-affine");
+  out.vec3s(handles_);
+  out.f64(alpha_);
+}
+
+std::shared_ptr<const MlsAffineCoordinates> MlsAffineCoordinates::load(ArchiveReader& in) {
+  std::vector<Vec3> handles = in.vec3s();
+  const double alpha = in.f64();
+  return std::make_shared<const MlsAffineCoordinates>(std::move(handles), alpha);
 }
 
 }  // namespace spacewarp

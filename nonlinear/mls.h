@@ -17,6 +17,9 @@
 
 namespace spacewarp {
 
+class ArchiveReader;
+class ArchiveWriter;
+
 /// The class of local transform fitted at each point.
 enum class MlsMode {
   Affine,      ///< Any affine map; needs 4 affinely independent handles.
@@ -111,6 +114,11 @@ class MlsWarp final : public Warp {
   std::span<const Vec3> targets() const { return targets_; }
   const MlsOptions& options() const { return options_; }
 
+  /// Archive tag "mls": handles, targets, mode, alpha and the distances (nested, or none).
+  void save(ArchiveWriter& out) const override;
+  /// Rebuilt through the constructor (so a bad archive is refused as bad parameters are).
+  static std::shared_ptr<const MlsWarp> load(ArchiveReader& in);
+
  protected:
   std::size_t batchGrain() const override;
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
@@ -137,6 +145,11 @@ class MlsAffineCoordinates final : public Coordinates {
   void weights(const Vec3& x, std::span<double> row) const override;
 
   double alpha() const { return alpha_; }
+
+  /// Archive tag "mls-affine": handles and alpha.
+  void save(ArchiveWriter& out) const override;
+  /// Rebuilt through the constructor.
+  static std::shared_ptr<const MlsAffineCoordinates> load(ArchiveReader& in);
 
  private:
   std::vector<Vec3> handles_;

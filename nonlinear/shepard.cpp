@@ -5,12 +5,14 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <utility>
 
 #include <nanoflann.hpp>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/nonlinear/detail/graph_index.h>
 
@@ -462,6 +464,47 @@ Mat3 ShepardWarp::jacobian(const Vec3& x) const {
   for (std::size_t k = 0; k < s.index.size(); ++k)
     for (int c = 0; c < 3; ++c) j[c] += displacement_[s.index[k]] * g[k][c];
   return j;
+}
+
+void ShepardCoordinates::save(ArchiveWriter& out) const {
+  out.tag("shepard");
+  out.vec3s(impl_->p);
+  out.f64(impl_->options.power);
+  out.f64(impl_->options.radius);
+}
+
+std::shared_ptr<const ShepardCoordinates> ShepardCoordinates::load(ArchiveReader& in) {
+  std::vector<Vec3> handles = in.vec3s();
+  ShepardOptions options;
+  options.power = in.f64();
+  options.radius = in.f64();
+  return std::make_shared<const ShepardCoordinates>(std::move(handles), options);
+}
+
+ShepardWarp::ShepardWarp(std::shared_ptr<const ShepardCoordinates> coordinates,
+                         std::vector<Vec3> displacement, Displacements)
+    : coordinates_(std::move(coordinates)), displacement_(std::move(displacement)) {}
+
+void ShepardWarp::save(ArchiveWriter& out) const {
+  out.tag("shepard-warp");
+  out.coordinates(*coordinates_);
+  out.vec3s(displacement_);
+}
+
+std::shared_ptr<const ShepardWarp> ShepardWarp::load(ArchiveReader& in) {
+  auto coordinates = std::dynamic_pointer_cast<const ShepardCoordinates>(in.coordinates());
+  if (!coordinates) in.fail("shepard-warp: the coordinates are not Shepard's");
+  std::vector<Vec3> displacement = in.vec3s();
+  if (displacement.size() != coordinates->controlPointCount()) {
+    in.fail("shepard-warp: " + std::to_string(displacement.size()) + " displacements for " +
+            std::to_string(coordinates->controlPointCount()) + " handles");
+  }
+  for (std::size_t i = 0; i < displacement.size(); ++i) {
+    if (!isFinite(displacement[i]))
+      in.fail("shepard-warp: displacement " + std::to_string(i) + " is not finite");
+  }
+  return std::shared_ptr<const ShepardWarp>(
+      new ShepardWarp(std::move(coordinates), std::move(displacement), Displacements{}));
 }
 
 }  // namespace spacewarp

@@ -15,6 +15,9 @@
 
 namespace spacewarp {
 
+class ArchiveReader;
+class ArchiveWriter;
+
 /// Options of ShepardCoordinates.
 struct ShepardOptions {
   /// Weight exponent p: finite, > 0. Default 2 (Shepard's choice). For p > 1 every weight is
@@ -75,6 +78,11 @@ class ShepardCoordinates final : public Coordinates {
   /// Whether the weights have a finite support radius.
   bool local() const;
 
+  /// Archive tag "shepard": handles, power and radius.
+  void save(ArchiveWriter& out) const override;
+  /// Rebuilt through the constructor.
+  static std::shared_ptr<const ShepardCoordinates> load(ArchiveReader& in);
+
   struct Impl;  // internals, shared with the warp
 
  protected:
@@ -111,6 +119,12 @@ class ShepardWarp final : public Warp {
 
   const ShepardCoordinates& coordinates() const { return *coordinates_; }
 
+  /// Archive tag "shepard-warp": the coordinates (nested) and the displacements q_i − p_i as
+  /// stored, so that the loaded warp adds the very same doubles.
+  void save(ArchiveWriter& out) const override;
+  /// Checks the nested coordinates' kind, the displacements' count and finiteness.
+  static std::shared_ptr<const ShepardWarp> load(ArchiveReader& in);
+
  protected:
   std::size_t batchGrain() const override { return 1024; }
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
@@ -119,6 +133,10 @@ class ShepardWarp final : public Warp {
                                   std::span<const Vec3> in) const override;
 
  private:
+  struct Displacements {};  // selects the constructor from stored displacements
+  ShepardWarp(std::shared_ptr<const ShepardCoordinates> coordinates, std::vector<Vec3> displacement,
+              Displacements);
+
   std::shared_ptr<const ShepardCoordinates> coordinates_;
   std::vector<Vec3> displacement_;  // q_i − p_i
 };

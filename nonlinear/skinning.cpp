@@ -2,13 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <utility>
 
 #include <glm/gtc/quaternion.hpp>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/batch.h>
 #include <spacewarp/core/detail/enum_names.h>
@@ -269,6 +272,9 @@ void checkWeights(const SkinningWeights& w, std::size_t pointCount, std::size_t 
                        " points have weights, but there are " + std::to_string(pointCount) +
                        " points");
   if (w.influences == 0) throw InvalidInput("skinning weights: influences per point must be >= 1");
+  if (w.influences > std::numeric_limits<std::size_t>::max() / std::max<std::size_t>(pointCount, 1))
+    throw InvalidInput("skinning weights: " + std::to_string(w.influences) +
+                       " influences per point are too many");
   const std::size_t n = w.pointCount * w.influences;
   if (w.bones.size() != n || w.weights.size() != n)
     throw InvalidInput("skinning weights: the bone and weight arrays must have points × " +
@@ -650,6 +656,68 @@ Mat3 SkinningWarp::jacobian(const Vec3& x) const {
     j[a] += 2.0 * d;
   }
   return j;
+}
+
+namespace {
+
+void saveWeights(ArchiveWriter& out, const SkinningWeights& w) {
+  out.u64(w.pointCount);
+  out.u64(w.influences);
+  out.u32s(w.bones);
+  out.doubles(w.weights);
+}
+
+SkinningWeights loadWeights(ArchiveReader& in) {
+  SkinningWeights w;
+  w.pointCount = in.u64();
+  w.influences = in.u64();
+  w.bones = in.u32s();
+  w.weights = in.doubles();
+  return w;  // checked by the constructor it is given to
+}
+
+}  // namespace
+
+void SkinningWarp::save(ArchiveWriter& out) const {
+  out.tag("skinning");
+  out.enumeration(mode_);
+  std::vector<double> bones;  // column by column, 16 per bone
+  bones.reserve(bones_.size() * 16);
+  for (const Mat4& m : bones_)
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r) bones.push_back(m[c][r]);
+  out.doubles(bones);
+  out.boolean(impl_->coordinates != nullptr);
+  if (impl_->coordinates) {
+    out.coordinates(*impl_->coordinates);
+    out.u64(impl_->influences);
+  } else {
+    out.vec3s(impl_->model);
+    saveWeights(out, impl_->weights);
+  }
+}
+
+std::shared_ptr<const SkinningWarp> SkinningWarp::load(ArchiveReader& in) {
+  const SkinningMode mode = in.enumeration<SkinningMode>(kModeNames.size());
+  const std::vector<double> entries = in.doubles();
+  if (entries.size() % 16 != 0)
+    in.fail("skinning: " + std::to_string(entries.size()) + " bone entries (16 per bone)");
+  std::vector<Mat4> bones(entries.size() / 16);
+  for (std::size_t b = 0; b < bones.size(); ++b)
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r)
+        bones[b][c][r] = entries[b * 16 + std::size_t(c) * 4 + std::size_t(r)];
+  if (in.boolean()) {
+    std::shared_ptr<const Coordinates> coordinates = in.coordinates();
+    const std::uint64_t influences = in.u64();
+    if (influences == 0) in.fail("skinning: 0 influences kept (the count stored is never 0)");
+    return std::make_shared<const SkinningWarp>(std::move(bones), std::move(coordinates),
+                                                SkinningOptions{mode, influences});
+  }
+  std::vector<Vec3> model = in.vec3s();
+  SkinningWeights weights = loadWeights(in);
+  return std::make_shared<const SkinningWarp>(std::move(bones), std::move(model),
+                                              std::move(weights), mode);
 }
 
 }  // namespace spacewarp

@@ -22,6 +22,9 @@
 
 namespace spacewarp {
 
+class ArchiveReader;
+class ArchiveWriter;
+
 /// How the bones' transforms are blended.
 enum class SkinningMode {
   Linear,          ///< "lbs": x' = Σ w_i (A_i x + t_i). Any affine bones; negative weights kept.
@@ -156,6 +159,12 @@ class SkinningWarp final : public Warp {
 
   std::span<const Mat4> bones() const { return bones_; }
   SkinningMode mode() const { return mode_; }
+
+  /// Archive tag "skinning": the mode, the bones, then either the weighted model's points and
+  /// their sparse weights, or the coordinates (nested) and the influences kept.
+  void save(ArchiveWriter& out) const override;
+  /// Rebuilt through the constructors (the model's KD-tree is rebuilt: the same neighbours).
+  static std::shared_ptr<const SkinningWarp> load(ArchiveReader& in);
 
  protected:
   std::size_t batchGrain() const override;

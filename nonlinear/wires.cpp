@@ -5,11 +5,13 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 
 #include <glm/gtc/quaternion.hpp>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/enum_names.h>
 #include <spacewarp/core/detail/rotation.h>
 #include <spacewarp/core/errors.h>
@@ -641,6 +643,40 @@ UnmappedPoints WiresWarp::applyRange(std::span<const Vec3> in, std::span<Vec3> o
   for (std::size_t i = begin; i != end; ++i)
     out[i] = blend(compiled_, *index_, options_.locality, in[i]);
   return {};
+}
+
+void WiresWarp::save(ArchiveWriter& out) const {
+  out.tag("wires");
+  out.f64(options_.locality);
+  out.u64(wires_.size());
+  for (const Wire& w : wires_) {
+    out.vec3s(w.rest);
+    out.vec3s(w.deformed);
+    out.f64(w.radius);
+    out.f64(w.innerRadius);
+    out.f64(w.scale);
+    out.enumeration(w.dropoff);
+    out.enumeration(w.curve);
+  }
+}
+
+std::shared_ptr<const WiresWarp> WiresWarp::load(ArchiveReader& in) {
+  WiresOptions options;
+  options.locality = in.f64();
+  const std::uint64_t count = in.u64();
+  std::vector<Wire> wires;  // grown as wires are read: the count is not trusted for memory
+  for (std::uint64_t i = 0; i < count; ++i) {
+    Wire w;
+    w.rest = in.vec3s();
+    w.deformed = in.vec3s();
+    w.radius = in.f64();
+    w.innerRadius = in.f64();
+    w.scale = in.f64();
+    w.dropoff = in.enumeration<WireDropoff>(kDropoffNames.size());
+    w.curve = in.enumeration<WireCurve>(kCurveNames.size());
+    wires.push_back(std::move(w));
+  }
+  return std::make_shared<const WiresWarp>(std::move(wires), options);
 }
 
 }  // namespace spacewarp

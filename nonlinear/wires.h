@@ -13,6 +13,9 @@
 
 namespace spacewarp {
 
+class ArchiveReader;
+class ArchiveWriter;
+
 namespace detail {
 class BoxTree;
 }  // namespace detail
@@ -148,6 +151,12 @@ class WiresWarp final : public Warp {
 
   std::span<const Wire> wires() const { return wires_; }
   const WiresOptions& options() const { return options_; }
+
+  /// Archive tag "wires": the locality and every wire as given. The per-wire data built from
+  /// them is rebuilt on loading (cheap and deterministic: the same results bit for bit).
+  void save(ArchiveWriter& out) const override;
+  /// Rebuilt through the constructor.
+  static std::shared_ptr<const WiresWarp> load(ArchiveReader& in);
 
  protected:
   std::size_t batchGrain() const override { return 2048; }

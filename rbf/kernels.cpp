@@ -6,6 +6,7 @@
 #include <limits>
 #include <numeric>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -127,7 +128,7 @@ void validateRbfOptions(const std::string& who, const RbfOptions& o) {
   if (!(o.radius >= kMinRbfScale && o.radius <= kMaxRbfScale))
     fail("the support radius " + shortNumber(o.radius) + " " + kOutOfRange);
   if (!(std::isfinite(o.smoothing) && o.smoothing >= 0.0))
-    fail("the smoothing must be finite and >= 0, not " + std::to_string(o.smoothing));
+    fail("the smoothing must be finite and >= 0, not " + shortNumber(o.smoothing));
   if (!(std::isfinite(o.duplicateTolerance) && o.duplicateTolerance >= 0.0))
     fail("the duplicate tolerance must be finite and >= 0");
 }
@@ -174,6 +175,25 @@ std::string rbfScaleProblem(const RbfOptions& o, std::span<const Vec3> centers) 
            " apart (the closest two): exp(-(r/scale)^2) underflows to 0 between any two "
            "centers, so each moves alone; give about the centers' spacing";
   return {};
+}
+
+void writeRbfOptions(ArchiveWriter& out, const RbfOptions& options) {
+  out.enumeration(options.kernel);
+  out.f64(options.scale);
+  out.f64(options.radius);
+  out.f64(options.smoothing);
+  out.f64(options.duplicateTolerance);
+}
+
+RbfOptions readRbfOptions(ArchiveReader& in) {
+  RbfOptions options;
+  options.kernel = in.enumeration<RbfKernel>(6);
+  options.scale = in.f64();
+  options.radius = in.f64();
+  options.smoothing = in.f64();
+  options.duplicateTolerance = in.f64();
+  validateRbfOptions("warp archive: RBF options", options);
+  return options;
 }
 
 }  // namespace spacewarp

@@ -10,6 +10,11 @@
 #include <spacewarp/core/progress.h>
 
 namespace spacewarp {
+class ArchiveReader;
+class ArchiveWriter;
+}  // namespace spacewarp
+
+namespace spacewarp {
 
 /// The radial kernel φ(r), r = |c − x| in world units.
 enum class RbfKernel {
@@ -78,6 +83,11 @@ inline constexpr double kMaxRbfScale = 1e150;
 /// finite and within [kMinRbfScale, kMaxRbfScale], smoothing finite and ≥ 0,
 /// duplicateTolerance finite and ≥ 0.
 void validateRbfOptions(const std::string& who, const RbfOptions& options);
+
+/// Archive (core/archive.h): the options but the progress callback; readRbfOptions() checks
+/// them with validateRbfOptions().
+void writeRbfOptions(ArchiveWriter& out, const RbfOptions& options);
+RbfOptions readRbfOptions(ArchiveReader& in);
 
 /// Why the Gaussian or inverse multiquadric scale ε does not suit `centers` (world units;
 /// centers closer than duplicateTolerance × their bounding-box diagonal count as one), as a

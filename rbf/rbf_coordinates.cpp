@@ -1,7 +1,9 @@
 #include <spacewarp/rbf/rbf_coordinates.h>
 
+#include <cmath>
 #include <string>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rbf/detail/rbf_system.h>
@@ -93,6 +95,41 @@ bool RbfCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
 std::shared_ptr<const Warp> RbfCoordinates::makeWarpFor(std::shared_ptr<const Coordinates>,
                                                         std::span<const Vec3> posed) const {
   return std::make_shared<RbfWarp>(handles_, posed, fixed_, options_);
+}
+
+void RbfCoordinates::save(ArchiveWriter& out) const {
+  out.tag("rbf-coordinates");
+  writeRbfOptions(out, options_);
+  out.vec3s(handles_);
+  out.vec3s(fixed_);
+  out.vec3s(centers_);
+  out.doubles(g_);
+  out.doubles(h_);
+}
+
+std::shared_ptr<const RbfCoordinates> RbfCoordinates::load(ArchiveReader& in) {
+  std::shared_ptr<RbfCoordinates> c(new RbfCoordinates());
+  c->options_ = readRbfOptions(in);
+  c->handles_ = in.vec3s();
+  c->fixed_ = in.vec3s();
+  c->centers_ = in.vec3s();
+  c->g_ = in.doubles();
+  c->h_ = in.doubles();
+  const std::size_t handles = c->handles_.size();
+  // centers_ are the distinct handles and fixed centers, at least one handle.
+  if (handles == 0 || c->centers_.empty() || c->centers_.size() > handles + c->fixed_.size() ||
+      c->g_.size() / c->centers_.size() != handles || c->g_.size() % c->centers_.size() != 0 ||
+      c->h_.size() != 4 * handles)
+    in.fail("RBF coordinates with inconsistent sizes (" + std::to_string(handles) + " handles, " +
+            std::to_string(c->centers_.size()) + " centers, " + std::to_string(c->g_.size()) +
+            " + " + std::to_string(c->h_.size()) + " coefficients)");
+  bool finite = true;
+  for (const auto* points : {&c->handles_, &c->fixed_, &c->centers_})
+    for (const Vec3& p : *points) finite = finite && isFinite(p);
+  for (const auto* values : {&c->g_, &c->h_})
+    for (const double v : *values) finite = finite && std::isfinite(v);
+  if (!finite) in.fail("RBF coordinates whose state is not finite");
+  return c;
 }
 
 }  // namespace spacewarp

@@ -3,6 +3,7 @@
 // Botsch & Kobbelt 2005), so that re-posing the handles of a bound point set is one matrix
 // product (core/binding.h).
 
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -56,6 +57,11 @@ class RbfCoordinates final : public Coordinates {
   /// The fixed centers as given.
   std::span<const Vec3> fixedCenters() const { return fixed_; }
 
+  /// Archive (core/archive.h): tag "rbf-coordinates", the options, handles, fixed centers and
+  /// the solved basis; load() checks sizes and finiteness and does not fit.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const RbfCoordinates> load(ArchiveReader& in);
+
  protected:
   /// An RbfWarp with the posed handles as targets (its own fit: O(n³) once, then the
   /// vectorised kernel per point instead of a dense row).
@@ -69,6 +75,8 @@ class RbfCoordinates final : public Coordinates {
   std::vector<Vec3> centers_;  // distinct centers of the fit
   std::vector<double> g_;      // centers_.size() × handles, row-major
   std::vector<double> h_;      // 4 × handles, row-major: the coefficients of 1, x, y, z
+
+  RbfCoordinates() = default;  // for load()
 };
 
 }  // namespace spacewarp

@@ -3,6 +3,7 @@
 // radial basis functions plus a linear polynomial, after Botsch & Kobbelt, "Real-time shape
 // editing using radial basis functions" (Eurographics 2005).
 
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -59,6 +60,11 @@ class RbfWarp final : public Warp {
   const Mat3& linearPart() const { return linear_; }
   const Vec3& translation() const { return translation_; }
 
+  /// Archive (core/archive.h): tag "rbf-warp", the options and the solved state (centers,
+  /// weights, linear part, translation). load() checks sizes and finiteness and does not fit.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const RbfWarp> load(ArchiveReader& in);
+
  protected:
   std::size_t batchGrain() const override;
   UnmappedPoints applyRange(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
@@ -72,6 +78,9 @@ class RbfWarp final : public Warp {
   Vec3 translation_{0.0};
   // Structure of arrays for the batch kernel: cx, cy, cz, wx, wy, wz (centers_.size() each).
   std::vector<double> soa_;
+
+  RbfWarp() = default;  // for load()
+  void buildSoa();
 };
 
 }  // namespace spacewarp

@@ -36,7 +36,11 @@ double cageKernelMemory(const Cage& cage) {
 #ifdef SPACEWARP_HAVE_HARMONIC
 HarmonicOptions harmonicOptions(const CageMethodOptions& options) {
   HarmonicOptions harmonic;
+  if (options.harmonicTets > 0 && options.harmonicPrecision != 0)
+    throw InvalidInput("give the harmonic tet count (tets) or the precision, not both");
   if (options.harmonicTets > 0) harmonic.targetTetCount = options.harmonicTets;
+  if (options.harmonicPrecision != 0)
+    harmonic.targetTetCount = harmonicPrecisionTets(options.harmonicPrecision);
   if (options.harmonicOutside == "nearest") {
     harmonic.outside = HarmonicOutsidePolicy::NearestPoint;
   } else if (options.harmonicOutside != "raise") {
@@ -183,6 +187,15 @@ Rig harmonicRig(RigReader& reader) {
     if (!(tets >= 1.0 && tets <= 1e9 && tets == std::floor(tets)))
       reader.fail("tets", "must be a whole number in [1, 1e9]");
     options.harmonicTets = static_cast<std::size_t>(tets);
+  }
+  if (reader.has("precision")) {
+    if (reader.has("tets"))
+      reader.fail("precision", "cannot be given with \"tets\" (give one of them)");
+    const double precision = reader.number("precision");
+    if (!(precision >= kHarmonicMinPrecision && precision <= kHarmonicMaxPrecision))
+      reader.fail("precision", "must be a number in [" + std::to_string(kHarmonicMinPrecision) +
+                                   ", " + std::to_string(kHarmonicMaxPrecision) + "]");
+    options.harmonicPrecision = precision;
   }
   if (reader.has("cache")) options.harmonicCache = reader.path("cache");
   if (reader.has("outside")) {

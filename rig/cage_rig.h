@@ -18,8 +18,8 @@ namespace spacewarp {
 /// The names of the cage-coordinate methods ("green", "mvc", ...), sorted.
 std::vector<std::string> cageMethods();
 
-/// Options of the cage methods that have any (the command line's --tets, --harmonic-cache and
-/// --outside; a harmonic rig's keys tets, cache and outside).
+/// Options of the cage methods that have any (the command line's --tets, --precision,
+/// --harmonic-cache and --outside; a harmonic rig's keys tets, precision, cache and outside).
 struct CageMethodOptions {
   /// harmonic (--tets): the target tet count of the tetrahedralisation; 0 keeps the library's
   /// default (HarmonicOptions::targetTetCount, about 200k tets).
@@ -32,6 +32,10 @@ struct CageMethodOptions {
   /// harmonic (--outside): what points outside the cage get: "raise" (an error counting them)
   /// or "nearest" (the coordinates of the nearest point on the cage).
   std::string harmonicOutside = "raise";
+  /// harmonic (--precision): a precision level, any number in [1, 7] (harmonicPrecisionTets(),
+  /// coords/harmonic.h: 200000 · 4^(p − 5) tets); 0: none. Giving it with harmonicTets is an
+  /// InvalidInput.
+  double harmonicPrecision = 0.0;
 };
 
 /// Coordinates of `method` for `cage`. Throws InvalidInput for an unknown method. Long

@@ -30,6 +30,16 @@ LatticeOutside outsideOf(RigReader& r) {
   r.fail("outside", "'" + name + "' is not one of: identity, clamp, falloff");
 }
 
+LatticeEnds endsOf(RigReader& r, LatticeBasis basis) {
+  if (!r.has("ends")) return LatticeEnds::Extrapolate;
+  const std::string name = r.string("ends");
+  if (basis != LatticeBasis::BSpline)
+    r.fail("ends", "applies to the bspline basis only (the other bases have no phantom controls)");
+  if (name == "extrapolate") return LatticeEnds::Extrapolate;
+  if (name == "repeat") return LatticeEnds::Repeat;
+  r.fail("ends", "'" + name + "' is not one of: extrapolate, repeat");
+}
+
 std::array<int, 3> resolutionOf(RigReader& r) {
   const nlohmann::json& v = r.array("resolution");
   if (v.size() != 3) r.fail("resolution", "must be an array of 3 integers [l, m, n]");
@@ -59,6 +69,7 @@ Rig ffdRig(RigReader& r) {
       p.axes[a] = axes[a] / length;
     }
   }
+  p.ends = endsOf(r, p.basis);
   p.outside = outsideOf(r);
   p.falloff = r.number("falloff", p.falloff);
   const Lattice lattice(p);

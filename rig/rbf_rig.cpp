@@ -1,5 +1,6 @@
 #include <spacewarp/rig/detail/rbf_rig.h>
 
+#include <atomic>
 #include <cstdio>
 #include <memory>
 #include <mutex>
@@ -8,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rbf/detail/rbf_system.h>
@@ -36,6 +38,36 @@ class LazyRbfCoordinates final : public Coordinates {
     return get().weightGradients(x, out);
   }
 
+  // Archive: tag "lazy-rbf-coordinates", what the fit needs, and the fit itself once it has
+  // been made (so a loaded copy fits no more often than the original would).
+  void save(ArchiveWriter& out) const override {
+    out.tag("lazy-rbf-coordinates");
+    out.string(where_);
+    writeRbfOptions(out, options_);
+    out.vec3s(centers_);
+    out.vec3s(fixed_);
+    const bool built = built_.load();
+    out.boolean(built);
+    if (built) out.coordinates(*coordinates_);
+  }
+
+  static std::shared_ptr<const Coordinates> load(ArchiveReader& in) {
+    std::string where = in.string();
+    const RbfOptions options = readRbfOptions(in);
+    std::vector<Vec3> centers = in.vec3s();
+    std::vector<Vec3> fixed = in.vec3s();
+    auto lazy = std::make_shared<LazyRbfCoordinates>(std::move(centers), std::move(fixed), options,
+                                                     std::move(where));
+    if (in.boolean()) {
+      auto fit = std::dynamic_pointer_cast<const RbfCoordinates>(in.coordinates());
+      if (!fit || fit->controlPointCount() != lazy->controlPointCount())
+        in.fail("lazy RBF coordinates whose fit is not RBF coordinates of their centers");
+      std::call_once(lazy->once_, [&] { lazy->coordinates_ = std::move(fit); });
+      lazy->built_ = true;
+    }
+    return lazy;
+  }
+
  protected:
   UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
                               std::size_t begin, std::size_t end) const override {
@@ -50,8 +82,9 @@ class LazyRbfCoordinates final : public Coordinates {
     // Built after the rig was read: its errors still name the rig.
     std::call_once(once_, [this] {
       coordinates_ = namingFile(where_, [this] {
-        return std::make_unique<const RbfCoordinates>(centers_, fixed_, options_);
+        return std::make_shared<const RbfCoordinates>(centers_, fixed_, options_);
       });
+      built_ = true;
     });
     return *coordinates_;
   }
@@ -60,10 +93,15 @@ class LazyRbfCoordinates final : public Coordinates {
   RbfOptions options_;
   std::string where_;
   mutable std::once_flag once_;
-  mutable std::unique_ptr<const RbfCoordinates> coordinates_;
+  mutable std::shared_ptr<const RbfCoordinates> coordinates_;
+  mutable std::atomic<bool> built_{false};
 };
 
 }  // namespace
+
+std::shared_ptr<const Coordinates> loadLazyRbfCoordinates(ArchiveReader& in) {
+  return LazyRbfCoordinates::load(in);
+}
 
 Rig rbfRig(RigReader& r) {
   RbfOptions options;

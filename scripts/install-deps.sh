@@ -18,7 +18,18 @@ packages=(
   # The Python package (python/): pybind11 and NumPy for Debian's python3, pytest for its
   # tests, SciPy for sparse weight matrices, setuptools for `pip install --no-build-isolation .`
   python3-dev pybind11-dev python3-numpy python3-pytest python3-scipy python3-setuptools
+  # spacewarp.dask (work spread over a Dask cluster): Dask, its distributed scheduler, zarr arrays
+  python3-dask python3-distributed python3-zarr
+  # The viewer's local server (spacewarp view): cpp-httplib
+  libcpp-httplib-dev
+  # The viewer's browser tests (tests/web): headless Chromium, driven by playwright-core from npm
+  chromium
 )
+# The viewer page (web/) is built with npm: Debian's Node.js and npm unless a node is on PATH
+# already (a newer one installed outside Debian's packages is kept).
+if ! command -v node >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

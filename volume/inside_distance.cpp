@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -14,6 +16,7 @@
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
+#include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/memory_budget.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/volume/mesh_level_set.h>
@@ -605,6 +608,65 @@ void InsideDistances::distancesAndGradients(const Vec3& x, std::span<double> dis
         std::to_string(handles_.size()) + " handles");
   }
   evaluate<true>(x, distances.data(), gradients.data());
+}
+
+void InsideDistances::save(ArchiveWriter& out) const {
+  out.tag("inside-distances");
+  out.vec3s(handles_);
+  out.f64(h_);
+  out.vec3(origin_);
+  for (int a = 0; a < 3; ++a) out.i32(dims_[a]);
+  // The floats' bits, not widened to double: half the size, and read back exactly.
+  std::vector<std::uint32_t> bits(values_.size());
+  for (std::size_t i = 0; i < values_.size(); ++i)
+    bits[i] = std::bit_cast<std::uint32_t>(values_[i]);
+  out.u32s(bits);
+}
+
+std::shared_ptr<const InsideDistances> InsideDistances::load(ArchiveReader& in) {
+  const std::string who = "inside-distances: ";
+  std::shared_ptr<InsideDistances> d(new InsideDistances());
+  d->handles_ = in.vec3s();
+  d->h_ = in.f64();
+  d->origin_ = in.vec3();
+  for (int a = 0; a < 3; ++a) d->dims_[a] = in.i32();
+  const std::size_t n = d->handles_.size();
+  if (n == 0) in.fail(who + "no handles");
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!isFinite(d->handles_[i])) in.fail(who + "handle " + std::to_string(i) + " is not finite");
+  }
+  if (!std::isfinite(d->h_) || !(d->h_ > 0.0))
+    in.fail(who + "voxel size " + str(d->h_) + " is not finite and > 0");
+  if (!isFinite(d->origin_)) in.fail(who + "the grid's origin is not finite");
+  // The bits are read (their count checked against the archive's size) before the voxel count
+  // is trusted, so a hostile grid size allocates nothing.
+  const std::vector<std::uint32_t> bits = in.u32s();
+  std::uint64_t voxels = 1;
+  for (int a = 0; a < 3; ++a) {
+    const int size = d->dims_[a];
+    if (size < 2)
+      in.fail(who + "grid size " + std::to_string(size) + " along axis " + std::to_string(a) +
+              " (at least 2)");
+    if (voxels > bits.size() / static_cast<std::uint64_t>(size))
+      voxels = bits.size() + 1;
+    else
+      voxels *= static_cast<std::uint64_t>(size);
+  }
+  if (voxels > bits.size() || bits.size() % voxels != 0 || bits.size() / voxels != n) {
+    in.fail(who + std::to_string(bits.size()) + " values for a grid of " +
+            std::to_string(d->dims_[0]) + " x " + std::to_string(d->dims_[1]) + " x " +
+            std::to_string(d->dims_[2]) + " voxels and " + std::to_string(n) + " handles");
+  }
+  d->values_.resize(bits.size());
+  for (std::size_t i = 0; i < bits.size(); ++i) {
+    const float v = std::bit_cast<float>(bits[i]);
+    if (!std::isfinite(v) || !(v >= 0.0f)) {
+      in.fail(who + "the distance of handle " + std::to_string(i % n) + " at voxel " +
+              std::to_string(i / n) + " is " + str(v) + " (finite and >= 0 expected)");
+    }
+    d->values_[i] = v;
+  }
+  return d;
 }
 
 }  // namespace spacewarp

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstddef>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -13,6 +14,9 @@
 #include <spacewarp/core/handle_distances.h>
 
 namespace spacewarp {
+
+class ArchiveReader;
+class ArchiveWriter;
 
 /// Options of InsideDistances.
 struct InsideDistanceOptions {
@@ -83,7 +87,17 @@ class InsideDistances final : public HandleDistances {
   /// The grid's voxel counts along x, y, z.
   std::array<int, 3> gridSize() const { return dims_; }
 
+  /// Archive tag "inside-distances": the handles, the grid (voxel size, origin, counts) and the
+  /// marched distances as the floats they are (4 bytes per voxel and handle).
+  void save(ArchiveWriter& out) const override;
+  /// Takes the marched grids as stored, without the model and without marching again, after
+  /// checking the handles, the grid and that the value count is counts × handles (all before
+  /// allocating them) and every value finite and >= 0.
+  static std::shared_ptr<const InsideDistances> load(ArchiveReader& in);
+
  private:
+  InsideDistances() = default;  // for load()
+
   template <bool Gradients>
   void evaluate(const Vec3& x, double* d, Vec3* g) const;
 

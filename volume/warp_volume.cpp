@@ -22,6 +22,7 @@
 #include <tbb/parallel_for.h>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/volume/detail/warp_volume_parts.h>
 
 namespace spacewarp {
 
@@ -426,9 +427,10 @@ struct GridPlan {
   std::unique_ptr<CachedWarp> cached;  // set with options.cacheSpacing
   const Warp* warp = nullptr;          // *cached, or the caller's warp
   std::vector<Cell> cells;
-  bool rigid = true;                    // Jᵀ J = I at every cell center
-  std::vector<LeafCellPair> pairs;      // sorted by leaf, then cell
-  std::vector<std::size_t> groupStart;  // pairs[groupStart[g] .. groupStart[g+1]): leaf g
+  bool rigid = true;                         // Jᵀ J = I at every cell center
+  std::vector<LeafCellPair> pairs;           // sorted by leaf, then cell
+  std::vector<std::size_t> groupStart;       // pairs[groupStart[g] .. groupStart[g+1]): leaf g
+  const detail::VolumePart* part = nullptr;  // the part of the output to solve; null: all
 
   std::size_t groups() const { return groupStart.size() - 1; }
   const TreeT& tree() const { return in.tree(); }
@@ -625,7 +627,9 @@ void pairCellsWithLeaves(GridPlan<GridT>& plan) {
                                                       static_cast<std::uint32_t>(i));
                       }
                     });
-  for (const auto& p : perCell) pairs.insert(pairs.end(), p.begin(), p.end());
+  for (const auto& p : perCell)
+    for (const LeafCellPair& pair : p)
+      if (!plan.part || plan.part->outputBox.isInside(pair.first)) pairs.push_back(pair);
   std::sort(pairs.begin(), pairs.end(), [](const LeafCellPair& a, const LeafCellPair& b) {
     if (a.first != b.first) return coordLess(a.first, b.first);
     return a.second < b.second;
@@ -638,10 +642,11 @@ void pairCellsWithLeaves(GridPlan<GridT>& plan) {
 // Stages 1 to 3: the plan of a grid, with the input's measures in the report.
 template <typename GridT>
 GridPlan<GridT> makePlan(const Warp& exactWarp, const GridT& in, const WarpVolumeOptions& options,
-                         WarpVolumeReport& report) {
+                         WarpVolumeReport& report, const detail::VolumePart* part = nullptr) {
   using TreeT = typename GridPlan<GridT>::TreeT;
   constexpr bool kScalar = GridPlan<GridT>::kScalar;
   GridPlan<GridT> plan(in, options);
+  plan.part = part;
   plan.levelSet = kScalar && in.getGridClass() == openvdb::GRID_LEVEL_SET;
   if (plan.levelSet && !in.transform().hasUniformScale()) {
     throw InvalidInput("warpVolume: level set '" + in.getName() +
@@ -666,7 +671,7 @@ GridPlan<GridT> makePlan(const Warp& exactWarp, const GridT& in, const WarpVolum
   }
 
   // 1. The coarse cells that hold active voxels or tiles.
-  const std::vector<Coord> cellKeys = activeCellKeys(inTree, c);
+  const std::vector<Coord> cellKeys = part ? part->cellKeys : activeCellKeys(inTree, c);
   // The warp itself, or its displacement sampled on a lattice over the cells.
   if (options.cacheSpacing > 0.0) {
     plan.cached =
@@ -675,6 +680,7 @@ GridPlan<GridT> makePlan(const Warp& exactWarp, const GridT& in, const WarpVolum
   }
   plan.warp = plan.cached ? static_cast<const Warp*>(plan.cached.get()) : &exactWarp;
   buildCells(plan, cellKeys, c);
+  if (part) plan.rigid = part->rigid;  // the whole grid's, not the part's cells'
   checkCells(plan, report);
   checkCandidateBound(plan, report);
   pairCellsWithLeaves(plan);
@@ -693,6 +699,7 @@ struct LeafResult {
   std::unique_ptr<LeafT> leaf;
   std::vector<Retry> retries;  // voxels where the first solve failed
   std::size_t solved = 0, failures = 0, vectorFailures = 0, iterations = 0;
+  std::size_t haloMisses = 0;  // VolumePart::validInput: stencils that left the known input
   int maxIterations = 0;
   double mass = 0.0;
   // conserveMass: the range of |det J| the densities were divided by, and the voxels left
@@ -727,6 +734,14 @@ class VoxelSampler {
   void settle(Accessor& acc, LeafResult<LeafT>& out, const Coord& origin, int n, const Vec3& x,
               std::uint32_t seedCell) const {
     const Vec3 xIndex = plan_.frame.toIndex(x);
+    if (plan_.part && plan_.part->validInput) {
+      // The samplers and the gradient reach at most 2 voxels from the nearest voxel.
+      const Coord at = roundToCoord(xIndex);
+      if (!plan_.part->validInput->isInside(CoordBBox(at.offsetBy(-2), at.offsetBy(2)))) {
+        ++out.haloMisses;
+        return;
+      }
+    }
     if (!acc.isValueOn(roundToCoord(xIndex))) return;
     ValueT value;
     if (plan_.options.sampler == VolumeSampler::Triquadratic) {
@@ -933,12 +948,7 @@ std::pair<typename GridT::Ptr, double> assembleGrid(
     report.totalNewtonIterations += lr.iterations;
     report.maxNewtonIterations = std::max(report.maxNewtonIterations, lr.maxIterations);
     massAfter += lr.mass;
-    if (lr.maxVolumeChange > 0.0) {
-      report.minVolumeChange = report.maxVolumeChange == 0.0
-                                   ? lr.minVolumeChange
-                                   : std::min(report.minVolumeChange, lr.minVolumeChange);
-      report.maxVolumeChange = std::max(report.maxVolumeChange, lr.maxVolumeChange);
-    }
+    detail::joinVolumeChange(report, lr.minVolumeChange, lr.maxVolumeChange);
     report.degenerateVolumeChanges += lr.degenerateVolumeChanges;
     if (lr.leaf) tree->addLeaf(lr.leaf.release());
   }
@@ -953,25 +963,30 @@ std::pair<typename GridT::Ptr, double> assembleGrid(
   return {grid, massAfter};
 }
 
+// min(1, the smallest singular value of J over the valid cells): how much the warp compresses.
+double smallestStretch(const std::vector<Cell>& cells) {
+  double sigmaMin = 1.0;
+  for (const Cell& cell : cells)
+    if (cell.valid) sigmaMin = std::min(sigmaMin, 1.0 / spectralNorm(cell.jacobianInverse));
+  return sigmaMin;
+}
+
 // Level sets: a proper narrow band again (see LevelSetRedistance), unless the warp is rigid.
 template <typename GridT>
-void redistanceLevelSet(const GridPlan<GridT>& plan, typename GridT::Ptr& grid,
+void redistanceLevelSet(typename GridT::ValueType inputBackground, bool rigid, double sigmaMin,
+                        const WarpVolumeOptions& options, typename GridT::Ptr& grid,
                         WarpVolumeReport& report) {
-  const WarpVolumeOptions& options = plan.options;
   openvdb::tools::signedFloodFill(grid->tree());
-  if (options.redistance == LevelSetRedistance::Rebuild && !plan.rigid) {
+  if (options.redistance == LevelSetRedistance::Rebuild && !rigid) {
     const float w = static_cast<float>(report.halfWidth);
     typename GridT::Ptr rebuilt = openvdb::tools::levelSetRebuild(*grid, 0.0f, w, w);
-    rebuilt->setTransform(plan.in.transform().copy());
+    rebuilt->setTransform(grid->transform().copy());
     for (auto it = grid->beginMeta(); it != grid->endMeta(); ++it)
       rebuilt->insertMeta(it->first, *it->second);
     grid = rebuilt;
     report.redistanced = true;
-  } else if (options.redistance == LevelSetRedistance::Normalize && !plan.rigid) {
+  } else if (options.redistance == LevelSetRedistance::Normalize && !rigid) {
     // Where the warp compresses by σ, the resampled band is σ times as wide: grow it.
-    double sigmaMin = 1.0;
-    for (const Cell& cell : plan.cells)
-      if (cell.valid) sigmaMin = std::min(sigmaMin, 1.0 / spectralNorm(cell.jacobianInverse));
     const double w = report.halfWidth;
     const int layers = static_cast<int>(
         std::clamp(std::ceil(w / std::max(sigmaMin, 1e-3) - w - 1e-6), 0.0, 2.0 * std::ceil(w)));
@@ -981,9 +996,7 @@ void redistanceLevelSet(const GridPlan<GridT>& plan, typename GridT::Ptr& grid,
     redistance.setTemporalScheme(openvdb::math::TVD_RK1);
     if (layers > 0) redistance.dilate(layers);
     redistance.normalize();
-    if (layers > 0) {
-      openvdb::tools::changeLevelSetBackground(grid->tree(), plan.in.background());
-    }
+    if (layers > 0) openvdb::tools::changeLevelSetBackground(grid->tree(), inputBackground);
     redistance.prune();
     report.redistanced = true;
     report.bandLayersAdded = layers;
@@ -992,13 +1005,15 @@ void redistanceLevelSet(const GridPlan<GridT>& plan, typename GridT::Ptr& grid,
 
 // warpVolume() for one grid type: plan (cells, leaves), solve, second chance, assemble, and
 // re-distance level sets.
+// With a part, only its leaves are solved and level sets are not re-distanced.
 template <typename GridT>
 WarpedGrid<GridT> resampleGrid(const Warp& exactWarp, const GridT& in,
-                               const WarpVolumeOptions& options) {
+                               const WarpVolumeOptions& options,
+                               detail::VolumePart* part = nullptr) {
   validate(options);
   WarpedGrid<GridT> result;
   WarpVolumeReport& report = result.report;
-  const GridPlan<GridT> plan = makePlan(exactWarp, in, options, report);
+  const GridPlan<GridT> plan = makePlan(exactWarp, in, options, report, part);
 
   // The solver's tolerance and continuation steps are in voxels.
   InverseOptions inverseOptions = options.inverse;
@@ -1017,10 +1032,14 @@ WarpedGrid<GridT> resampleGrid(const Warp& exactWarp, const GridT& in,
   tracker.check();
   retryFailures(plan, sampler, inverseOptions, leafResults);
 
+  if (part)
+    for (const auto& lr : leafResults) part->haloMisses += lr.haloMisses;
   auto [grid, massAfter] = assembleGrid(plan, leafResults, report);
   if constexpr (GridPlan<GridT>::kScalar) {
     if (plan.levelSet) {
-      redistanceLevelSet(plan, grid, report);
+      if (!part)
+        redistanceLevelSet<GridT>(in.background(), plan.rigid, smallestStretch(plan.cells), options,
+                                  grid, report);
     } else {
       report.massAfter = massAfter * plan.voxelVolume;
     }
@@ -1047,5 +1066,98 @@ WarpedGrid<openvdb::Vec3SGrid> warpVolume(const Warp& warp, const openvdb::Vec3S
                                           const WarpVolumeOptions& options) {
   return resampleGrid(warp, grid, options);
 }
+
+namespace detail {
+
+namespace {
+
+template <typename GridT>
+VolumeCellImages cellImagesOf(const Warp& warp, const GridT& in, const WarpVolumeOptions& options,
+                              WarpVolumeReport& report) {
+  validate(options);
+  const GridPlan<GridT> plan = makePlan(warp, in, options, report);
+  VolumeCellImages images;
+  images.rigid = plan.rigid;
+  images.smallestStretch = smallestStretch(plan.cells);
+  const int c = options.seedSpacing;
+  // Split cells keep their parent's key; cells are grouped per key in key order.
+  std::vector<std::pair<Coord, CoordBBox>> boxes;
+  boxes.reserve(plan.cells.size());
+  for (const Cell& cell : plan.cells) {
+    const Coord key(floorDiv(cell.lo.x(), c), floorDiv(cell.lo.y(), c), floorDiv(cell.lo.z(), c));
+    boxes.emplace_back(key, cell.valid ? cell.outBox : CoordBBox());
+  }
+  std::stable_sort(boxes.begin(), boxes.end(),
+                   [](const auto& a, const auto& b) { return coordLess(a.first, b.first); });
+  for (const auto& [key, box] : boxes) {
+    if (images.keys.empty() || images.keys.back() != key) {
+      images.keys.push_back(key);
+      images.outBoxes.emplace_back();
+    }
+    if (!box.empty()) images.outBoxes.back().expand(box);
+  }
+  return images;
+}
+
+template <typename GridT>
+WarpedGrid<openvdb::GridBase> partOf(const Warp& warp, const GridT& in,
+                                     const WarpVolumeOptions& options, VolumePart& part) {
+  WarpedGrid<GridT> r = resampleGrid(warp, in, options, &part);
+  return {r.grid, r.report};
+}
+
+}  // namespace
+
+VolumeCellImages volumeCellImages(const Warp& warp, const openvdb::GridBase& grid,
+                                  const WarpVolumeOptions& options, WarpVolumeReport& report) {
+  if (const auto* g = dynamic_cast<const openvdb::FloatGrid*>(&grid))
+    return cellImagesOf(warp, *g, options, report);
+  if (const auto* g = dynamic_cast<const openvdb::DoubleGrid*>(&grid))
+    return cellImagesOf(warp, *g, options, report);
+  if (const auto* g = dynamic_cast<const openvdb::Vec3SGrid*>(&grid))
+    return cellImagesOf(warp, *g, options, report);
+  throw InvalidInput("warpVolume: grid '" + grid.getName() + "' of type " + grid.type() +
+                     " cannot be warped in parts (float, double and vec3s grids can)");
+}
+
+WarpedGrid<openvdb::GridBase> warpVolumePart(const Warp& warp, const openvdb::GridBase& grid,
+                                             const WarpVolumeOptions& options, VolumePart& part) {
+  if (options.cacheSpacing > 0.0) {
+    throw InvalidInput("warpVolume: grid '" + grid.getName() +
+                       "': cacheSpacing cannot be used when warping in parts (its lattice "
+                       "depends on every cell of the grid)");
+  }
+  if (const auto* g = dynamic_cast<const openvdb::FloatGrid*>(&grid))
+    return partOf(warp, *g, options, part);
+  if (const auto* g = dynamic_cast<const openvdb::DoubleGrid*>(&grid))
+    return partOf(warp, *g, options, part);
+  if (const auto* g = dynamic_cast<const openvdb::Vec3SGrid*>(&grid))
+    return partOf(warp, *g, options, part);
+  throw InvalidInput("warpVolume: grid '" + grid.getName() + "' of type " + grid.type() +
+                     " cannot be warped in parts (float, double and vec3s grids can)");
+}
+
+void redistanceVolume(openvdb::GridBase::Ptr& grid, double inputBackground, bool rigid,
+                      double smallestStretch, const WarpVolumeOptions& options,
+                      WarpVolumeReport& report) {
+  if (auto g = openvdb::GridBase::grid<openvdb::FloatGrid>(grid)) {
+    redistanceLevelSet<openvdb::FloatGrid>(static_cast<float>(inputBackground), rigid,
+                                           smallestStretch, options, g, report);
+    grid = g;
+  } else if (auto d = openvdb::GridBase::grid<openvdb::DoubleGrid>(grid)) {
+    redistanceLevelSet<openvdb::DoubleGrid>(inputBackground, rigid, smallestStretch, options, d,
+                                            report);
+    grid = d;
+  }
+}
+
+void joinVolumeChange(WarpVolumeReport& report, double minChange, double maxChange) {
+  if (!(maxChange > 0.0)) return;
+  report.minVolumeChange =
+      report.maxVolumeChange == 0.0 ? minChange : std::min(report.minVolumeChange, minChange);
+  report.maxVolumeChange = std::max(report.maxVolumeChange, maxChange);
+}
+
+}  // namespace detail
 
 }  // namespace spacewarp

@@ -9,7 +9,7 @@ namespace spacewarp::detail {
 /// approximations, no libm): out[i] = ln(num[i] / den[i]) for finite num[i], den[i] > 0 (normal
 /// or subnormal), and out[i] = atan2(y[i], x[i]) for finite y[i], x[i] (0 when both are zero).
 /// `baseline` runs the portable x86-64 build of the code instead of the one the kernel runs on
-/// this CPU (the x86-64-v3 build, with FMA, where the CPU has it). Throws InvalidInput if the
+/// (detail::simd::activePath()); every path gives the same bits. Throws InvalidInput if the
 /// sizes differ.
 void greenLogRatio(std::span<const double> num, std::span<const double> den, std::span<double> out,
                    bool baseline = false);

@@ -47,7 +47,7 @@ struct Writer {
 };
 
 template <typename T>
-T get(const std::vector<char>& in, std::size_t offset) {
+T get(std::span<const char> in, std::size_t offset) {
   T value;
   std::memcpy(&value, in.data() + offset, sizeof(T));
   return value;
@@ -55,7 +55,7 @@ T get(const std::vector<char>& in, std::size_t offset) {
 
 // Reads raw values in order from a file whose size has been checked.
 struct Reader {
-  const std::vector<char>& data;
+  std::span<const char> data;
   std::size_t offset;
   template <typename T>
   T next() {
@@ -73,9 +73,8 @@ std::vector<char> readAll(const std::filesystem::path& path) {
   return data;
 }
 
-HarmonicCoordinates::FileInfo parseHeader(const std::vector<char>& data,
-                                          const std::filesystem::path& path) {
-  const std::string where = path.string() + ": ";
+HarmonicCoordinates::FileInfo parseHeader(std::span<const char> data, const std::string& name) {
+  const std::string where = name + ": ";
   if (data.size() < kHeaderSize + 8) {
     throw IoError(where + "not a harmonic coordinate file: " + std::to_string(data.size()) +
                   " bytes, too short for the header");
@@ -137,7 +136,7 @@ void requireConsistentSize(const HarmonicCoordinates::FileInfo& info, std::size_
   }
 }
 
-void requireChecksum(const std::vector<char>& data, const std::string& where) {
+void requireChecksum(std::span<const char> data, const std::string& where) {
   Fnv fnv;
   fnv.add(data.data(), data.size() - 8);
   if (fnv.h != get<std::uint64_t>(data, data.size() - 8))
@@ -226,8 +225,9 @@ std::uint64_t harmonicCageHash(const Cage& cage) {
   return fnv.h;
 }
 
-void writeHarmonicFile(const std::filesystem::path& path, const Cage& cage, const TetMesh& mesh,
-                       std::span<const double> values, double radiusEdgeRatio, double volumeBound) {
+std::vector<char> encodeHarmonicFile(const Cage& cage, const TetMesh& mesh,
+                                     std::span<const double> values, double radiusEdgeRatio,
+                                     double volumeBound) {
   const std::size_t n = mesh.vertices.size(), k = cage.vertexCount();
   const std::size_t size = kHeaderSize + n * (24 + 4 + 8 * k) + mesh.tets.size() * 16 + 8;
   std::vector<char> data(size);
@@ -254,6 +254,13 @@ void writeHarmonicFile(const std::filesystem::path& path, const Cage& cage, cons
   Fnv fnv;
   fnv.add(data.data(), size - 8);
   w.put(fnv.h);
+  return data;
+}
+
+void writeHarmonicFile(const std::filesystem::path& path, const Cage& cage, const TetMesh& mesh,
+                       std::span<const double> values, double radiusEdgeRatio, double volumeBound) {
+  const std::vector<char> data =
+      encodeHarmonicFile(cage, mesh, values, radiusEdgeRatio, volumeBound);
   writeFileAtomically(path, [&](std::ostream& out) {
     out.write(data.data(), static_cast<std::streamsize>(data.size()));
   });
@@ -265,13 +272,17 @@ HarmonicCoordinates::FileInfo readHarmonicFileInfo(const std::filesystem::path& 
   std::vector<char> header(kHeaderSize + 8);
   in.read(header.data(), static_cast<std::streamsize>(header.size()));
   header.resize(static_cast<std::size_t>(in.gcount()));
-  return parseHeader(header, path);
+  return parseHeader(header, path.string());
 }
 
 HarmonicFileData readHarmonicFile(const std::filesystem::path& path, const Cage& cage) {
-  const std::string where = path.string() + ": ";
-  const std::vector<char> data = readAll(path);
-  const HarmonicCoordinates::FileInfo info = parseHeader(data, path);
+  return decodeHarmonicFile(readAll(path), cage, path.string());
+}
+
+HarmonicFileData decodeHarmonicFile(std::span<const char> data, const Cage& cage,
+                                    const std::string& name) {
+  const std::string where = name + ": ";
+  const HarmonicCoordinates::FileInfo info = parseHeader(data, name);
   requireSameCage(info, cage, where);
   requireConsistentSize(info, data.size(), where);
   requireChecksum(data, where);

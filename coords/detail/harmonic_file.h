@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <spacewarp/coords/cage.h>
@@ -25,6 +26,11 @@ struct HarmonicFileData {
 // FNV-1a (64-bit) of the cage's vertex coordinates (bit patterns) and triangle indices.
 std::uint64_t harmonicCageHash(const Cage& cage);
 
+// The file's bytes.
+std::vector<char> encodeHarmonicFile(const Cage& cage, const TetMesh& mesh,
+                                     std::span<const double> values, double radiusEdgeRatio,
+                                     double volumeBound);
+
 // Writes the file atomically; throws IoError naming it.
 void writeHarmonicFile(const std::filesystem::path& path, const Cage& cage, const TetMesh& mesh,
                        std::span<const double> values, double radiusEdgeRatio, double volumeBound);
@@ -36,5 +42,13 @@ HarmonicCoordinates::FileInfo readHarmonicFileInfo(const std::filesystem::path& 
 // The whole file, versions 1 and 2. Throws IoError naming the file if it cannot be read or is
 // not a valid coordinate file, InvalidInput naming it if it was solved for another cage.
 HarmonicFileData readHarmonicFile(const std::filesystem::path& path, const Cage& cage);
+
+// The same from the file's bytes (a warp archive holds them), named `name` in errors.
+HarmonicFileData decodeHarmonicFile(std::span<const char> data, const Cage& cage,
+                                    const std::string& name);
+
+// How many harmonic solves (HarmonicCoordinates constructions) this process has run: tests
+// check that loading a saved field solves nothing.
+std::size_t harmonicSolveCount();
 
 }  // namespace spacewarp::detail

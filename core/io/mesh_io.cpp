@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <new>
@@ -12,6 +11,7 @@
 
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/atomic_file.h>
+#include <spacewarp/core/io/detail/text_format.h>
 #include <spacewarp/core/io/obj.h>
 #include <spacewarp/core/io/off.h>
 
@@ -73,17 +73,9 @@ FileFormat formatFromPath(const std::filesystem::path& path) {
 
 PolygonSoup readSoup(const std::filesystem::path& path) {
   const std::string name = path.string();
-  std::error_code error;
-  if (std::filesystem::is_directory(path, error))  // before the extension: folders have none
-    throw IoError("cannot open " + name + ": it is a directory");
+  detail::refuseDirectory(path);  // before the extension: folders have none
   const FileFormat format = formatFromPath(path);
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    const int code = errno;
-    throw IoError("cannot open " + name +
-                  (code != 0 ? ": " + std::string(std::strerror(code)) : ""));
-  }
+  std::ifstream in = detail::openInputFile(path);
   PolygonSoup soup;
   switch (format) {
     case FileFormat::Obj:

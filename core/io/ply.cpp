@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/io/detail/ply_format.h>
 #include <spacewarp/core/io/detail/text_format.h>
 
 namespace spacewarp {
@@ -348,6 +349,9 @@ class Input {
   /// The number of the last line read.
   std::size_t line() const { return line_; }
 
+  /// Bytes consumed from the start of the input.
+  std::uint64_t offset() const { return bufferOffset_ + pos_; }
+
  private:
   bool refill() {
     if (eof_) return false;
@@ -376,30 +380,9 @@ class Input {
 // ---------------------------------------------------------------------------------------------
 // Header
 
-struct Property {
-  std::string name;
-  bool isList = false;
-  ScalarType type = ScalarType::Float64;  ///< The scalar type, or a list's item type.
-  ScalarType countType = ScalarType::UInt8;
-};
-
-struct Element {
-  std::string name;
-  std::uint64_t count = 0;
-  std::size_t line = 0;  ///< Header line of the element, for messages.
-  std::vector<Property> properties;
-
-  std::optional<std::size_t> find(std::string_view property) const {
-    for (std::size_t p = 0; p < properties.size(); ++p)
-      if (properties[p].name == property) return p;
-    return std::nullopt;
-  }
-};
-
-struct Header {
-  PlyEncoding encoding = PlyEncoding::Ascii;
-  std::vector<Element> elements;
-};
+using Property = detail::PlyProperty;
+using Element = detail::PlyElement;
+using Header = detail::PlyHeader;
 
 Header parseHeader(Input& input, const std::string& name) {
   std::string line;
@@ -488,12 +471,10 @@ Header parseHeader(Input& input, const std::string& name) {
 
 /// Reads the values of element instances in either encoding and throws IoError messages that
 /// name the element and instance.
-class ValueReader {
+class ValueReader : public detail::PlyValueSource<ValueReader> {
  public:
   ValueReader(Input& input, const std::string& name, PlyEncoding encoding)
-      : input_(input), name_(name), encoding_(encoding) {
-    swap_ = (encoding == PlyEncoding::BinaryBigEndian) != (std::endian::native == std::endian::big);
-  }
+      : PlyValueSource(encoding), input_(input), name_(name), encoding_(encoding) {}
 
   bool ascii() const { return encoding_ == PlyEncoding::Ascii; }
 
@@ -527,28 +508,15 @@ class ValueReader {
         fail("value " + quote(token) + " " + problem + " for type " + typeName(type));
       return value;
     }
-    unsigned char bytes[8];
-    const std::size_t size = scalarSize(type);
-    if (!input_.readBytes(bytes, size)) fail("unexpected end of file");
-    if (swap_) std::reverse(bytes, bytes + size);
-    return decode(bytes, type);
+    return binaryScalar(type);
   }
 
-  std::uint64_t listLength(ScalarType countType) {
-    const double length = scalar(countType);
-    if (length < 0)
-      fail("negative list length " + std::to_string(static_cast<std::int64_t>(length)));
-    return static_cast<std::uint64_t>(length);
+  void readBytes(unsigned char* out, std::size_t n) {
+    if (!input_.readBytes(out, n)) fail("unexpected end of file");
   }
 
-  /// Reads and drops one property value (a scalar or a whole list).
-  void skip(const Property& property) {
-    if (!property.isList) {
-      scalar(property.type);
-      return;
-    }
-    const std::uint64_t length = listLength(property.countType);
-    for (std::uint64_t i = 0; i < length; ++i) scalar(property.type);
+  void skipItems(ScalarType type, std::uint64_t count) {
+    for (std::uint64_t i = 0; i < count; ++i) scalar(type);
   }
 
   [[noreturn]] void fail(const std::string& message) const {
@@ -561,7 +529,6 @@ class ValueReader {
   Input& input_;
   const std::string& name_;
   PlyEncoding encoding_;
-  bool swap_ = false;
   const Element* element_ = nullptr;
   std::uint64_t index_ = 0;
   std::string line_;
@@ -589,14 +556,9 @@ std::size_t reservation(const Element& element, PlyEncoding encoding, const Inpu
   return static_cast<std::size_t>(std::min(element.count, bound));
 }
 
-/// Where the vertex properties go.
-struct VertexLayout {
-  std::size_t position[3] = {0, 0, 0};
-  std::optional<std::size_t> normal[3];
-  std::vector<std::size_t> attributeProperty;  ///< Property index of each attribute.
-};
+using VertexLayout = detail::PlyVertexLayout;
 
-VertexLayout vertexLayout(const Element& vertex, PolygonSoup& soup, const std::string& name) {
+VertexLayout vertexLayout(const Element& vertex, PointSet& soup, const std::string& name) {
   const auto fail = [&](const std::string& message) { detail::failAt(name, vertex.line, message); };
   VertexLayout layout;
   const char* axes[3] = {"x", "y", "z"};
@@ -667,13 +629,8 @@ void readVertices(const Element& vertex, ValueReader& reader, const Input& input
 void readFaces(const Element& face, std::uint64_t vertexCount, ValueReader& reader,
                const Input& input, PlyEncoding encoding, PolygonSoup& soup,
                const std::string& name) {
-  std::optional<std::size_t> list = face.find("vertex_indices");
-  if (!list) list = face.find("vertex_index");
-  const auto fail = [&](const std::string& message) { detail::failAt(name, face.line, message); };
-  if (!list) fail("the face element has no 'vertex_indices' list");
+  const std::optional<std::size_t> list = detail::plyFaceIndexList(face, name);
   const Property& indices = face.properties[*list];
-  if (!indices.isList) fail("face property '" + indices.name + "' is not a list");
-  if (!isIntegral(indices.type)) fail("face property '" + indices.name + "' is not integral");
 
   // Every other scalar property is kept; the attribute of property p is attributeOf[p].
   constexpr std::size_t kDropped = std::numeric_limits<std::size_t>::max();
@@ -700,18 +657,7 @@ void readFaces(const Element& face, std::uint64_t vertexCount, ValueReader& read
         reader.skip(face.properties[p]);
         continue;
       }
-      const std::uint64_t length = reader.listLength(indices.countType);
-      if (length < 3)
-        reader.fail("polygon has " + std::to_string(length) + " vertices, at least 3 needed");
-      polygon.clear();
-      for (std::uint64_t k = 0; k < length; ++k) {
-        const double index = reader.scalar(indices.type);
-        if (index < 0 || index >= static_cast<double>(vertexCount)) {
-          reader.fail("vertex index " + std::to_string(static_cast<std::int64_t>(index)) +
-                      " is out of range (" + std::to_string(vertexCount) + " vertices)");
-        }
-        polygon.push_back(static_cast<std::uint32_t>(index));
-      }
+      reader.readPolygon(indices, vertexCount, polygon);
     }
     reader.end();
     if (soup.faceIndices.size() + polygon.size() > std::numeric_limits<std::uint32_t>::max())
@@ -786,43 +732,7 @@ PolygonSoup readPlyImpl(std::istream& in, const std::string& name) {
 // ---------------------------------------------------------------------------------------------
 // Writing
 
-/// Collects output and hands it to the stream in large blocks.
-class Output {
- public:
-  Output(std::ostream& out, PlyEncoding encoding) : out_(out), encoding_(encoding) {
-    buffer_.reserve(1 << 17);
-    swap_ = (encoding == PlyEncoding::BinaryBigEndian) != (std::endian::native == std::endian::big);
-  }
-
-  void text(std::string_view s) { buffer_ += s; }
-
-  /// One value: binary, or as text followed by `separator`.
-  void value(double v, ScalarType type, char separator) {
-    if (encoding_ != PlyEncoding::Ascii) {
-      unsigned char bytes[8];
-      const std::size_t size = scalarSize(type);
-      encode(v, type, bytes);
-      if (swap_) std::reverse(bytes, bytes + size);
-      buffer_.append(reinterpret_cast<const char*>(bytes), size);
-      return;
-    }
-    if (isIntegral(type))
-      detail::appendInteger(buffer_, static_cast<std::int64_t>(v));
-    else if (type == ScalarType::Float32)
-      detail::appendNumber(buffer_, static_cast<float>(v));
-    else
-      detail::appendNumber(buffer_, v);
-    buffer_ += separator;
-  }
-
-  void drain(bool force = false) { detail::drain(buffer_, out_, force); }
-
- private:
-  std::ostream& out_;
-  PlyEncoding encoding_;
-  bool swap_ = false;
-  std::string buffer_;
-};
+using Output = detail::PlyValueWriter;
 
 /// Throws InvalidInput unless `attributes` can be written as the scalar properties of
 /// `element` next to the properties named in `reserved`.
@@ -875,41 +785,23 @@ void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) 
   std::size_t largestPolygon = 0;
   for (std::size_t p = 0; p < soup.polygonCount(); ++p)
     largestPolygon = std::max(largestPolygon, soup.polygon(p).size());
-  const ScalarType lengthType = largestPolygon > 255 ? ScalarType::UInt32 : ScalarType::UInt8;
-  const ScalarType indexType =
-      soup.positions.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())
-          ? ScalarType::UInt32
-          : ScalarType::Int32;
+  detail::PlyOutputHeader header;
+  header.vertexCount = soup.positions.size();
+  header.normals = withNormals;
+  for (const VertexAttribute& attribute : soup.attributes)
+    header.vertexAttributes.emplace_back(attribute.name, attribute.type);
+  // Face attributes of a soup without polygons are kept as an empty face element's properties.
+  header.faceElement = soup.polygonCount() > 0 || !soup.faceAttributes.empty();
+  header.faceCount = soup.polygonCount();
+  header.lengthType = detail::plyLengthType(largestPolygon);
+  header.indexType = detail::plyIndexType(soup.positions.size());
+  for (const ScalarAttribute& attribute : soup.faceAttributes)
+    header.faceAttributes.emplace_back(attribute.name, attribute.type);
+  const ScalarType lengthType = header.lengthType;
+  const ScalarType indexType = header.indexType;
 
   Output output(out, encoding);
-  output.text("ply\nformat ");
-  output.text(encoding == PlyEncoding::Ascii                ? "ascii"
-              : encoding == PlyEncoding::BinaryLittleEndian ? "binary_little_endian"
-                                                            : "binary_big_endian");
-  output.text(" 1.0\ncomment written by spacewarp\nelement vertex ");
-  output.text(std::to_string(soup.positions.size()));
-  output.text("\nproperty double x\nproperty double y\nproperty double z\n");
-  if (withNormals) output.text("property double nx\nproperty double ny\nproperty double nz\n");
-  const auto declare = [&](const ScalarAttribute& attribute) {
-    output.text("property ");
-    output.text(typeName(attribute.type));
-    output.text(" ");
-    output.text(attribute.name);
-    output.text("\n");
-  };
-  for (const VertexAttribute& attribute : soup.attributes) declare(attribute);
-  // Face attributes of a soup without polygons are kept as an empty face element's properties.
-  if (soup.polygonCount() > 0 || !soup.faceAttributes.empty()) {
-    output.text("element face ");
-    output.text(std::to_string(soup.polygonCount()));
-    output.text("\nproperty list ");
-    output.text(typeName(lengthType));
-    output.text(" ");
-    output.text(typeName(indexType));
-    output.text(" vertex_indices\n");
-    for (const ScalarAttribute& attribute : soup.faceAttributes) declare(attribute);
-  }
-  output.text("end_header\n");
+  output.text(detail::plyHeaderText(header, encoding));
 
   for (std::size_t v = 0; v < soup.positions.size(); ++v) {
     // In ASCII, every value is followed by a space except the last of the line.
@@ -940,5 +832,116 @@ void writePly(const PolygonSoup& soup, std::ostream& out, PlyEncoding encoding) 
   }
   output.drain(true);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Shared with the streaming reader and writer (core/io/detail/ply_format.h)
+
+namespace detail {
+
+std::size_t plyScalarSize(ScalarType type) { return scalarSize(type); }
+const char* plyTypeName(ScalarType type) { return typeName(type); }
+bool plyIsIntegral(ScalarType type) { return isIntegral(type); }
+double plyDecode(const unsigned char* bytes, ScalarType type) { return decode(bytes, type); }
+bool plySwapsBytes(PlyEncoding encoding) {
+  return (encoding == PlyEncoding::BinaryBigEndian) != (std::endian::native == std::endian::big);
+}
+
+PlyHeader readPlyHeader(std::istream& in, const std::string& name) {
+  try {
+    Input input(in, name);
+    PlyHeader header = parseHeader(input, name);
+    header.dataOffset = input.offset();
+    return header;
+  } catch (...) {
+    rethrowAsIoError(name);
+  }
+}
+
+std::vector<std::string> plyNotKept(const PlyHeader& header) { return notKept(header); }
+
+PlyVertexLayout plyVertexLayout(const PlyElement& vertex, PointSet& points,
+                                const std::string& name) {
+  return vertexLayout(vertex, points, name);
+}
+
+std::size_t plyFaceIndexList(const PlyElement& face, const std::string& name) {
+  std::optional<std::size_t> list = face.find("vertex_indices");
+  if (!list) list = face.find("vertex_index");
+  const auto fail = [&](const std::string& message) { failAt(name, face.line, message); };
+  if (!list) fail("the face element has no 'vertex_indices' list");
+  const PlyProperty& indices = face.properties[*list];
+  if (!indices.isList) fail("face property '" + indices.name + "' is not a list");
+  if (!isIntegral(indices.type)) fail("face property '" + indices.name + "' is not integral");
+  return *list;
+}
+
+ScalarType plyLengthType(std::uint64_t largestPolygon) {
+  return largestPolygon > 255 ? ScalarType::UInt32 : ScalarType::UInt8;
+}
+
+ScalarType plyIndexType(std::uint64_t vertexCount) {
+  return vertexCount > static_cast<std::uint64_t>(std::numeric_limits<std::int32_t>::max())
+             ? ScalarType::UInt32
+             : ScalarType::Int32;
+}
+
+std::string plyHeaderText(const PlyOutputHeader& header, PlyEncoding encoding) {
+  std::string text = "ply\nformat ";
+  text += encoding == PlyEncoding::Ascii                ? "ascii"
+          : encoding == PlyEncoding::BinaryLittleEndian ? "binary_little_endian"
+                                                        : "binary_big_endian";
+  text += " 1.0\ncomment written by spacewarp\nelement vertex ";
+  text += std::to_string(header.vertexCount);
+  text += "\nproperty double x\nproperty double y\nproperty double z\n";
+  if (header.normals) text += "property double nx\nproperty double ny\nproperty double nz\n";
+  const auto declare = [&](const std::pair<std::string, ScalarType>& attribute) {
+    text += "property ";
+    text += typeName(attribute.second);
+    text += " ";
+    text += attribute.first;
+    text += "\n";
+  };
+  for (const auto& attribute : header.vertexAttributes) declare(attribute);
+  if (header.faceElement) {
+    text += "element face ";
+    text += std::to_string(header.faceCount);
+    text += "\nproperty list ";
+    text += typeName(header.lengthType);
+    text += " ";
+    text += typeName(header.indexType);
+    text += " vertex_indices\n";
+    for (const auto& attribute : header.faceAttributes) declare(attribute);
+  }
+  text += "end_header\n";
+  return text;
+}
+
+PlyValueWriter::PlyValueWriter(std::ostream& out, PlyEncoding encoding)
+    : out_(out), encoding_(encoding) {
+  buffer_.reserve(1 << 17);
+  swap_ = plySwapsBytes(encoding);
+}
+
+void PlyValueWriter::value(double v, ScalarType type, char separator) {
+  if (encoding_ != PlyEncoding::Ascii) {
+    unsigned char bytes[8];
+    const std::size_t size = scalarSize(type);
+    encode(v, type, bytes);
+    if (swap_) std::reverse(bytes, bytes + size);
+    buffer_.append(reinterpret_cast<const char*>(bytes), size);
+    return;
+  }
+  if (isIntegral(type))
+    appendInteger(buffer_, static_cast<std::int64_t>(v));
+  else if (type == ScalarType::Float32)
+    appendNumber(buffer_, static_cast<float>(v));
+  else
+    appendNumber(buffer_, v);
+  buffer_ += separator;
+}
+
+void PlyValueWriter::drain(bool force) { detail::drain(buffer_, out_, force); }
+
+}  // namespace detail
 
 }  // namespace spacewarp

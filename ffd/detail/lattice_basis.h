@@ -104,9 +104,11 @@ inline int trilinearAxis(double u, int n, double* w, double* dw) {
 }
 
 // Uniform cubic B-spline on controls at the integers 0 .. n − 1, with one phantom control at each
-// end extrapolated linearly (c₋₁ = 2c₀ − c₁, c_n = 2c_{n−1} − c_{n−2}) and folded into the real
-// ones. Requires n ≥ 4, so that the two folds never meet.
-inline int bsplineAxis(double u, int n, double* w, double* dw) {
+// end folded into the real ones. LatticeEnds::Extrapolate: the phantoms are extrapolated
+// linearly (c₋₁ = 2c₀ − c₁, c_n = 2c_{n−1} − c_{n−2}); Repeat: they repeat the end controls
+// (c₋₁ = c₀, c_n = c_{n−1}), Blender's lattice. Requires n ≥ 4, so that the two folds never meet.
+template <LatticeEnds Ends>
+inline int bsplineAxisWith(double u, int n, double* w, double* dw) {
   const double scale = n - 1;
   double f = 0.0;
   const int c = cellOf(u * scale, n, f);
@@ -117,14 +119,15 @@ inline int bsplineAxis(double u, int n, double* w, double* dw) {
                  (-3.0 * f3 + 3.0 * f2 + 3.0 * f + 1.0) / 6.0, f3 / 6.0};
   double db[4] = {-0.5 * g * g * scale, (1.5 * f2 - 2.0 * f) * scale, (-1.5 * f2 + f + 0.5) * scale,
                   0.5 * f2 * scale};
+  constexpr bool repeat = Ends == LatticeEnds::Repeat;
   if (c == 0) {  // controls −1 (phantom), 0, 1, 2 → 0, 1, 2 (and a zero for 3)
-    w[0] = b[1] + 2.0 * b[0];
-    w[1] = b[2] - b[0];
+    w[0] = repeat ? b[1] + b[0] : b[1] + 2.0 * b[0];
+    w[1] = repeat ? b[2] : b[2] - b[0];
     w[2] = b[3];
     w[3] = 0.0;
     if (dw) {
-      dw[0] = db[1] + 2.0 * db[0];
-      dw[1] = db[2] - db[0];
+      dw[0] = repeat ? db[1] + db[0] : db[1] + 2.0 * db[0];
+      dw[1] = repeat ? db[2] : db[2] - db[0];
       dw[2] = db[3];
       dw[3] = 0.0;
     }
@@ -133,13 +136,13 @@ inline int bsplineAxis(double u, int n, double* w, double* dw) {
   if (c == n - 2) {  // controls n − 3, n − 2, n − 1, n (phantom) → n − 4 (a zero) .. n − 1
     w[0] = 0.0;
     w[1] = b[0];
-    w[2] = b[1] - b[3];
-    w[3] = b[2] + 2.0 * b[3];
+    w[2] = repeat ? b[1] : b[1] - b[3];
+    w[3] = repeat ? b[2] + b[3] : b[2] + 2.0 * b[3];
     if (dw) {
       dw[0] = 0.0;
       dw[1] = db[0];
-      dw[2] = db[1] - db[3];
-      dw[3] = db[2] + 2.0 * db[3];
+      dw[2] = repeat ? db[1] : db[1] - db[3];
+      dw[3] = repeat ? db[2] + db[3] : db[2] + 2.0 * db[3];
     }
     return n - 4;
   }
@@ -147,6 +150,14 @@ inline int bsplineAxis(double u, int n, double* w, double* dw) {
   if (dw)
     for (int m = 0; m < 4; ++m) dw[m] = db[m];
   return c - 1;
+}
+
+inline int bsplineAxis(double u, int n, double* w, double* dw) {
+  return bsplineAxisWith<LatticeEnds::Extrapolate>(u, n, w, dw);
+}
+
+inline int bsplineRepeatAxis(double u, int n, double* w, double* dw) {
+  return bsplineAxisWith<LatticeEnds::Repeat>(u, n, w, dw);
 }
 
 // Bernstein polynomials of degree n − 1 (all n weights), by the triangular recurrence

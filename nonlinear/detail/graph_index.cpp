@@ -39,7 +39,7 @@ void requireK(int k, std::size_t nodeCount) {
   if (k < 1) throw InvalidInput("DeformationGraph: k = " + std::to_string(k) + " must be >= 1");
   if (static_cast<std::size_t>(k) >= nodeCount) {
     throw InvalidInput("DeformationGraph: k = " + std::to_string(k) +
-                       " needs at least k + 1 = " + std::to_string(k + 1) +
+                       " needs at least k + 1 = " + std::to_string(std::int64_t{k} + 1) +
                        " nodes, but the graph has " + std::to_string(nodeCount));
   }
 }
@@ -115,7 +115,8 @@ void listCandidates(GraphIndex& g, double h) {
       [&](const tbb::blocked_range<std::size_t>& br) {
         std::vector<std::uint32_t> ki(n);
         std::vector<double> kd(n);
-        std::vector<std::pair<std::uint32_t, double>> found;
+        std::vector<std::uint32_t> li(kMaxList + 1);
+        std::vector<double> ld(kMaxList + 1);
         for (std::size_t chunk = br.begin(); chunk != br.end(); ++chunk) {
           auto& flat = chunkLists[chunk];
           for (std::size_t cIndex = chunk * kChunk; cIndex < std::min(cells, (chunk + 1) * kChunk);
@@ -129,13 +130,19 @@ void listCandidates(GraphIndex& g, double h) {
             const double radius = std::sqrt(*std::max_element(kd.begin(), kd.end())) + 2.0 * r;
             // Squared radius, widened by a relative margin against rounding.
             const double r2 = radius * radius * (1.0 + 1e-9);
-            found.clear();
-            g.tree->radiusSearch(q, r2, found, nanoflann::SearchParams(32, 0.0f, false));
-            if (found.size() > kMaxList || found.size() < n) continue;
+            // The nodes within r2 (nanoflann's radius test, d² < r2) found among the
+            // kMaxList + 1 nearest: if the last of those is inside, the list is too long
+            // anyway. A radius search would visit every node within r2 (all of a far cluster,
+            // from a cell far from it), which made the build quadratic.
+            const std::size_t nearest =
+                g.tree->knnSearch(q, std::min(kMaxList + 1, g.nodes.size()), li.data(), ld.data());
+            std::size_t inside = 0;
+            while (inside < nearest && ld[inside] < r2) ++inside;
+            if (inside > kMaxList || inside < n) continue;
             const std::size_t first = flat.size();
-            for (const auto& f : found) flat.push_back(f.first);
+            flat.insert(flat.end(), li.begin(), li.begin() + std::ptrdiff_t(inside));
             std::sort(flat.begin() + std::ptrdiff_t(first), flat.end());
-            listSizes[cIndex] = static_cast<std::uint32_t>(found.size());
+            listSizes[cIndex] = static_cast<std::uint32_t>(inside);
           }
           flat.shrink_to_fit();
         }

@@ -32,6 +32,26 @@ from . import _spacewarp as _ext  # noqa: E402
 __all__ = [name for name in dir(_ext) if not name.startswith("_")] + ["__version__", "testing"]
 
 
+def _load_warp(data: bytes):
+    """The loader of pickled warps (Warp.__reduce__): warp_from_bytes, by a name pickle stores."""
+    return warp_from_bytes(data)  # noqa: F405
+
+
+def _load_coordinates(data: bytes):
+    """The loader of pickled coordinates (Coordinates.__reduce__)."""
+    return coordinates_from_bytes(data)  # noqa: F405
+
+
+def _load_distances(data: bytes):
+    """The loader of pickled handle distances (HandleDistances.__reduce__)."""
+    return distances_from_bytes(data)  # noqa: F405
+
+
+def _load_cage(data: bytes):
+    """The loader of pickled cages (Cage.__reduce__)."""
+    return cage_from_bytes(data)  # noqa: F405
+
+
 def __getattr__(name: str):
     # spacewarp.testing on first use, so `import spacewarp` stays cheap.
     if name == "testing":

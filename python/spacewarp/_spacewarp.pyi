@@ -65,27 +65,41 @@ __all__ = [
     "SurfaceMesh",
     "Taper",
     "Twist",
+    "Viewer",
+    "VolumeBrickPlan",
+    "VolumeBrickResult",
     "Warp",
     "Wire",
     "Wires",
+    "assemble_ply",
     "cage_coordinates",
+    "cage_from_bytes",
     "cage_methods",
     "coordinate_properties",
+    "coordinates_from_bytes",
     "cotan_laplacian",
     "deform",
+    "deform_file",
     "deform_inverse",
+    "deform_ply_rows",
+    "distances_from_bytes",
     "edit",
     "has_volumes",
     "interior_samples",
     "load_handles",
     "load_rig",
     "mass_matrix_diagonal",
+    "plan_volume_bricks",
+    "ply_layout",
     "read",
     "resolve_handles",
     "rig",
     "rig_methods",
+    "view",
     "warp_dense",
+    "warp_from_bytes",
     "warp_volume",
+    "warp_volume_brick",
     "weld_soup",
     "write",
 ]
@@ -179,6 +193,17 @@ class Warp:
 
     def exact_inverse(self, point: _Vec3) -> Optional[_Float64Array]:
         """The closed-form preimage of one point (3,), or None when the warp has none there."""
+
+    def __reduce__(self) -> tuple[Any, tuple[bytes]]:
+        """For pickle: the loader and this object's archive bytes."""
+
+    def to_bytes(self) -> bytes:
+        """This object as archive bytes (rig/warp_archive.h): solved state included, so that
+        loading it solves nothing and gives bit-identical results. Raises InvalidInput for an object
+        that cannot be saved (one that holds something defined in Python), and TypeError for an
+        instance of a Python subclass (its class and attributes are not in the archive: define
+        __reduce__ in the subclass to pickle it).
+        """
 
 
 class Affine(Warp):
@@ -374,6 +399,17 @@ class Cage:
     def posed_vertices(self, path: _Path) -> _Float64Array:
         """The vertices (V, 3) of a posed cage file, checked against this cage."""
 
+    def __reduce__(self) -> tuple[Any, tuple[bytes]]:
+        """For pickle: the loader and this object's archive bytes."""
+
+    def to_bytes(self) -> bytes:
+        """This object as archive bytes (rig/warp_archive.h): solved state included, so that
+        loading it solves nothing and gives bit-identical results. Raises InvalidInput for an object
+        that cannot be saved (one that holds something defined in Python), and TypeError for an
+        instance of a Python subclass (its class and attributes are not in the archive: define
+        __reduce__ in the subclass to pickle it).
+        """
+
 
 class CageArapEditor:
     """ARAP in a cage's subspace (Huang et al. 2006): the unknowns are the control points of
@@ -527,6 +563,17 @@ class Coordinates:
     @property
     def column_names(self) -> list[str]:
         """One name per column: "v<i>" for control point i, "f<j>" for face j."""
+
+    def __reduce__(self) -> tuple[Any, tuple[bytes]]:
+        """For pickle: the loader and this object's archive bytes."""
+
+    def to_bytes(self) -> bytes:
+        """This object as archive bytes (rig/warp_archive.h): solved state included, so that
+        loading it solves nothing and gives bit-identical results. Raises InvalidInput for an object
+        that cannot be saved (one that holds something defined in Python), and TypeError for an
+        instance of a Python subclass (its class and attributes are not in the archive: define
+        __reduce__ in the subclass to pickle it).
+        """
 
 
 class DeformationGraph:
@@ -730,10 +777,22 @@ class HandleDistances:
         units; 0 exactly at a handle.
         """
 
+    def __reduce__(self) -> tuple[Any, tuple[bytes]]:
+        """For pickle: the loader and this object's archive bytes."""
+
+    def to_bytes(self) -> bytes:
+        """This object as archive bytes (rig/warp_archive.h): solved state included, so that
+        loading it solves nothing and gives bit-identical results. Raises InvalidInput for an object
+        that cannot be saved (one that holds something defined in Python), and TypeError for an
+        instance of a Python subclass (its class and attributes are not in the archive: define
+        __reduce__ in the subclass to pickle it).
+        """
+
 
 class Harmonic(Coordinates):
     """Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
-    about `tets` tetrahedra (0: the library's default, about 200k). cache: a file of solved coordinates, loaded when it matches the cage and
+    about `tets` tetrahedra (0: the library's default, about 200k), or at a `precision` level, a
+    number in [1, 7] (200000 * 4**(p - 5) tets, so 5.5 lies between 5 and 6; 0: none; not with tets). cache: a file of solved coordinates, loaded when it matches the cage and
     tets, else solved and saved there. outside: "raise" or "nearest" for points outside the cage.
     """
 
@@ -742,6 +801,7 @@ class Harmonic(Coordinates):
         cage: Cage,
         *,
         tets: int = 0,
+        precision: float = 0.0,
         cache: Optional[_Path] = None,
         outside: Literal["raise", "nearest"] = "raise",
         progress: _Progress = None,
@@ -832,8 +892,11 @@ class Kelvinlet(Warp):
 class Lattice(Coordinates):
     """A free-form deformation lattice (Sederberg and Parry 1986): a box at `origin` along
     `axes` (3 unit vectors) with `extents` (world units), resolution (l, m, n) control points,
-    basis "trilinear", "bernstein" or "bspline"; points outside: "identity", "clamp" or "falloff"
-    (over falloff x the box diagonal). Control point (i, j, k) is index i + l (j + m k).
+    basis "trilinear", "bernstein" or "bspline"; ends of the bspline basis: "extrapolate" (linear
+    phantom controls, the default) or "repeat" (the end control repeated, Blender's lattice); given
+    with another basis it is an error, as the rig's key; points
+    outside: "identity", "clamp" or "falloff" (over falloff x the box diagonal). Control point
+    (i, j, k) is index i + l (j + m k).
     """
 
     def __init__(
@@ -846,6 +909,7 @@ class Lattice(Coordinates):
         basis: _Basis = "trilinear",
         outside: Literal["identity", "clamp", "falloff"] = "identity",
         falloff: float = 0.1,
+        ends: Optional[str] = None,
     ) -> None: ...
 
     @staticmethod
@@ -855,9 +919,10 @@ class Lattice(Coordinates):
         padding: float = 0.05,
         resolution: Sequence[int] = ...,
         basis: _Basis = "trilinear",
+        ends: Optional[str] = None,
     ) -> Lattice:
         """An axis-aligned lattice around `points` (n, 3), padded by `padding` x the box
-        diagonal.
+        diagonal; `ends` as for the constructor.
         """
 
     def fit(
@@ -1135,6 +1200,12 @@ class SkinningBinding:
         first, each row summing to 1.
         """
 
+    def __getstate__(
+        self,
+    ) -> tuple[_Float64Array, tuple[NDArray[np.uint32], _Float64Array], int]: ...
+
+    def __setstate__(self, arg0: tuple[Any, ...]) -> None: ...
+
 
 class SurfaceMesh:
     """A triangle mesh welded from a Geometry (weld_soup): positions (n, 3) world units,
@@ -1215,6 +1286,70 @@ class Twist(Warp):
     ) -> None: ...
 
 
+class Viewer:
+    """A running viewer (spacewarp.view): `url` is the page's address, `stop()`
+    ends it (requests in flight finish first); also a context manager that stops on exit.
+    """
+
+    @property
+    def url(self) -> str:
+        """"http://HOST:PORT/", the page's address."""
+
+    @property
+    def port(self) -> int:
+        """The port listened on."""
+
+    def stop(self) -> None:
+        """Stops serving; a second call does nothing."""
+
+    def __enter__(self) -> Viewer: ...
+
+    def __exit__(self, exc_type: Any, exc: Any, traceback: Any) -> None: ...
+
+
+class VolumeBrickPlan:
+    """The plan of spacewarp.dask.warp_volume for one
+    VDB file (made by plan_volume_bricks, kept by the caller): its bricks, and the merge.
+    """
+
+    @property
+    def bricks(self) -> list[tuple[Any, ...]]:
+        """The bricks of every grid, in order: plain tuples (grid index, grid name, clipped
+        read, rigid, output min, output max, input min, input max, cells (k, 3) int32; boxes in index
+        space, inclusive) to pass to warp_volume_brick.
+        """
+
+    def merge(
+        self,
+        warp: Warp,
+        results: list[VolumeBrickResult],
+        output: _Path,
+    ) -> list[dict[str, Any]]:
+        """Merges the results of warp_volume_brick (one per brick, any order), warps the grids
+        that are not bricked (point data grids) here, re-distances level sets once over each merged
+        grid, and writes every grid to `output` atomically, as spacewarp.warp_volume does. Returns one
+        report dict per grid.
+        """
+
+
+class VolumeBrickResult:
+    """A warped brick (OpenVDB stream bytes and its counts); pickles."""
+
+    @property
+    def halo_misses(self) -> int:
+        """Voxels whose preimage left the brick's clipped input; the brick
+        was then warped again from the whole grid.
+        """
+
+    @property
+    def size(self) -> int:
+        """Bytes of the brick's grid."""
+
+    def __getstate__(self) -> tuple[Any, ...]: ...
+
+    def __setstate__(self, arg0: tuple[Any, ...]) -> None: ...
+
+
 class Wire:
     """One wire of spacewarp.Wires: the reference curve `rest` (n, 3) and the
     deformed curve `deformed` (n, 3), n >= 2, world units, point k of each at parameter k;
@@ -1283,16 +1418,35 @@ class Wires(Warp):
         """The blend's exponent m."""
 
 
+def assemble_ply(input: _Path, parts: list[_Path], output: _Path) -> None:
+    """Writes `output` atomically: the PLY header deform_file writes for `input`, the files
+    `parts` in order (from deform_ply_rows, together every vertex row of `input`), then `input`'s
+    faces. The result is byte-identical to deform_file(warp, input, output). Parts are raw rows
+    with no header: only their sizes are checked, so their order (by first_row) and that they all
+    come from the same warp of this `input` are the caller's job; parts in the wrong order or from
+    another warp give a wrong output without an error. Raises InvalidInput naming the part that is
+    `input` itself or whose size is not a whole number of output rows, or when the parts do not add
+    up to the vertex count.
+    """
+
+
 def cage_coordinates(
     method: str,
     cage: Cage,
     *,
     tets: int = 0,
+    precision: float = 0.0,
     cache: Optional[_Path] = None,
     outside: Literal["raise", "nearest"] = "raise",
     progress: _Progress = None,
 ) -> Coordinates:
     """The coordinates of a cage method by its CLI name (see cage_methods())."""
+
+
+def cage_from_bytes(data: bytes | bytearray | memoryview | NDArray[np.uint8]) -> Cage:
+    """The Cage saved in `data` (bytes from Cage.to_bytes()), rebuilt from its polygons. Raises
+    InvalidInput for bytes that are not a cage archive.
+    """
 
 
 def cage_methods() -> list[str]:
@@ -1311,6 +1465,14 @@ def coordinate_properties(
     diagonal), min_weight, negative_fraction, samples_with_negative, lagrange, face_interpolation,
     similarity_reproduction (NaN where a check needs the cage). For any weight matrix, see
     spacewarp.testing.
+    """
+
+
+def coordinates_from_bytes(
+    data: bytes | bytearray | memoryview | NDArray[np.uint8],
+) -> Coordinates:
+    """The coordinates saved in `data` (bytes from Coordinates.to_bytes()), as their own class.
+    Nothing is solved again. Raises InvalidInput for bytes that are not a coordinates archive.
     """
 
 
@@ -1336,6 +1498,28 @@ def deform(
     """
 
 
+def deform_file(
+    warp: Warp,
+    input: _Path,
+    output: _Path,
+    *,
+    chunk_points: Optional[int] = None,
+    ascii: bool = False,
+    progress: _Progress = None,
+) -> dict[str, Any]:
+    """Warps the soup or point cloud file `input` (OBJ, OFF, PLY) into `output` (any of them),
+    as `spacewarp deform` does, with the same bytes. A binary PLY input written to PLY is streamed:
+    read, warped and written `chunk_points` rows at a time (default 1048576), so memory stays bounded
+    whatever the file size; chunk_points=0 reads the whole file instead, as do ASCII PLY input, a
+    pipe (it cannot be read twice) and OBJ/OFF on either side ('streamed' in the result says which).
+    A warp's domain error names `input` and the point by its index in the file, as the whole-file
+    path does, but counts "at least" the points of the first chunk that failed (exactly the file's
+    when that chunk is the last). ascii: write PLY as ASCII. The output is written atomically: after an
+    error or a cancel (Ctrl-C, or `progress(stage, fraction)` returning False) no output or
+    temporary file is left. Returns {'points', 'faces', 'chunks', 'streamed', 'singular_normals'}.
+    """
+
+
 def deform_inverse(
     warp: Warp,
     geometry: Geometry,
@@ -1348,6 +1532,35 @@ def deform_inverse(
     """The inverse of deform(): every vertex moved to its preimage under `warp` (as
     `spacewarp inverse`; tolerance relative to the geometry's bounding-box diagonal). All or nothing:
     raises SolverError naming the first vertex whose inverse did not converge.
+    """
+
+
+def deform_ply_rows(
+    warp: Warp,
+    input: _Path,
+    part: _Path,
+    first_row: int,
+    row_count: int,
+    *,
+    chunk_points: Optional[int] = None,
+    progress: _Progress = None,
+) -> dict[str, Any]:
+    """Warps vertex rows [first_row, first_row + row_count) of the binary PLY file `input` and
+    writes, atomically, to `part` exactly the bytes those rows take in the binary output of
+    deform_file (row_count × ply_layout(input)['output_row_bytes'] bytes: no header, no faces).
+    assemble_ply joins the parts. Errors name the file and the vertex by its index in the whole file
+    (a warp's "N of M points ..." counts "at least" the points of the first chunk that failed, out
+    of the file's vertices). Raises InvalidInput when `part` is `input` (also through a link).
+    Returns the same dict as deform_file.
+    """
+
+
+def distances_from_bytes(
+    data: bytes | bytearray | memoryview | NDArray[np.uint8],
+) -> HandleDistances:
+    """The HandleDistances saved in `data` (bytes from HandleDistances.to_bytes()), as their
+    own class (InsideDistances: its grid of distances, nothing marched again). Raises InvalidInput
+    for bytes that are not a distances archive.
     """
 
 
@@ -1414,6 +1627,40 @@ def mass_matrix_diagonal(positions: _Points, triangles: ArrayLike) -> _Float64Ar
     """
 
 
+def plan_volume_bricks(
+    warp: Warp,
+    input: _Path,
+    *,
+    brick: int = 64,
+    halo: int = 4,
+    sampler: _Sampler = "trilinear",
+    conserve_mass: bool = False,
+    vectors: Literal["auto", "push", "normal", "keep"] = "auto",
+    redistance: Literal["normalize", "rebuild", "none"] = "normalize",
+    seed_spacing: int = 4,
+) -> VolumeBrickPlan:
+    """Plans warping the VDB file `input` by `warp` in bricks of `brick` output voxels per
+    edge (rounded up to a multiple of 8): reads the file, evaluates the warp at the seeding cells
+    of each float, double and vec3s grid and lists the bricks their images reach, each with the
+    cells that reach it and the input box (index space, those cells widened by `halo` + 4 voxels) it
+    reads. Options as spacewarp.warp_volume (no cache_spacing). Used by spacewarp.dask.
+    """
+
+
+def ply_layout(path: _Path) -> dict[str, Any]:
+    """The byte layout of the binary PLY file `path` (vertex rows of scalar properties only), as
+    a dict: 'vertex_count', 'vertex_offset' (bytes from the start of the file to vertex row 0),
+    'vertex_row_bytes', 'vertex_properties' (a list of (name, NumPy type code, byte offset in the
+    row)), 'dtype' (the NumPy structured dtype of one vertex row, so that
+    np.memmap(path, dtype, 'r', vertex_offset, (vertex_count,)) views the rows), 'elements' (every
+    element in file order: {'name', 'count', 'offset', 'bytes'}), 'face_count', 'largest_polygon',
+    'file_bytes', 'encoding', 'path', and 'output_row_bytes' (bytes of one vertex row in the binary
+    output that deform_ply_rows writes). Reads through elements with list properties (faces) once,
+    checking them as the reader does. Raises IoError for an ASCII file, vertex list properties, a
+    malformed or truncated file; InvalidInput for a pipe (streaming reads a file twice).
+    """
+
+
 def read(path: _Path) -> Geometry:
     """Reads a soup or point cloud from an OBJ, OFF or PLY file (format by extension) as a
     Geometry. Raises IoError naming the file and line or element at fault. What the file holds but
@@ -1449,6 +1696,27 @@ def rig_methods() -> list[str]:
     """The rig methods ("twist", "mvc", ...) this build knows."""
 
 
+def view(
+    model: _Path,
+    cage: Optional[_Path] = None,
+    rig: Optional[_Path] = None,
+    method: Optional[str] = None,
+    port: int = 0,
+    host: str = "127.0.0.1",
+    save_dir: _Path = ".",
+    web_dir: Optional[_Path] = None,
+) -> Viewer:
+    """Serves `model` (an OBJ/OFF/PLY soup or point cloud) with its controls — a `cage` file or
+    a `rig` file — to the viewer page, from a background thread, as `spacewarp view` does; returns
+    a Viewer (its `url`, `stop()`, a context manager). `method`: the first method (default: the
+    rig's, or "mvc" with a cage); `port` 0 picks a free port; `host` other than 127.0.0.1 makes the
+    viewer reachable from the network; saves go to `save_dir`; `web_dir`: the page's folder
+    (default: $SPACEWARP_WEB_DIR, the build's web/dist, the installed copy). Raises IoError when no
+    page is found or a file cannot be read, InvalidInput for bad input, RuntimeError when the port
+    is in use.
+    """
+
+
 def warp_dense(
     warp: Warp,
     values: NDArray[Any],
@@ -1467,6 +1735,14 @@ def warp_dense(
     after the warp). Returns (values, origin): the output's active bounding block and the world
     position of its voxel (0, 0, 0). For grids of pyopenvdb, copy them to and from dense arrays
     (copyToArray / copyFromArray), or go through files with warp_volume.
+    """
+
+
+def warp_from_bytes(data: bytes | bytearray | memoryview | NDArray[np.uint8]) -> Warp:
+    """The warp saved in `data` (bytes from Warp.to_bytes(), or saveWarp() in C++; any bytes-like
+    object: bytes, bytearray, memoryview, a contiguous NumPy uint8 array), as its own
+    class. Nothing is solved again. Raises InvalidInput for bytes that are not a warp archive of this
+    version (naming the byte at fault).
     """
 
 
@@ -1490,6 +1766,27 @@ def warp_volume(
     "none"; seed_spacing: seeding cells in voxels; cache_spacing: a displacement cache lattice in
     voxels (0: the exact warp). Returns one dict per grid written (active voxels, inverse failures,
     mass, ...). Voxels lost are warnings; on any error nothing is written.
+    """
+
+
+def warp_volume_brick(
+    warp: Warp,
+    input: _Path,
+    brick: tuple[Any, ...],
+    *,
+    clip: bool = False,
+    sampler: _Sampler = "trilinear",
+    conserve_mass: bool = False,
+    vectors: Literal["auto", "push", "normal", "keep"] = "auto",
+    redistance: Literal["normalize", "rebuild", "none"] = "normalize",
+    seed_spacing: int = 4,
+) -> VolumeBrickResult:
+    """Warps one brick of VolumeBrickPlan.bricks (same warp, input and options as the plan):
+    resamples the brick's output voxels from its seeding cells and returns a VolumeBrickResult for
+    VolumeBrickPlan.merge. The input: read whole once per process and kept for the next bricks of
+    the same file (clip False, the default), or only the brick's input box of its grid (clip True:
+    OpenVDB's clipped read, whose cost is close to a whole read since every compressed leaf buffer
+    is passed; the whole grid when a preimage leaves that box).
     """
 
 

@@ -93,6 +93,19 @@ struct Polygons {
 /// that is not an integer or not a vertex.
 Polygons toPolygons(py::handle faces, std::size_t vertexCount);
 
+/// `self` as a T, or a TypeError when it was never initialised (made by T.__new__ without
+/// __init__: pybind11 then holds no object, and a plain `const T&` argument would be a null
+/// reference). Used by the methods defined on the base classes, which every subclass inherits.
+template <class T>
+const T& initialised(py::handle self) {
+  // The instance's own (most derived) bound class: its holder is what __init__ constructs.
+  auto* inst = reinterpret_cast<py::detail::instance*>(self.ptr());
+  if (!py::isinstance<T>(self) || !inst->get_value_and_holder().holder_constructed())
+    throw py::type_error(std::string(py::str(py::type::of(self).attr("__name__"))) +
+                         " instance is not initialised (made by __new__ without __init__)");
+  return self.cast<const T&>();
+}
+
 /// Runs f() with the GIL released and returns what it returns (or rethrows what it throws).
 /// Not RAII on purpose: when the interpreter exits while a daemon thread is in here, Python ends
 /// that thread as it takes the GIL back (pthread_exit, a forced unwind), and from a destructor
@@ -156,5 +169,7 @@ void bindBenchHooks(py::module_& m);
 void bindShepard(py::module_& m);
 void bindKelvinlet(py::module_& m);
 void bindMlsInside(py::module_& m);
+void bindArchive(py::module_& m);
+void bindStream(py::module_& m);
 
 }  // namespace spacewarp::python

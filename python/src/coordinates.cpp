@@ -266,6 +266,19 @@ point. Raises InvalidInput for non-finite points or points outside the domain (n
           "One name per column: \"v<i>\" for control point i, \"f<j>\" for face j.");
 }
 
+// The harmonic `precision` argument: a number, not a bool (pybind11 would take True as 1, where
+// the rig's "precision": true is refused).
+double precisionArgument(const py::object& precision) {
+  if (py::isinstance<py::bool_>(precision))
+    throw InvalidInput("precision must be a number in [1, 7] (or 0: none), not a bool");
+  try {
+    return precision.cast<double>();
+  } catch (const py::cast_error&) {
+    throw InvalidInput("precision must be a number in [1, 7] (or 0: none), not " +
+                       std::string(py::str(py::type::of(precision).attr("__name__"))));
+  }
+}
+
 std::shared_ptr<Coordinates> byName(const std::string& method, std::shared_ptr<Cage> cage,
                                     const CageMethodOptions& options, const py::object& progress) {
   std::shared_ptr<const Coordinates> c;
@@ -298,31 +311,35 @@ void bindCageCoordinates(py::module_& m) {
   py::class_<HarmonicCoordinates, Coordinates, std::shared_ptr<HarmonicCoordinates>>(
       m, "Harmonic",
       R"(Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
-about `tets` tetrahedra (0: the library's default, about 200k). cache: a file of solved coordinates, loaded when it matches the cage and
+about `tets` tetrahedra (0: the library's default, about 200k), or at a `precision` level, a
+number in [1, 7] (200000 * 4**(p - 5) tets, so 5.5 lies between 5 and 6; 0: none; not with tets). cache: a file of solved coordinates, loaded when it matches the cage and
 tets, else solved and saved there. outside: "raise" or "nearest" for points outside the cage.)")
-      .def(py::init([](std::shared_ptr<Cage> cage, std::size_t tets,
+      .def(py::init([](std::shared_ptr<Cage> cage, std::size_t tets, const py::object& precision,
                        const std::optional<std::filesystem::path>& cache,
                        const std::string& outside, const py::object& progress) {
-             const CageMethodOptions options{tets, cache.value_or(""), outside};
+             const CageMethodOptions options{tets, cache.value_or(""), outside,
+                                             precisionArgument(precision)};
              return std::dynamic_pointer_cast<HarmonicCoordinates>(
                  byName("harmonic", cage, options, progress));
            }),
-           "cage"_a, py::kw_only(), "tets"_a = 0, "cache"_a = py::none(), "outside"_a = "raise",
-           "progress"_a = py::none())
+           "cage"_a, py::kw_only(), "tets"_a = 0, "precision"_a = 0.0, "cache"_a = py::none(),
+           "outside"_a = "raise", "progress"_a = py::none())
       .def_property_readonly(
           "tet_count", [](const HarmonicCoordinates& c) { return c.mesh().tets.size(); },
           "Tetrahedra of the mesh solved on.")
-      .def("save", &HarmonicCoordinates::save, "path"_a,
-           "Writes the solve to a file (atomically).");
+      .def("save",
+           py::overload_cast<const std::filesystem::path&>(&HarmonicCoordinates::save, py::const_),
+           "path"_a, "Writes the solve to a file (atomically).");
   m.def(
       "cage_coordinates",
       [](const std::string& method, std::shared_ptr<Cage> cage, std::size_t tets,
-         const std::optional<std::filesystem::path>& cache, const std::string& outside,
-         const py::object& progress) {
-        return byName(method, std::move(cage), {tets, cache.value_or(""), outside}, progress);
+         const py::object& precision, const std::optional<std::filesystem::path>& cache,
+         const std::string& outside, const py::object& progress) {
+        return byName(method, std::move(cage),
+                      {tets, cache.value_or(""), outside, precisionArgument(precision)}, progress);
       },
-      "method"_a, "cage"_a, py::kw_only(), "tets"_a = 0, "cache"_a = py::none(),
-      "outside"_a = "raise", "progress"_a = py::none(),
+      "method"_a, "cage"_a, py::kw_only(), "tets"_a = 0, "precision"_a = 0.0,
+      "cache"_a = py::none(), "outside"_a = "raise", "progress"_a = py::none(),
       "The coordinates of a cage method by its CLI name (see cage_methods()).");
   m.def("cage_methods", &cageMethods,
         "The cage methods of this build (\"green\", \"harmonic\", \"mvc\").");
@@ -335,16 +352,32 @@ LatticeBasis basisFromName(const std::string& name) {
   throw InvalidInput("basis must be 'trilinear', 'bernstein' or 'bspline', not '" + name + "'");
 }
 
+// The `ends` argument, given explicitly: refused with a basis that has no phantom controls (as
+// the rig's "ends" key is).
+LatticeEnds endsFromName(const std::string& ends, LatticeBasis basis) {
+  if (basis != LatticeBasis::BSpline)
+    throw InvalidInput(
+        "ends applies to the bspline basis only (the other bases have no phantom "
+        "controls)");
+  if (ends == "repeat") return LatticeEnds::Repeat;
+  if (ends == "extrapolate") return LatticeEnds::Extrapolate;
+  throw InvalidInput("ends must be 'extrapolate' or 'repeat', not '" + ends + "'");
+}
+
 void bindLattice(py::module_& m) {
   py::class_<LatticeCoordinates, Coordinates, std::shared_ptr<LatticeCoordinates>>(
       m, "Lattice",
       R"(A free-form deformation lattice (Sederberg and Parry 1986): a box at `origin` along
 `axes` (3 unit vectors) with `extents` (world units), resolution (l, m, n) control points,
-basis "trilinear", "bernstein" or "bspline"; points outside: "identity", "clamp" or "falloff"
-(over falloff x the box diagonal). Control point (i, j, k) is index i + l (j + m k).)")
+basis "trilinear", "bernstein" or "bspline"; ends of the bspline basis: "extrapolate" (linear
+phantom controls, the default) or "repeat" (the end control repeated, Blender's lattice); given
+with another basis it is an error, as the rig's key; points
+outside: "identity", "clamp" or "falloff" (over falloff x the box diagonal). Control point
+(i, j, k) is index i + l (j + m k).)")
       .def(py::init([](py::handle origin, py::handle axes, py::handle extents,
                        std::array<int, 3> resolution, const std::string& basis,
-                       const std::string& outside, double falloff) {
+                       const std::string& outside, double falloff,
+                       const std::optional<std::string>& ends) {
              LatticeOptions o;
              o.origin = toVec3(origin, "origin");
              const Points a = toPoints(axes, "axes", false);
@@ -353,6 +386,7 @@ basis "trilinear", "bernstein" or "bspline"; points outside: "identity", "clamp"
              o.extents = toVec3(extents, "extents");
              o.resolution = resolution;
              o.basis = basisFromName(basis);
+             if (ends) o.ends = endsFromName(*ends, o.basis);
              if (outside == "identity")
                o.outside = LatticeOutside::Identity;
              else if (outside == "clamp")
@@ -369,18 +403,24 @@ basis "trilinear", "bernstein" or "bspline"; points outside: "identity", "clamp"
            "axes"_a = py::make_tuple(py::make_tuple(1, 0, 0), py::make_tuple(0, 1, 0),
                                      py::make_tuple(0, 0, 1)),
            "extents"_a = py::make_tuple(1, 1, 1), "resolution"_a = std::array<int, 3>{2, 2, 2},
-           "basis"_a = "trilinear", "outside"_a = "identity", "falloff"_a = 0.1)
+           "basis"_a = "trilinear", "outside"_a = "identity", "falloff"_a = 0.1,
+           "ends"_a = py::none())
       .def_static(
           "around",
           [](py::handle points, double padding, std::array<int, 3> resolution,
-             const std::string& basis) {
+             const std::string& basis, const std::optional<std::string>& ends) {
             const Points p = toPoints(points, "points", false);
-            return std::make_shared<LatticeCoordinates>(
-                fitLattice(p.span, padding, resolution, basisFromName(basis)));
+            const Lattice fitted = fitLattice(p.span, padding, resolution, basisFromName(basis));
+            if (!ends) return std::make_shared<LatticeCoordinates>(fitted);
+            LatticeOptions o = fitted.params();
+            o.ends = endsFromName(*ends, o.basis);
+            return std::make_shared<LatticeCoordinates>(Lattice(o));
           },
           "points"_a, py::kw_only(), "padding"_a = 0.05,
           "resolution"_a = std::array<int, 3>{4, 4, 4}, "basis"_a = "trilinear",
-          "An axis-aligned lattice around `points` (n, 3), padded by `padding` x the box diagonal.")
+          "ends"_a = py::none(),
+          "An axis-aligned lattice around `points` (n, 3), padded by `padding` x the box "
+          "diagonal; `ends` as for the constructor.")
       .def(
           "fit",
           [](const LatticeCoordinates& c, py::handle from, py::handle to, double smoothness,

@@ -2,6 +2,12 @@
 
 #include "common.h"
 
+#ifdef SPACEWARP_WITH_VIEW
+namespace spacewarp::python {
+void bindView(py::module_& m);  // view.cpp, in builds with the command-line tool
+}
+#endif
+
 PYBIND11_MODULE(_spacewarp, m) {
   namespace py = pybind11;
   m.doc() =
@@ -20,4 +26,9 @@ PYBIND11_MODULE(_spacewarp, m) {
   spacewarp::python::bindBenchHooks(m);
   spacewarp::python::bindShepard(m);
   spacewarp::python::bindKelvinlet(m);
+  spacewarp::python::bindArchive(m);  // after every Warp and Coordinates class
+  spacewarp::python::bindStream(m);
+#ifdef SPACEWARP_WITH_VIEW
+  spacewarp::python::bindView(m);
+#endif
 }

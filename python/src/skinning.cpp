@@ -2,6 +2,8 @@
 
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -78,6 +80,43 @@ const std::string& deformDoc() {
   static const std::string doc =
       "The posed points (n, 3) for bones (b, 4, 4), into `out` if given.\n" + kModes;
   return doc;
+}
+
+// The kept influences of a binding as (bones (n, k) uint32, weights (n, k) float64).
+py::tuple influencesOf(const SkinningBinding& b) {
+  const SkinningWeights& w = b.weights();
+  DoubleArray weights(
+      std::vector<py::ssize_t>{py::ssize_t(w.pointCount), py::ssize_t(w.influences)});
+  py::array_t<std::uint32_t> bones(
+      std::vector<py::ssize_t>{py::ssize_t(w.pointCount), py::ssize_t(w.influences)});
+  std::copy(w.weights.begin(), w.weights.end(), weights.mutable_data());
+  std::copy(w.bones.begin(), w.bones.end(), bones.mutable_data());
+  return py::make_tuple(bones, weights);
+}
+
+// A binding of `points` with the kept influences `bones` and `weights` (n, k each), as
+// influencesOf() gives them; the constructor checks them.
+std::shared_ptr<SkinningBinding> bindingOf(const Points& points, py::handle bones,
+                                           py::handle weights, std::size_t boneCount) {
+  using Indices = py::array_t<std::uint32_t, py::array::c_style | py::array::forcecast>;
+  const Indices b = Indices::ensure(bones);
+  const DoubleArray w = DoubleArray::ensure(weights);
+  if (!b || !w || b.ndim() != 2 || w.ndim() != 2 || b.shape(0) != w.shape(0) ||
+      b.shape(1) != w.shape(1)) {
+    PyErr_Clear();
+    throw InvalidInput("SkinningBinding: pickled bones and weights must be (n, k) arrays alike");
+  }
+  SkinningWeights sparse;
+  sparse.pointCount = std::size_t(b.shape(0));
+  sparse.influences = std::size_t(b.shape(1));
+  sparse.bones.assign(b.data(), b.data() + b.size());
+  sparse.weights.assign(w.data(), w.data() + w.size());
+  std::vector<Vec3> positions(points.span.begin(), points.span.end());
+  std::shared_ptr<SkinningBinding> binding;
+  withoutGil([&] {
+    binding = std::make_shared<SkinningBinding>(std::move(positions), std::move(sparse), boneCount);
+  });
+  return binding;
 }
 
 }  // namespace
@@ -178,19 +217,24 @@ coordinates.)")
           "rest_points", [](const SkinningBinding& b) { return copyPoints(b.restPoints()); },
           "The bound points (n, 3), a copy.")
       .def_property_readonly(
-          "influences",
-          [](const SkinningBinding& b) {
-            const SkinningWeights& w = b.weights();
-            DoubleArray weights(
-                std::vector<py::ssize_t>{py::ssize_t(w.pointCount), py::ssize_t(w.influences)});
-            py::array_t<std::uint32_t> bones(
-                std::vector<py::ssize_t>{py::ssize_t(w.pointCount), py::ssize_t(w.influences)});
-            std::copy(w.weights.begin(), w.weights.end(), weights.mutable_data());
-            std::copy(w.bones.begin(), w.bones.end(), bones.mutable_data());
-            return py::make_tuple(bones, weights);
-          },
+          "influences", &influencesOf,
           "The kept influences as (bones (n, k) uint32, weights (n, k) float64), largest weight "
-          "first, each row summing to 1.");
+          "first, each row summing to 1.")
+      // Pickled as its data (points, kept influences, bone count), rebuilt by the constructor,
+      // which checks it: a binding can be posed in other processes (one frame per worker).
+      .def(py::pickle(
+          [](const SkinningBinding& b) {
+            return py::make_tuple(copyPoints(b.restPoints()), influencesOf(b), b.boneCount());
+          },
+          [](const py::tuple& state) {
+            if (state.size() != 3)
+              throw InvalidInput("SkinningBinding: a pickled state of 3 items");
+            const Points points = toPoints(state[0], "points", false);
+            const py::tuple influences = state[1].cast<py::tuple>();
+            if (influences.size() != 2)
+              throw InvalidInput("SkinningBinding: pickled influences are (bones, weights)");
+            return bindingOf(points, influences[0], influences[1], state[2].cast<std::size_t>());
+          }));
 }
 
 }  // namespace spacewarp::python

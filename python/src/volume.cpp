@@ -20,13 +20,15 @@
 #endif
 
 #include "common.h"
+#include "volume.h"
 
 namespace spacewarp::python {
-namespace {
 
 using namespace pybind11::literals;
 
 #ifdef SPACEWARP_WITH_OPENVDB
+
+namespace {
 
 template <class E>
 E choice(const std::string& value, const char* option,
@@ -39,7 +41,8 @@ E choice(const std::string& value, const char* option,
   throw InvalidInput(std::string(option) + " must be one of " + names + ", not '" + value + "'");
 }
 
-/// The options of warpVolume() from the keyword arguments (their names are the CLI's flags).
+}  // namespace
+
 WarpVolumeOptions volumeOptions(const std::string& sampler, bool conserveMass,
                                 const std::string& vectors, const std::string& redistance,
                                 int seedSpacing, double cacheSpacing) {
@@ -72,7 +75,6 @@ py::dict reportDict(const std::string& name, const std::string& type, const Warp
       "vectors"_a = r.vectors, "vector_failures"_a = r.vectorFailures, "points"_a = r.points);
 }
 
-/// Warns about what a grid lost: voxels whose inverse failed, vectors not transformed.
 void warnLosses(const std::string& where, const WarpVolumeReport& r) {
   std::vector<std::string> lines;
   if (r.inverseFailures > 0)
@@ -86,6 +88,8 @@ void warnLosses(const std::string& where, const WarpVolumeReport& r) {
                     " input voxels could not be mapped");
   warnAll(lines);
 }
+
+namespace {
 
 py::list warpVolumeFile(const Warp& warp, const std::filesystem::path& input,
                         const std::filesystem::path& output, WarpVolumeOptions options,
@@ -194,7 +198,11 @@ py::tuple warpDenseAs(const Warp& warp, const py::array& values, double voxelSiz
   return py::make_tuple(out, copyPoints(std::span<const Vec3>(&outOrigin, 1)).attr("reshape")(3));
 }
 
+}  // namespace
+
 #endif
+
+namespace {
 
 void bindVolumeFunctions(py::module_& m) {
 #ifdef SPACEWARP_WITH_OPENVDB
@@ -253,6 +261,9 @@ position of its voxel (0, 0, 0). For grids of pyopenvdb, copy them to and from d
 
 }  // namespace
 
-void bindVolume(py::module_& m) { bindVolumeFunctions(m); }
+void bindVolume(py::module_& m) {
+  bindVolumeFunctions(m);
+  bindVolumeBricks(m);
+}
 
 }  // namespace spacewarp::python

@@ -163,17 +163,27 @@ void bindWarpBase(py::module_& m) {
 
 Every warp in spacewarp is one: call it on points, ask for its Jacobian, invert it, carry normals.
 Methods release the GIL and are safe to call from several threads at once.)")
-      .def("__call__", &applyWarp, "points"_a, py::kw_only(), "out"_a = py::none(),
-           "progress"_a = py::none(),
-           R"(The warped positions of `points`: (n, 3) float64 (or one (3,) point), world units.
+      .def(
+          "__call__",
+          [](py::handle self, py::handle points, const std::optional<py::array>& out,
+             const py::object& progress) {
+            return applyWarp(initialised<Warp>(self), points, out, progress);
+          },
+          "points"_a, py::kw_only(), "out"_a = py::none(), "progress"_a = py::none(),
+          R"(The warped positions of `points`: (n, 3) float64 (or one (3,) point), world units.
 
 points: (n, 3) array-like, any float dtype and layout (copied only if not float64 C-order).
 out: optional (n, 3) float64 C-contiguous array to write into (may be `points` itself).
 progress: optional callable(stage: str, fraction: float); return False to cancel.
 Returns a new (n, 3) array, or `out`. Raises InvalidInput for non-finite points or points
 outside the warp's domain (naming the first); `out`, if given, may then be partly written.)")
-      .def("jacobian", &jacobians, "points"_a,
-           R"(The Jacobians d x'/d x at `points`: (n, 3, 3) float64, J[i, r, c] = d x'_r / d x_c
+      .def(
+          "jacobian",
+          [](py::handle self, py::handle points) {
+            return jacobians(initialised<Warp>(self), points);
+          },
+          "points"_a,
+          R"(The Jacobians d x'/d x at `points`: (n, 3, 3) float64, J[i, r, c] = d x'_r / d x_c
 (unitless). Analytic where the warp has one, central differences otherwise.)")
       .def("transform_normals", &normals, "points"_a, "normals"_a,
            R"(The normals `normals` (n, 3) at `points` (n, 3) carried through the warp: J^-T n,
@@ -282,13 +292,10 @@ clamped to [lo, hi]; rate in 1 / world units).)")
                                  ", not a spacewarp.Warp");
           stages.push_back(warps[i].cast<WarpPtr>());
         }
-        std::shared_ptr<const Warp> chain = stages[0];
-        if (stages.size() == 1)
-          chain = std::make_shared<ComposedWarp>(chain, std::make_shared<IdentityWarp>());
-        for (std::size_t i = 1; i < stages.size(); ++i)
-          chain = std::make_shared<ComposedWarp>(chain, stages[i]);
-        return std::const_pointer_cast<ComposedWarp>(
-            std::static_pointer_cast<const ComposedWarp>(chain));
+        // One stage is composed with the identity (a Compose always has two or more).
+        if (stages.size() == 1) stages.push_back(std::make_shared<IdentityWarp>());
+        return std::make_shared<ComposedWarp>(
+            std::vector<std::shared_ptr<const Warp>>(stages.begin(), stages.end()));
       }));
 }
 

@@ -65,6 +65,10 @@ _Dtype = Literal["int8", "uint8", "int16", "uint16", "int32", "uint32", "float32
 
 # Arguments pybind11 shows as `handle` / `Optional[handle]` / `object`, by name.
 HANDLE_ARGS = {
+    # Viewer.__exit__: the context manager protocol's exception triple
+    "exc_type": "Any",
+    "exc": "Any",
+    "traceback": "Any",
     "origin": "_Vec3",
     "axis": "_Vec3",
     "direction": "_Vec3",
@@ -73,6 +77,7 @@ HANDLE_ARGS = {
     "center": "_Vec3",
     "displacement": "_Vec3",
     "faces": "_Faces",
+    "data": "bytes | bytearray | memoryview | NDArray[np.uint8]",  # any bytes-like object
     "matrix": "ArrayLike",
     "values": "ArrayLike",
     "axes": "ArrayLike",
@@ -88,6 +93,9 @@ POINT_ARGS = {"points", "posed", "normals", "positions", "handles", "targets", "
 # "Class.property", "Class.property.set") where the pybind11 signature says too little.
 OVERRIDES = {
     "Warp.inverse.return": "tuple[_Float64Array, Any, Any]",
+    # a py::object so that a bool can be refused (pybind11's float would take True as 1)
+    "Harmonic.__init__.precision": "float",
+    "cage_coordinates.precision": "float",
     "Warp.exact_inverse.return": "Optional[_Float64Array]",
     "Warp.__call__.out": "Optional[_Float64Array]",
     "Binding.deform.out": "Optional[_Float64Array]",
@@ -156,7 +164,28 @@ OVERRIDES.update({
     "warp_volume.redistance": 'Literal["normalize", "rebuild", "none"]',
     "LinearEditor.__init__.method": 'Literal["laplacian", "bilaplacian"]',
     "edit.method": 'Literal["laplacian", "bilaplacian", "arap", "cage-arap"]',
+    "Warp.__reduce__.return": "tuple[Any, tuple[bytes]]",
+    "Coordinates.__reduce__.return": "tuple[Any, tuple[bytes]]",
+    "Cage.__reduce__.return": "tuple[Any, tuple[bytes]]",
+    "HandleDistances.__reduce__.return": "tuple[Any, tuple[bytes]]",
+    "SkinningBinding.__getstate__.return":
+        "tuple[_Float64Array, tuple[NDArray[np.uint32], _Float64Array], int]",
+    "SkinningBinding.__setstate__.arg0": "tuple[Any, ...]",
 })
+
+# spacewarp.dask's brick functions (python/src/volume_bricks.cpp).
+OVERRIDES.update({
+    "VolumeBrickPlan.bricks": "list[tuple[Any, ...]]",
+    "VolumeBrickPlan.merge.return": "list[dict[str, Any]]",
+    "VolumeBrickPlan.merge.results": "list[VolumeBrickResult]",
+    "VolumeBrickResult.__getstate__.return": "tuple[Any, ...]",
+    "VolumeBrickResult.__setstate__.arg0": "tuple[Any, ...]",
+    "warp_volume_brick.brick": "tuple[Any, ...]",
+})
+for _where in ("plan_volume_bricks", "warp_volume_brick"):
+    OVERRIDES[f"{_where}.sampler"] = "_Sampler"
+    OVERRIDES[f"{_where}.vectors"] = OVERRIDES["warp_volume.vectors"]
+    OVERRIDES[f"{_where}.redistance"] = OVERRIDES["warp_volume.redistance"]
 
 USED: set[str] = set()  # the OVERRIDES keys the module still has (an unused one is an error)
 
@@ -178,6 +207,7 @@ SIMPLE = {
     "float": "float",
     "bool": "bool",
     "str": "str",
+    "bytes": "bytes",
     "dict": "dict[str, Any]",
     "os.PathLike": "_Path",
     "numpy.ndarray[numpy.float64]": "_Float64Array",
@@ -185,6 +215,7 @@ SIMPLE = {
     "List[str]": "list[str]",
     "List[int]": "list[int]",
     "List[float]": "list[float]",
+    "List[os.PathLike]": "list[_Path]",
 }
 
 

@@ -1,6 +1,7 @@
 #include <spacewarp/rbf/detail/rbf_system.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -25,6 +26,8 @@ std::string centerName(std::size_t index, std::size_t handles) {
   return index < handles ? "center " + std::to_string(index)
                          : "fixed center " + std::to_string(index - handles);
 }
+
+std::atomic<std::size_t> systemCount{0};  // for rbfSystemCount()
 
 std::size_t findRoot(std::vector<std::size_t>& parent, std::size_t i) {
   while (parent[i] != i) i = parent[i] = parent[parent[i]];
@@ -133,11 +136,56 @@ Eigen::MatrixXd polynomialBlock(std::span<const Vec3> centers, const Vec3& origi
   return p;
 }
 
+// The lower triangle of QᵀΦQ in place, for a symmetric Φ (n × n) and the Q of `qr` (four
+// reflections): with Q = I − V T Vᵀ (V: the unit lower-trapezoidal reflectors, T: LAPACK's
+// dlarft triangle), QᵀΦQ = Φ − V Zᵀ − Z Vᵀ with Y = Φ V and Z = Y T − ½ V Tᵀ (Vᵀ Y) T: one pass
+// for Y and one for the rank-8 update, parallel over fixed blocks of columns (so the bits do
+// not depend on the thread count), in place of Eigen's two passes of reflections over the whole
+// matrix. The strict upper triangle is left stale.
+void reduceLowerTriangle(const Eigen::HouseholderQR<Eigen::MatrixXd>& qr, Eigen::MatrixXd& phi) {
+  const Eigen::Index n = phi.rows();
+  Eigen::MatrixXd v = qr.matrixQR().leftCols<4>();
+  for (Eigen::Index c = 0; c < 4; ++c) {
+    v.col(c).head(c).setZero();
+    v(c, c) = 1.0;
+  }
+  const Eigen::Vector4d tau = qr.hCoeffs();
+  Eigen::Matrix4d t = Eigen::Matrix4d::Zero();
+  for (Eigen::Index c = 0; c < 4; ++c) {
+    t(c, c) = tau(c);
+    if (c > 0) {
+      const Eigen::VectorXd w = -tau(c) * (v.leftCols(c).transpose() * v.col(c));
+      t.col(c).head(c) = t.topLeftCorner(c, c).triangularView<Eigen::Upper>() * w;
+    }
+  }
+  constexpr Eigen::Index kBlock = 64;
+  const Eigen::Index blocks = (n + kBlock - 1) / kBlock;
+  Eigen::MatrixXd y(n, 4);
+  tbb::parallel_for(Eigen::Index{0}, blocks, [&](Eigen::Index b) {
+    const Eigen::Index j0 = b * kBlock, cols = std::min(kBlock, n - j0);
+    y.middleRows(j0, cols).noalias() = phi.middleCols(j0, cols).transpose() * v;  // Φ symmetric
+  });
+  const Eigen::Matrix4d middle = t.transpose() * (v.transpose() * y) * t;
+  const Eigen::MatrixXd z = y * t - 0.5 * v * middle;
+  tbb::parallel_for(Eigen::Index{0}, blocks, [&](Eigen::Index b) {
+    const Eigen::Index j0 = b * kBlock, j1 = std::min(j0 + kBlock, n);
+    for (Eigen::Index j = j0; j < j1; ++j) {
+      const Eigen::Vector4d vj = v.row(j).transpose(), zj = z.row(j).transpose();
+      for (Eigen::Index i = j; i < n; ++i) {
+        phi(i, j) -= v(i, 0) * zj(0) + v(i, 1) * zj(1) + v(i, 2) * zj(2) + v(i, 3) * zj(3) +
+                     z(i, 0) * vj(0) + z(i, 1) * vj(1) + z(i, 2) * vj(2) + z(i, 3) * vj(3);
+      }
+    }
+  });
+}
+
 }  // namespace
 
 double RbfSystem::memoryEstimate(std::size_t n) {
   const double entries = static_cast<double>(n) * static_cast<double>(n);
-  return 2.25 * sizeof(double) * entries + 4e6;
+  // The factorised block is n − 4 (the polynomial's 4 unknowns are eliminated): LAPACK's
+  // buffers are charged only when that block takes the LAPACK path.
+  return 1.1 * sizeof(double) * entries + 4e6 + denseCholeskyWorkspaceBytes(n > 4 ? n - 4 : 0);
 }
 
 void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centers) {
@@ -153,13 +201,18 @@ void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centers) {
   // Affine independence: the spread of the centered, scaled centers in their thinnest direction.
   const Eigen::Matrix3d cov = p.rightCols<3>().transpose() * p.rightCols<3>();
   const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues();
-  if (!(ev(0) > 1e-20 * ev(2)))
-    throw InvalidInput(needs + "the " + std::to_string(n) + " distinct centers are all coplanar");
+  if (!(ev(0) > 1e-20 * ev(2))) {
+    const char* shape = ev(1) > 1e-20 * ev(2) ? "coplanar" : "collinear";
+    throw InvalidInput(needs + "the " + std::to_string(n) + " distinct centers are all " + shape);
+  }
 }
+
+std::size_t rbfSystemCount() { return systemCount.load(); }
 
 RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
                      const RbfOptions& options)
     : n_(centers.size()) {
+  ++systemCount;
   checkMemory(memoryEstimate(n_),
               who + ": the RBF system of " + std::to_string(n_) + " distinct centers");
   sigma_ = options.kernel == RbfKernel::Biharmonic ? -1.0 : 1.0;
@@ -171,7 +224,8 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
   ProgressTracker tracker(options.progress, "fit rbf", 3);
 
   // Φ, then QᵀΦQ (four Householder reflections on each side).
-  Eigen::MatrixXd phi(n, n);
+  factor_.resize(n, n);
+  Eigen::MatrixXd& phi = factor_;
   tbb::parallel_for(
       tbb::blocked_range<Eigen::Index>(0, n, 16), [&](const tbb::blocked_range<Eigen::Index>& r) {
         for (Eigen::Index j = r.begin(); j != r.end(); ++j) {
@@ -186,19 +240,23 @@ RbfSystem::RbfSystem(const std::string& who, std::span<const Vec3> centers,
   tracker.advance();
   const double pivotFloor =
       static_cast<double>(n_) * std::numeric_limits<double>::epsilon() * phi.cwiseAbs().maxCoeff();
-  phi.applyOnTheLeft(qr_.householderQ().adjoint());
-  phi.applyOnTheRight(qr_.householderQ());
   const Eigen::Index m = n - 4;
-  b12_ = phi.topRightCorner(4, m);
-  Eigen::MatrixXd k = sigma_ * phi.bottomRightCorner(m, m);
+  if (static_cast<std::size_t>(m) < kLapackMinSize) {
+    phi.applyOnTheLeft(qr_.householderQ().adjoint());
+    phi.applyOnTheRight(qr_.householderQ());
+    b12_ = phi.topRightCorner(4, m);
+  } else {
+    reduceLowerTriangle(qr_, phi);
+    b12_ = phi.bottomLeftCorner(m, 4).transpose();
+  }
+  auto k = phi.bottomRightCorner(m, m);
+  if (sigma_ != 1.0) k *= sigma_;
   k.diagonal().array() += options.smoothing;
-  phi.resize(0, 0);
   tracker.advance();
   if (m > 0) {
-    llt_.compute(k);
-    if (llt_.info() != Eigen::Success ||
-        !(llt_.matrixLLT().diagonal().array().square().minCoeff() > pivotFloor) ||
-        !(llt_.rcond() > std::numeric_limits<double>::epsilon())) {
+    cholesky_.emplace(k.data(), static_cast<std::size_t>(m), static_cast<std::size_t>(n));
+    if (!cholesky_->ok() || !(cholesky_->minPivot() > pivotFloor) ||
+        !(cholesky_->rcond() > std::numeric_limits<double>::epsilon())) {
       throw SolverError(who + ": the RBF system of " + std::to_string(n_) +
                         " centers is numerically singular (kernel " +
                         rbfKernelName(options.kernel) +
@@ -215,7 +273,8 @@ void RbfSystem::solve(const Eigen::MatrixXd& d, Eigen::MatrixXd& w, Eigen::Matri
   Eigen::MatrixXd rhs = qtd.topRows(4);
   w.setZero(n, d.cols());
   if (m > 0) {
-    const Eigen::MatrixXd u = llt_.solve(sigma_ * qtd.bottomRows(m));
+    Eigen::MatrixXd u = sigma_ * qtd.bottomRows(m);
+    cholesky_->solve(u.data(), static_cast<std::size_t>(u.cols()), static_cast<std::size_t>(m));
     rhs -= b12_ * u;
     w.bottomRows(m) = u;
     w.applyOnTheLeft(qr_.householderQ());

@@ -2,16 +2,17 @@
 // Internals shared by RbfWarp and RbfCoordinates: validation and merging of the centers, and
 // the one factorisation of the RBF saddle-point system. Not a user-facing API (namespace detail).
 
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Householder>
 #include <Eigen/QR>
 
 #include <spacewarp/core/math.h>
+#include <spacewarp/rbf/detail/dense_cholesky.h>
 #include <spacewarp/rbf/kernels.h>
 
 namespace spacewarp::detail {
@@ -47,20 +48,27 @@ void checkRbfPolynomial(const std::string& who, std::span<const Vec3> centers);
 /// The factorisation of [[Φ + σλI, P], [Pᵀ, 0]] (see RbfOptions::smoothing) by null-space
 /// reduction: with P = Q [R; 0] (Householder QR of the n × 4 polynomial block), the kernel
 /// weights are w = Q [0; u] with (σ Q₂ᵀ Φ Q₂ + λ I) u = σ Q₂ᵀ D, an SPD system (the kernels are
-/// conditionally definite of order ≤ 2 with sign σ) factorised once by Cholesky (LLT), and the
+/// conditionally definite of order ≤ 2 with sign σ) factorised once by Cholesky (LAPACK on the
+/// BLAS, tiled over threads: DenseCholesky), in place in QᵀΦQ, and the
 /// polynomial coefficients follow from R a = Q₁ᵀ (D − Φ w). The polynomial basis is
 /// q(x) = [1, (x − origin) / length], centered and scaled for conditioning.
+// How many RBF systems (fits) this process has set up: tests check that loading a saved fit
+// fits nothing.
+std::size_t rbfSystemCount();
+
 class RbfSystem {
  public:
-  /// The peak memory (bytes) of building the system for n centers: two dense n × n matrices at
-  /// once (the kernel matrix, then the reduced matrix and its Cholesky factor), measured at
-  /// 16.6 to 18.8 n² bytes for 1,000 to 4,000 centers.
+  /// The peak memory (bytes) of building the system for n centers: one dense n × n matrix (the
+  /// kernel matrix, transformed and factorised in place), and the BLAS work buffers of the
+  /// threads (denseCholeskyWorkspaceBytes).
   static double memoryEstimate(std::size_t n);
 
   /// Throws InvalidInput (fewer than 4 affinely independent centers, or a system larger than
   /// the memory available: memoryEstimate(), detail::checkMemory) or SolverError (a system that
   /// is numerically singular after all).
   RbfSystem(const std::string& who, std::span<const Vec3> centers, const RbfOptions& options);
+  RbfSystem(const RbfSystem&) = delete;  // cholesky_ points into factor_
+  RbfSystem& operator=(const RbfSystem&) = delete;
 
   std::size_t size() const { return n_; }
   const Vec3& origin() const { return origin_; }
@@ -77,7 +85,10 @@ class RbfSystem {
   double sigma_ = 1.0;
   Eigen::HouseholderQR<Eigen::MatrixXd> qr_;  // of P
   Eigen::MatrixXd b12_;                       // 4 × (n − 4): the top-right block of QᵀΦQ
-  Eigen::LLT<Eigen::MatrixXd> llt_;           // of σ Q₂ᵀ Φ Q₂ + λ I
+  // n × n: QᵀΦQ, its bottom-right (n − 4) × (n − 4) block overwritten by the Cholesky factor
+  // of σ Q₂ᵀ Φ Q₂ + λ I (lower triangle).
+  Eigen::MatrixXd factor_;
+  std::optional<DenseCholesky> cholesky_;
 };
 
 }  // namespace spacewarp::detail

@@ -10,7 +10,8 @@ namespace spacewarp::detail {
 
 /// Reads "basis" ("trilinear", "bernstein" or "bspline"), "origin" (the box corner), "size"
 /// (edge lengths), "resolution" ([l, m, n] integers), optional "axes" (three orthogonal
-/// directions, normalised here; default x, y, z), optional "outside" ("identity" (default),
+/// directions, normalised here; default x, y, z), optional "ends" ("extrapolate" (default) or
+/// "repeat", Blender's; bspline only), optional "outside" ("identity" (default),
 /// "clamp" or "falloff") and "falloff" (relative to the box diagonal, default 0.1), and either
 /// "controlPoints" (l·m·n posed points, i fastest, then j, then k) or "constraints"
 /// ({"from": [...], "to": [...]}, solved by direct manipulation) with optional "smoothness"

@@ -6,9 +6,10 @@
 
 namespace spacewarp::detail {
 
-/// The "harmonic" rig: keys "cage", "pose" (paths), optional "tets" (target tet count) and
-/// "cache" (a coordinate cache file, as --harmonic-cache) and "outside" ("raise" or "nearest").
-/// Throws InvalidInput if spacewarp was built without TetGen.
+/// The "harmonic" rig: keys "cage", "pose" (paths), optional "tets" (target tet count) or
+/// "precision" (a level in [1, 7], harmonicPrecisionTets(); not both), "cache" (a coordinate cache
+/// file, as --harmonic-cache) and "outside" ("raise" or "nearest"). Throws InvalidInput if
+/// spacewarp was built without TetGen.
 Rig harmonicRig(RigReader& reader);
 
 /// The "mvc" and "green" rigs: keys "cage" and "pose" (paths). When the reader is checking,

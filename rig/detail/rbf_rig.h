@@ -13,4 +13,8 @@ namespace spacewarp::detail {
 /// default 1). Returns the RbfWarp and the RbfCoordinates of the centers (built on first use).
 Rig rbfRig(RigReader& reader);
 
+/// The coordinates of an RBF rig (built on first use) saved in an archive (tag
+/// "lazy-rbf-coordinates", rig/warp_archive.cpp).
+std::shared_ptr<const Coordinates> loadLazyRbfCoordinates(ArchiveReader& in);
+
 }  // namespace spacewarp::detail

@@ -24,6 +24,7 @@
 namespace fs = std::filesystem;
 using namespace spacewarp;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 namespace {
 
@@ -335,6 +336,34 @@ TEST_F(CliTest, WeightsCsvHasHeaderAndOneRowPerPoint) {
       ++rows;
     }
     EXPECT_EQ(rows, cloud.size());
+  }
+}
+
+// Points too far for a method's weights are refused with exit 3 naming the point (MVC once gave
+// weights 11% off at 1e9 diagonals, Green NaN rows from ~1e110 with exit 0); a bad
+// SPACEWARP_SIMD is a usage error naming the variable, not the input file.
+TEST_F(CliTest, WeightsRefuseFarPointsAndABadSimdVariable) {
+  const CageFiles cage = writeBoxCage(dir_);
+  PolygonSoup cloud;
+  cloud.positions = {Vec3(0.1), Vec3(1e9, 0, 0)};
+  writeSoup(cloud, dir_ / "mvc.ply");
+  cloud.positions = {Vec3(0.1), Vec3(1e300, 0, 0)};
+  writeSoup(cloud, dir_ / "green.ply");
+  for (const std::string method : {"mvc", "green"}) {
+    const std::string args = "weights --method " + method + " --cage " + cage.rest.string() + " " +
+                             (dir_ / (method + ".ply")).string() + " -o " +
+                             (dir_ / "w.csv").string();
+    const CliResult r = run(args);
+    EXPECT_EQ(r.exitCode, 3) << method << ": " << r.err;
+    EXPECT_THAT(r.err, HasSubstr(method == "mvc" ? "(1000000000, 0, 0)"
+                                                 : "(1.0000000000000001e+300, 0, 0)"))
+        << method;
+    EXPECT_FALSE(fs::exists(dir_ / "w.csv")) << method;
+    const CliResult env = run(args, "SPACEWARP_SIMD=garbage ");
+    EXPECT_EQ(env.exitCode, 2) << env.err;
+    EXPECT_THAT(env.err, HasSubstr("spacewarp: error: SPACEWARP_SIMD=garbage: not a SIMD path "
+                                   "(baseline, x86-64-v3, x86-64-v4)"));
+    EXPECT_THAT(env.err, Not(HasSubstr(".ply")));
   }
 }
 

@@ -178,6 +178,11 @@ TEST_F(CompareTest, BadInputExitsWithAMessageAndWritesNothing) {
       {"--methods mvc,,green --slice z=0.5", 2, "unknown method ''"},
       {"--control -1 --slice z=0.5", 2, "--control"},
       {"--control 1", 2, ""},  // no plane
+#ifdef SPACEWARP_HAVE_HARMONIC
+      // Harmonic's options without harmonic among the methods (accepted silently once).
+      {"--methods mvc --precision 1 --slice z=0.5", 2,
+       "--precision applies to --method harmonic only, not to --methods mvc"},
+#endif
   };
   for (const Case& c : cases) {
     const CliResult r = compare(c.args);

@@ -91,6 +91,37 @@ TEST_F(FfdCliTest, PosedLatticeRigsMatchTheLibrary) {
   }
 }
 
+// "ends": "repeat" (Blender's B-spline lattice) reaches the library, and differs from the
+// default near the faces.
+TEST_F(FfdCliTest, RepeatEndsRigMatchesTheLibrary) {
+  const PolygonSoup cloud = writeCloud(-0.5, 0.5, 500);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  LatticeOptions params = rotatedBox(LatticeBasis::BSpline);
+  params.ends = LatticeEnds::Repeat;
+  const Lattice lattice(params);
+  std::vector<Vec3> posed;
+  for (const Vec3& p : lattice.restControlPoints())
+    posed.push_back(p + Vec3(u(rng), u(rng), u(rng)));
+  nlohmann::json rig = rigOf(params, "bspline", posed);
+  rig["ends"] = "repeat";
+  write("ffd.json", rig.dump());
+  const CliResult r = deform("ffd.json");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const PolygonSoup out = readSoup(dir_ / "out.ply");
+  ASSERT_EQ(out.size(), cloud.size());
+  const LatticeWarp repeat(lattice, posed);
+  params.ends = LatticeEnds::Extrapolate;
+  const LatticeWarp extrapolate(Lattice(params), posed);
+  double differs = 0.0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    EXPECT_EQ(out.positions[i], repeat.apply(cloud.positions[i])) << i;
+    differs =
+        std::max(differs, glm::length(out.positions[i] - extrapolate.apply(cloud.positions[i])));
+  }
+  EXPECT_GT(differs, 1e-3);
+}
+
 TEST_F(FfdCliTest, AffinePoseMovesPointsAffinely) {
   const PolygonSoup cloud = writeCloud(-0.5, 0.5, 200);
   const LatticeOptions params = rotatedBox(LatticeBasis::BSpline);
@@ -204,6 +235,16 @@ INSTANTIATE_TEST_SUITE_P(
             "{" SW_BOX
             R"("basis": "trilinear", "resolution": [2,2,2], "outside": "wrap", )" SW_CORNERS "}",
             "'outside' 'wrap'"},
+        test::BadRig{
+            "UnknownEnds",
+            "{" SW_BOX
+            R"("basis": "bspline", "resolution": [4,4,4], "ends": "mirror", "controlPoints": []})",
+            "'ends' 'mirror' is not one of: extrapolate, repeat"},
+        test::BadRig{"EndsOfATrilinearLattice",
+                     "{" SW_BOX
+                     R"("basis": "trilinear", "resolution": [2,2,2], "ends": "repeat", )" SW_CORNERS
+                     "}",
+                     "'ends' applies to the bspline basis only"},
         test::BadRig{"NoControls", "{" SW_BOX R"("basis": "trilinear", "resolution": [2,2,2]})",
                      "'controlPoints' is missing"},
         test::BadRig{

@@ -164,6 +164,53 @@ TEST_F(HarmonicCliTest, PointsOutsideTheCage) {
   EXPECT_EQ(deformWith(flags + " --outside nearest").exitCode, 0);
 }
 
+// --precision p is --tets 200000 · 4^(p − 5): the same solve, bit for bit, for whole and
+// fractional levels; both at once, an out-of-range level or another method are usage errors.
+TEST_F(HarmonicCliTest, PrecisionIsATetBudget) {
+  const std::string cage = "--method harmonic --cage " + (dir_ / "cage.obj").string() + " --pose " +
+                           (dir_ / "pose.obj").string();
+  ASSERT_EQ(deformWith(cage + " --precision 2").exitCode, 0);
+  expectAffine("--precision 2");
+  const std::string byPrecision = test::slurp(dir_ / "out.ply");
+  ASSERT_EQ(deformWith(cage + " --tets 3125").exitCode, 0);
+  EXPECT_EQ(test::slurp(dir_ / "out.ply"), byPrecision);
+  ASSERT_EQ(deformWith(cage + " --precision 2.5").exitCode, 0);  // 200000 / 32 tets
+  const std::string byFraction = test::slurp(dir_ / "out.ply");
+  EXPECT_NE(byFraction, byPrecision);
+  ASSERT_EQ(deformWith(cage + " --tets 6250").exitCode, 0);
+  EXPECT_EQ(test::slurp(dir_ / "out.ply"), byFraction);
+  fs::remove(dir_ / "out.ply");
+  for (const char* bad :
+       {" --precision 2 --tets 3125", " --precision 0", " --precision 8", " --precision 7.5",
+        " --precision nan", " --precision 5x", " --precision 0x5", " --precision inf"}) {
+    const test::CliResult r = deformWith(cage + bad);
+    EXPECT_EQ(r.exitCode, 2) << bad;
+    EXPECT_THAT(r.err, HasSubstr("--precision")) << bad;
+    EXPECT_FALSE(fs::exists(dir_ / "out.ply")) << bad;
+  }
+  // Not numbers are called so (once "5x" was "not in range" and "0x5" was read as 5).
+  for (const char* word : {"nan", "5x", "0x5"}) {
+    const test::CliResult r = deformWith(cage + " --precision " + word);
+    EXPECT_THAT(r.err, HasSubstr("'" + std::string(word) + "' is not a number")) << word;
+  }
+  const test::CliResult r =
+      deformWith("--method mvc --cage " + (dir_ / "cage.obj").string() + " --pose " +
+                 (dir_ / "pose.obj").string() + " --precision 2");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_THAT(r.err, HasSubstr("--precision applies to --method harmonic only"));
+}
+
+TEST_F(HarmonicCliTest, RigPrecisionKey) {
+  write("rig.json",
+        R"({"method": "harmonic", "cage": "cage.obj", "pose": "pose.obj", "precision": 1})");
+  ASSERT_EQ(deform("rig.json").exitCode, 0);
+  expectAffine("precision 1");
+  write("rig.json",
+        R"({"method": "harmonic", "cage": "cage.obj", "pose": "pose.obj", "precision": 1.5})");
+  ASSERT_EQ(deform("rig.json").exitCode, 0);
+  expectAffine("precision 1.5");
+}
+
 INSTANTIATE_TEST_SUITE_P(
     HarmonicRigs, BadRigTest,
     ::testing::Values(
@@ -175,7 +222,22 @@ INSTANTIATE_TEST_SUITE_P(
         test::BadRig{"HarmonicBadOutside",
                      R"({"method": "harmonic", "cage": "c.obj", "pose": "p.obj", )"
                      R"("outside": "clamp"})",
-                     3, "'outside' must be"}),
+                     3, "'outside' must be"},
+        test::BadRig{"HarmonicPrecisionZero",
+                     R"({"method": "harmonic", "cage": "c.obj", "pose": "p.obj", "precision": 0})",
+                     3, "'precision' must be a number in [1, 7]"},
+        test::BadRig{"HarmonicPrecisionAboveSeven",
+                     R"({"method": "harmonic", "cage": "c.obj", "pose": "p.obj", )"
+                     R"("precision": 7.5})",
+                     3, "'precision' must be a number in [1, 7]"},
+        test::BadRig{"HarmonicPrecisionAndTets",
+                     R"({"method": "harmonic", "cage": "c.obj", "pose": "p.obj", )"
+                     R"("precision": 2, "tets": 3000})",
+                     3, "'precision' cannot be given with \"tets\" (give one of them)"},
+        test::BadRig{"HarmonicPrecsionMistyped",
+                     R"({"method": "harmonic", "cage": "c.obj", "pose": "p.obj", )"
+                     R"("precison": 2})",
+                     3, "precison"}),
     test::badRigName);
 
 }  // namespace

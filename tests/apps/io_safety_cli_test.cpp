@@ -265,6 +265,20 @@ TEST_F(IoSafetyCliTest, PointCloudWritersFailCleanly) {
       dir_ / "out.obj");
 }
 
+// A full disk (here the file size limit) during a streamed deform: exit 3 naming the output,
+// no partial file, whether it fails in the first chunk or a later one.
+TEST_F(IoSafetyCliTest, StreamedDeformWriterFailsCleanly) {
+  writeCloud(Vec3(-1), Vec3(1), 1000, 3);
+  writeTwistRig();
+  for (const std::string chunk : {"1", "100", "1000"}) {
+    SCOPED_TRACE(chunk);
+    fs::remove(dir_ / "out.ply");
+    expectCleanWriteFailure({"deform", "--chunk-points", chunk, "--rig", path("twist.json"),
+                             path("cloud.ply"), "-o", path("out.ply")},
+                            dir_ / "out.ply");
+  }
+}
+
 TEST_F(IoSafetyCliTest, WeightsWritersFailCleanly) {
   writeCubeCage("cage.obj", 1.0);
   writeCloud(Vec3(-0.9), Vec3(0.9), 1000, 5);
@@ -420,6 +434,22 @@ TEST_F(IoSafetyCliTest, InterruptedLargeDeformRemovesItsTemporary) {
   expectCleanInterruption(
       {"deform", "--rig", path("twist.json"), path("cloud.ply"), "-o", path("out.obj")},
       dir_ / "out.obj", SIGINT, /*blockInSync=*/false);
+}
+
+// A streamed deform (--chunk-points) writes its chunks into the temporary as they are warped:
+// a signal mid-stream (no block_fsync.so: 1M points in chunks of 1000 take a while) or in the
+// final sync still leaves no output and no temporary.
+TEST_F(IoSafetyCliTest, InterruptedStreamedDeformRemovesItsTemporary) {
+  writeCloud(Vec3(-1), Vec3(1), 1000000, 3);
+  writeTwistRig();
+  const std::vector<std::string> args = {"deform", "--chunk-points",   "1000",
+                                         "--rig",  path("twist.json"), path("cloud.ply"),
+                                         "-o",     path("out.ply")};
+  for (const int signal : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(signal);
+    expectCleanInterruption(args, dir_ / "out.ply", signal, /*blockInSync=*/false);
+    expectCleanInterruption(args, dir_ / "out.ply", signal, /*blockInSync=*/true);
+  }
 }
 
 TEST_F(IoSafetyCliTest, InterruptedWeightsRemovesItsTemporary) {

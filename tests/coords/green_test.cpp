@@ -245,6 +245,33 @@ TEST(GreenCoordinates, ReproducesExteriorPointsAtRest) {
   }
 }
 
+// Very far points (finite, but ~1e110 world units and beyond) once got NaN rows with no error:
+// they are either reproduced (to the distance's scale) or refused naming the point.
+TEST(GreenCoordinates, FarPointsAreFiniteOrRefused) {
+  const std::vector<Vec3> directions = {Vec3(1, 0, 0), Vec3(0, -1, 0),
+                                        glm::normalize(Vec3(1, 2, -3))};
+  for (const NamedCage& c : testCages()) {
+    const GreenCoordinates g(c.cage);
+    for (const double distance : {1e3, 1e9, 1e50, 1e100, 1e120, 1e200, 1e300}) {
+      for (const Vec3& direction : directions) {
+        const Vec3 x = distance * direction;
+        std::vector<double> row(g.columnCount());
+        try {
+          g.weights(x, row);
+        } catch (const InvalidInput& e) {
+          EXPECT_GE(distance, 1e100) << c.name;  // nearer points must work
+          EXPECT_NE(std::string(e.what()).find("too far from the cage"), std::string::npos)
+              << e.what();
+          continue;
+        }
+        ASSERT_TRUE(allFinite(row)) << c.name << " at " << distance;
+        EXPECT_LE(glm::length(reproduce(*c.cage, row) - x), 1e-10 * distance)
+            << c.name << " at " << distance;
+      }
+    }
+  }
+}
+
 TEST(GreenCoordinates, DegenerateConfigurationsAreAccurate) {
   std::mt19937 rng(13);
   // L prism: interior points in the planes of the two faces at the reflex edge (y = 1, x > 1 and

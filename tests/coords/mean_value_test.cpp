@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <limits>
@@ -328,6 +329,44 @@ TEST(MeanValueCoordinates, NegativeWeightsExistInsideConcaveCages) {
       most = std::min(most, *std::min_element(w.begin(), w.end()));
     }
     EXPECT_LT(most, -1e-4) << shape.name;
+  }
+}
+
+// Far from the cage the weights grow like the distance and cancel in Σ w_i p_i: they must stay
+// accurate relative to the distance, or the point is refused (InvalidInput naming it), never
+// returned wrong (they were 11% off at 1e9 diagonals and summed to 3 at 1e16).
+TEST_P(MeanValueShapes, FarPointsAreAccurateOrRefused) {
+  const Cage& cage = *cage_;
+  const BoundingBox box = boundingBox(cage.vertices());
+  const Vec3 center = 0.5 * (box.min + box.max);
+  std::mt19937_64 rng(5);
+  std::vector<Vec3> directions = {Vec3(1, 0, 0), Vec3(0, -1, 0), Vec3(0, 0, 1)};
+  for (int i = 0; i < 4; ++i) directions.push_back(randomDirection(rng));
+  for (const double distance : {10.0, 1e3, 2.9e3}) {
+    for (const Vec3& direction : directions) {
+      const Vec3 x = center + distance * cage.diagonal() * direction;
+      const std::vector<double> w = weightsAt(*mvc_, x);
+      Vec3 sum(0.0);
+      for (std::size_t k = 0; k < w.size(); ++k) sum += w[k] * (cage.vertices()[k] - center);
+      // The weights are O(distance), so their sum is exact to about ε times that.
+      EXPECT_LE(unityError(w), 1e-10 * distance) << distance;
+      EXPECT_LE(glm::length(sum - (x - center)), 1e-10 * glm::length(x - center)) << distance;
+    }
+  }
+  for (const double distance : {3.1e3, 1e6, 1e9, 1e12, 1e16, 1e30, 1e100}) {
+    const Vec3 x = center + distance * cage.diagonal() * directions[3];
+    std::vector<double> w(mvc_->columnCount());
+    try {
+      mvc_->weights(x, w);
+      ADD_FAILURE() << "no error at " << distance << " diagonals";
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("cage diagonals from the cage"), std::string::npos)
+          << e.what();
+    }
+    // The batch path refuses it too, among near points.
+    const std::vector<Vec3> points = {center, x, center};
+    std::vector<double> rows(points.size() * mvc_->columnCount());
+    EXPECT_THROW(mvc_->weightsBatch(points, rows), InvalidInput) << distance;
   }
 }
 

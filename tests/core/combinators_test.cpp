@@ -146,6 +146,51 @@ TEST(ComposedWarp, BatchIsBitIdenticalToApplyForAnyThreadCount) {
       ComposedWarp(taper(), std::make_shared<ComposedWarp>(twist(), bend())), points));
 }
 
+TEST(ComposedWarp, NestedCompositionsAreFlattenedWithTheSameResults) {
+  // Built left to right, as Compose(a, b, c) and rig chains do: points, Jacobians and inverses
+  // are bit-identical to applying the stages one after the other by hand.
+  const std::vector<std::shared_ptr<const Warp>> parts = {twist(), bend(), taper(), twist()};
+  std::shared_ptr<const Warp> chain = parts[0];
+  for (std::size_t i = 1; i < parts.size(); ++i)
+    chain = std::make_shared<ComposedWarp>(chain, parts[i]);
+  const auto& composed = static_cast<const ComposedWarp&>(*chain);
+  EXPECT_EQ(composed.stages(), parts);
+  std::mt19937 rng(5);
+  for (const Vec3& x : randomPoints(rng, 100, -2.0, 2.0)) {
+    Vec3 y = x;
+    Mat3 j = parts[0]->jacobian(x);
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      if (i > 0) j = parts[i]->jacobian(y) * j;
+      y = parts[i]->apply(y);
+    }
+    EXPECT_TRUE(test::bitEqual(composed.apply(x), y));
+    const Mat3 jacobian = composed.jacobian(x);
+    for (int c = 0; c < 3; ++c) EXPECT_TRUE(test::bitEqual(jacobian[c], j[c]));
+  }
+  // Nested the other way round it is flattened to the same stages.
+  const ComposedWarp right(
+      parts[0],
+      std::make_shared<ComposedWarp>(parts[1], std::make_shared<ComposedWarp>(parts[2], parts[3])));
+  EXPECT_EQ(right.stages(), parts);
+  EXPECT_THROW(ComposedWarp(std::vector<std::shared_ptr<const Warp>>{twist()}), InvalidInput);
+  EXPECT_THROW(ComposedWarp(std::vector<std::shared_ptr<const Warp>>{twist(), nullptr}),
+               InvalidInput);
+}
+
+TEST(ComposedWarp, AChainOfAHundredThousandStagesCostsNoStack) {
+  // Nested, each apply would recurse once per stage: deep enough to overflow a thread's stack.
+  TwistOptions p;
+  p.rate = 1e-6;
+  const auto stage = std::make_shared<TwistWarp>(p);
+  const auto chain = std::make_shared<ComposedWarp>(
+      std::make_shared<ComposedWarp>(std::vector<std::shared_ptr<const Warp>>(100000, stage)),
+      stage);
+  EXPECT_EQ(chain->stages().size(), 100001u);
+  Vec3 expected(1.0, 0.5, 2.0);
+  for (int i = 0; i <= 100000; ++i) expected = stage->apply(expected);
+  EXPECT_TRUE(test::bitEqual(chain->apply(Vec3(1.0, 0.5, 2.0)), expected));
+}
+
 TEST(ComposedWarp, BatchRejectsMismatchedSizes) {
   test::expectBatchRejectsMismatchedSizes(ComposedWarp(twist(), bend()), 5, 4);
 }

@@ -29,6 +29,7 @@
 #include <spacewarp/core/deform.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/geometry.h>
+#include <spacewarp/nonlinear/detail/graph_index.h>
 #include "test_util.h"
 
 using namespace spacewarp;
@@ -396,6 +397,9 @@ TEST(DeformationGraph, RejectsInvalidParameters) {
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { build(0.1, 0); }), HasSubstr("k = 0"));
   // One cell: a single node, so k = 4 cannot be met.
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { build(10.0, 4); }), HasSubstr("the graph has 1"));
+  // The largest k: k + 1 is named without overflowing.
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { build(0.1, std::numeric_limits<int>::max()); }),
+              HasSubstr("k + 1 = 2147483648 nodes"));
   EXPECT_THAT(test::messageOf<InvalidInput>(
                   [&] { DeformationGraph g(std::vector<Vec3>{}, spacingOf(0.1)); }),
               HasSubstr("no positions"));
@@ -879,3 +883,43 @@ TEST(DeformationGraph, NonRigidEditScalesWithTheScene) {
   }
   EXPECT_LE(worst / 4.0, 1e-9);
 }
+
+namespace spacewarp {
+namespace {
+
+// The lookup grid lists, per cell, the nodes among the nearest that lie within its radius: its
+// answers must be the brute-force k + 1 nearest, ordered by (squared distance, index), also for
+// a cluster plus a far node (whose grid build used to visit the whole cluster from every cell).
+TEST(DeformationGraphIndex, TheLookupGridFindsTheBruteForceNearestNodesForClusteredNodes) {
+  for (const bool farNode : {false, true}) {
+    std::mt19937 rng(23);
+    std::vector<Vec3> nodes = test::randomPoints(rng, 300, -1.0, 1.0);
+    for (const Vec3& p : test::randomPoints(rng, 300, -1e-3, 1e-3)) nodes.push_back(p);
+    if (farNode) nodes.push_back(Vec3(50.0, 50.0, 50.0));
+    const int k = 4;
+    const detail::GraphIndex index(nodes, k);
+    if (!farNode) {
+      ASSERT_FALSE(index.candidates.empty());  // the grid answers some queries
+    }
+    std::vector<Vec3> queries = test::randomPoints(rng, 2000, -1.2, 1.2);
+    for (const Vec3& p : test::randomPoints(rng, 500, -2e-3, 2e-3)) queries.push_back(p);
+    std::vector<std::uint32_t> idx(k + 1), order(nodes.size());
+    std::vector<double> d2(k + 1);
+    for (const Vec3& x : queries) {
+      index.nearest(x, idx.data(), d2.data());
+      const auto dist = [&](std::uint32_t i) {
+        const Vec3 d = x - nodes[i];
+        return d.x * d.x + d.y * d.y + d.z * d.z;
+      };
+      for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::partial_sort(order.begin(), order.begin() + k + 1, order.end(),
+                        [&](std::uint32_t a, std::uint32_t b) {
+                          return dist(a) < dist(b) || (dist(a) == dist(b) && a < b);
+                        });
+      ASSERT_TRUE(std::equal(idx.begin(), idx.end(), order.begin()));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace spacewarp

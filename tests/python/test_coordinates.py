@@ -221,6 +221,32 @@ def test_trilinear_lattice_has_eight_non_zeros():
     assert (np.diff(sparse.indptr) == 8).all()
 
 
+def test_bspline_lattice_ends():
+    """Repeated ends (Blender's) weigh the face control 5/6 on its face; deep inside (beyond the
+    first cell) both ends give the same weights."""
+    kw = dict(origin=(0, 0, 0), extents=(1, 1, 1), resolution=(4, 4, 4), basis="bspline")
+    extrapolate = spacewarp.Lattice(**kw)
+    repeat = spacewarp.Lattice(**kw, ends="repeat")
+    face = np.array([[0.0, 0.5, 0.5]])
+    assert extrapolate.weights(face)[0].reshape(4, 4, 4)[:, :, 0].sum() == pytest.approx(1.0)
+    assert repeat.weights(face)[0].reshape(4, 4, 4)[:, :, 0].sum() == pytest.approx(5 / 6)
+    inner = np.random.default_rng(3).uniform(0.34, 0.66, (20, 3))
+    assert np.array_equal(extrapolate.weights(inner), repeat.weights(inner))
+    with pytest.raises(spacewarp.InvalidInput, match="ends must be"):
+        spacewarp.Lattice(**kw, ends="mirror")
+    # Given explicitly with a basis that has no phantom controls, ends is refused, as the rig's
+    # key is; Lattice.around takes it too.
+    for basis in ("trilinear", "bernstein"):
+        with pytest.raises(spacewarp.InvalidInput, match="bspline basis only"):
+            spacewarp.Lattice(**dict(kw, basis=basis), ends="extrapolate")
+    cloud = np.random.default_rng(4).uniform(0.0, 1.0, (50, 3))
+    around = spacewarp.Lattice.around(cloud, basis="bspline", ends="repeat")
+    default = spacewarp.Lattice.around(cloud, basis="bspline")
+    assert not np.array_equal(around.weights(cloud), default.weights(cloud))
+    with pytest.raises(spacewarp.InvalidInput, match="bspline basis only"):
+        spacewarp.Lattice.around(cloud, ends="repeat")
+
+
 def test_cage_coordinates_by_name(cage, points):
     assert set(spacewarp.cage_methods()) == {"mvc", "green", "harmonic"}
     by_name = spacewarp.cage_coordinates("mvc", cage)
@@ -644,3 +670,28 @@ def test_a_harmonic_cache_that_cannot_be_written_is_refused_before_the_solve(tmp
     with pytest.raises(spacewarp.IoError, match="is a folder"):
         spacewarp.Harmonic(cage, tets=2000, cache=tmp_path / "folder", progress=record)
     assert stages == []  # refused before any meshing
+
+
+def test_harmonic_precision_is_a_tet_budget(cage, points):
+    """precision=p solves at 200000 * 4**(p - 5) target tets: the same solve as tets= gives."""
+    by_level = spacewarp.Harmonic(cage, precision=2)
+    by_tets = spacewarp.Harmonic(cage, tets=3125)
+    assert by_level.tet_count == by_tets.tet_count
+    np.testing.assert_array_equal(by_level.weights(points), by_tets.weights(points))
+    same = spacewarp.cage_coordinates("harmonic", cage, precision=2)
+    np.testing.assert_array_equal(same.weights(points), by_tets.weights(points))
+    with pytest.raises(spacewarp.InvalidInput, match="not both"):
+        spacewarp.Harmonic(cage, tets=3125, precision=2)
+    for bad in (8, -1, 7.5, True, False, "5"):
+        with pytest.raises(spacewarp.InvalidInput, match="precision"):
+            spacewarp.Harmonic(cage, precision=bad)
+    with pytest.raises(spacewarp.InvalidInput, match="not a bool"):
+        spacewarp.cage_coordinates("harmonic", cage, precision=True)
+
+
+def test_harmonic_precision_may_lie_between_levels(cage, points):
+    """precision=2.5 solves at 200000 * 4**-2.5 = 6250 target tets, between levels 2 and 3."""
+    between = spacewarp.Harmonic(cage, precision=2.5)
+    by_tets = spacewarp.Harmonic(cage, tets=6250)
+    assert by_tets.tet_count > spacewarp.Harmonic(cage, precision=2).tet_count
+    np.testing.assert_array_equal(between.weights(points), by_tets.weights(points))

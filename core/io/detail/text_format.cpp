@@ -1,5 +1,6 @@
 #include <spacewarp/core/io/detail/text_format.h>
 
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -174,6 +175,27 @@ void drain(std::string& buffer, std::ostream& out, bool force) {
     out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
     buffer.clear();
   }
+}
+
+void refuseDirectory(const std::filesystem::path& path) {
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error))
+    throw IoError("cannot open " + path.string() + ": it is a directory");
+}
+
+void throwCannotOpen(const std::string& name, int code) {
+  throw IoError("cannot open " + name + (code != 0 ? ": " + std::string(std::strerror(code)) : ""));
+}
+
+std::ifstream openInputFile(const std::filesystem::path& path) {
+  refuseDirectory(path);
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    const int code = errno;  // before path.string() may allocate
+    throwCannotOpen(path.string(), code);
+  }
+  return in;
 }
 
 }  // namespace spacewarp::detail

@@ -5,6 +5,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <istream>
 #include <ostream>
 #include <string>
@@ -12,6 +14,19 @@
 #include <vector>
 
 namespace spacewarp::detail {
+
+// ---------------------------------------------------------------------------------------------
+// Opening
+
+/// Throws IoError "cannot open <path>: it is a directory" when `path` is one (checked first by
+/// the readers: a folder has no extension, and opening one succeeds on Linux).
+void refuseDirectory(const std::filesystem::path& path);
+
+/// Throws IoError "cannot open <name>", with strerror(code) when `code` (errno) is not 0.
+[[noreturn]] void throwCannotOpen(const std::string& name, int code);
+
+/// Opens `path` for binary reading, refusing a directory; IoError with errno's reason.
+std::ifstream openInputFile(const std::filesystem::path& path);
 
 // ---------------------------------------------------------------------------------------------
 // Reading
