@@ -274,6 +274,23 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
   }
   for (const Triangle& t : triangles_) volume_ += coneVolume(vertices_, frame_.center, t) / 6.0;
   if (!(volume_ > 0.0)) fail(name_, "the cage encloses no volume");
+  orientFaces(flip);
+}
+
+// The faces take the orientation of their triangles: the triangles of one face share its inner
+// diagonals, traversed in opposite directions, so they are all flipped or none is.
+void Cage::orientFaces(std::span<const int> triangleFlips) {
+  faceOffsets_ = inputOffsets_;
+  faceIndices_ = inputIndices_;
+  std::vector<int> faceFlip(faceCount(), 0);
+  for (std::size_t t = 0; t < triangles_.size(); ++t)
+    faceFlip[triangleSource_[t]] = triangleFlips[t];
+  for (std::size_t f = 0; f < faceCount(); ++f) {
+    maxFaceSize_ = std::max<std::size_t>(maxFaceSize_, faceOffsets_[f + 1] - faceOffsets_[f]);
+    if (faceFlip[f])
+      std::reverse(faceIndices_.begin() + faceOffsets_[f] + 1,
+                   faceIndices_.begin() + faceOffsets_[f + 1]);
+  }
 }
 
 Cage Cage::fromFile(const std::filesystem::path& path) {

@@ -1,6 +1,8 @@
 #pragma once
-// The cage: a closed, consistently and outwardly oriented triangle mesh that controls a
-// deformation through cage coordinates (mean-value, Green, harmonic).
+// The cage: a closed, consistently and outwardly oriented polygon mesh that controls a
+// deformation through cage coordinates (mean-value, Green, harmonic, and the polygon and quad
+// coordinates). It keeps its faces as the polygons they were given as, and a triangulation of
+// them for the methods that work on triangles.
 
 #include <cstdint>
 #include <filesystem>
@@ -36,9 +38,14 @@ struct CageFrame {
   Vec3 toWorld(const Vec3& local) const { return local * scale + center; }
 };
 
-/// A validated cage. Polygons are triangulated (a fan for convex faces, ear clipping
-/// otherwise); triangleSource() records which input polygon every triangle came from, so
-/// results are reproducible. Triangles are oriented consistently with outward normals.
+/// A validated cage. Its faces are the input polygons (triangles, quads, planar or not, and
+/// larger polygons), oriented outward: face(f) lists face f's vertices counter-clockwise seen
+/// from outside, starting at the vertex the input started it at. The polygons are also
+/// triangulated (a fan for faces convex in the plane of their Newell normal, ear clipping
+/// otherwise) for the methods that work on triangles; triangleSource() records which face every
+/// triangle came from, so results are reproducible. Triangles are oriented like their faces.
+/// Validation (closed, manifold, orientable) runs on the triangulation, whose inner diagonals
+/// are shared only inside a face.
 class Cage {
  public:
   /// Validates and triangulates `soup`; `name` (usually the file) prefixes every message.
@@ -59,7 +66,20 @@ class Cage {
   std::size_t vertexCount() const { return vertices_.size(); }
   std::size_t triangleCount() const { return triangles_.size(); }
 
-  /// For triangle t, the index of the input polygon it was cut from.
+  /// The faces: faceCount() polygons of at least 3 vertices, in input order.
+  std::size_t faceCount() const { return faceOffsets_.size() - 1; }
+  /// The vertex indices of face f, outward (counter-clockwise seen from outside). A face that
+  /// was reoriented keeps its first vertex and reverses the rest.
+  std::span<const std::uint32_t> face(std::size_t f) const {
+    return {faceIndices_.data() + faceOffsets_[f], faceOffsets_[f + 1] - faceOffsets_[f]};
+  }
+  /// The faces as offsets (faceCount() + 1 entries) into faceIndices().
+  std::span<const std::uint32_t> faceOffsets() const { return faceOffsets_; }
+  std::span<const std::uint32_t> faceIndices() const { return faceIndices_; }
+  /// The largest number of vertices of a face: 3 for a triangle cage, 4 with quads.
+  std::size_t maxFaceSize() const { return maxFaceSize_; }
+
+  /// For triangle t, the index of the input polygon (face) it was cut from.
   std::span<const std::uint32_t> triangleSource() const { return triangleSource_; }
 
   /// How many input triangles had to be flipped for a consistent outward orientation.
@@ -100,11 +120,15 @@ class Cage {
   std::vector<Vec3> posedVerticesFromFile(const std::filesystem::path& path) const;
 
  private:
+  void orientFaces(std::span<const int> triangleFlips);
+
   std::string name_;
   std::vector<Vec3> vertices_;
   std::vector<Triangle> triangles_;
   std::vector<std::uint32_t> triangleSource_;
   std::vector<std::uint32_t> inputOffsets_, inputIndices_;  // the input polygons, for posed checks
+  std::vector<std::uint32_t> faceOffsets_, faceIndices_;    // the same, oriented outward
+  std::size_t maxFaceSize_ = 0;
   std::size_t reorientedCount_ = 0;
   double diagonal_ = 0.0;
   double volume_ = 0.0;

@@ -1,6 +1,8 @@
 #include <spacewarp/coords/cage.h>
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -52,6 +54,33 @@ TEST(Cage, InwardAndMixedOrientationIsRepaired) {
   EXPECT_GT(cage.volume(), 0.0);
   EXPECT_EQ(cage.reorientedCount(), 3u);
   EXPECT_NEAR(cage.volume(), test::tetrahedronVolume(), 1e-14);
+}
+
+// The faces stay the input polygons, outward: every face's Newell normal points away from the
+// box's center, a reversed face keeps its first vertex, and its triangles come from it.
+TEST(Cage, KeepsItsPolygonsOrientedOutward) {
+  PolygonSoup box = makeBoxSurface(Vec3(0), Vec3(1, 2, 3), {2, 1, 1});
+  const std::vector<std::uint32_t> first(box.faceIndices.begin(), box.faceIndices.begin() + 4);
+  std::reverse(box.faceIndices.begin() + 1, box.faceIndices.begin() + 4);  // face 0 inward
+  const Cage cage(box, "box");
+  ASSERT_EQ(cage.faceCount(), box.polygonCount());
+  EXPECT_EQ(cage.maxFaceSize(), 4u);
+  EXPECT_EQ(cage.reorientedCount(), 2u);
+  const auto face0 = cage.face(0);
+  EXPECT_EQ(std::vector<std::uint32_t>(face0.begin(), face0.end()), first);
+  for (std::size_t f = 0; f < cage.faceCount(); ++f) {
+    const auto face = cage.face(f);
+    ASSERT_EQ(face.size(), 4u);
+    Vec3 normal(0.0), centroid(0.0);
+    for (std::size_t k = 0; k < 4; ++k) {
+      const Vec3 a = cage.vertices()[face[k]], b = cage.vertices()[face[(k + 1) % 4]];
+      normal += glm::cross(a, b);
+      centroid += a / 4.0;
+    }
+    EXPECT_GT(glm::dot(normal, centroid - Vec3(0.5, 1, 1.5)), 0.0) << f;
+  }
+  const PolygonSoup tet = test::tetrahedron();
+  EXPECT_EQ(Cage(tet, "tet").maxFaceSize(), 3u);
 }
 
 TEST(Cage, ConcavePolygonIsEarClipped) {

@@ -1,0 +1,65 @@
+#pragma once
+// Mean-value coordinates of polygon cages, quads included ("qmvc"): triangles as Ju, Schaefer
+// and Warren (coords/mean_value.h), planar polygons by the spherical mean-value construction of
+// Langer, Belyaev and Seidel ("Spherical barycentric coordinates", SGP 2006), and quads, planar
+// or not, as bilinear patches by Thiery, Memari and Boubekeur ("Mean value coordinates for quad
+// cages in 3D", SIGGRAPH Asia 2018). No face is triangulated, so the coordinates do not depend
+// on a diagonal or on which vertex a face starts at. The numerics are described at the top of
+// quad_mean_value.cpp.
+
+#include <memory>
+#include <span>
+
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/core/coordinates.h>
+
+namespace spacewarp {
+
+/// Options of QuadMeanValueCoordinates.
+struct QuadMeanValueOptions {
+  /// Snap distance, relative to Cage::diagonal(), as MeanValueOptions::snapTolerance: a point at
+  /// most this far from a cage vertex, edge or face gets the coordinates of the cage surface
+  /// there (Lagrange at vertices, linear along edges, the face's own interpolant on faces).
+  /// Must be finite and in [0, 1e-3].
+  double snapTolerance = 1e-14;
+};
+
+/// Mean-value coordinates of a closed, outward-oriented polygon cage. One weight per cage
+/// vertex (controlPointCount() = columnCount() = cage vertex count); every row is dense, sums to
+/// 1 and reproduces x. On an all-triangle cage they are the triangle mean-value coordinates.
+/// Every method is const and thread-safe; rows are bit-identical whether they come from
+/// weights() or weightsBatch(), for any number of threads.
+class QuadMeanValueCoordinates final : public Coordinates {
+ public:
+  /// Shares `cage`. Throws InvalidInput if `cage` is null, an option is out of range, or a face
+  /// the method cannot take (named) is found.
+  explicit QuadMeanValueCoordinates(std::shared_ptr<const Cage> cage,
+                                    const QuadMeanValueOptions& options = {});
+  ~QuadMeanValueCoordinates() override;
+  QuadMeanValueCoordinates(const QuadMeanValueCoordinates&) = delete;
+  QuadMeanValueCoordinates& operator=(const QuadMeanValueCoordinates&) = delete;
+
+  std::size_t controlPointCount() const override;
+  std::span<const Vec3> restControlPoints() const override;
+
+  /// The normalised weights of x (world units) into `row` (cage vertex count entries). Throws
+  /// InvalidInput if x is not finite or the row has the wrong size.
+  void weights(const Vec3& x, std::span<double> row) const override;
+
+  const Cage& cage() const;
+  const QuadMeanValueOptions& options() const;
+
+  /// Archive (core/archive.h): tag "quad-mean-value", the cage and the options.
+  void save(ArchiveWriter& out) const override;
+  static std::shared_ptr<const QuadMeanValueCoordinates> load(ArchiveReader& in);
+
+ protected:
+  UnmappedPoints weightsRange(std::span<const Vec3> points, std::span<double> rows,
+                              std::size_t begin, std::size_t end) const override;
+
+ private:
+  struct Impl;
+  std::unique_ptr<const Impl> impl_;
+};
+
+}  // namespace spacewarp
