@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <spacewarp/coords/detail/green_kernels.h>
+#include <spacewarp/coords/detail/green_triangles.h>
 #include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/simd.h>
@@ -582,9 +583,13 @@ Nearest findNearest(const detail::GreenData& g, const Scratch<VD>& s, int l) {
 // each), by the passes of one path, and, if `locations` is set, where they are (the nearest
 // triangle is then searched for every point; otherwise only for points outside or near the
 // surface). Unused lanes repeat the last point.
+// With `raw` set (GreenTriangleTerms), the nearest triangle is searched for every point and the
+// rows are left without the surface limit's hat term and the exterior extension; raw gets the
+// solid angles and the nearest triangles.
 template <class VD>
 void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count, double* rows,
               std::size_t stride, GreenCoordinates::Location* locations,
+              detail::GreenTriangleTerms::Point* raw,
               void (*edgePassOf)(const detail::GreenData&, Scratch<VD>&),
               void (*facePassOf)(const detail::GreenData&, Scratch<VD>&, bool)) {
   constexpr int kN = kLanesOf<VD>;
@@ -618,7 +623,7 @@ void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count,
     // within the tolerance of the surface if it is of a plane or an edge.
     const bool maybeSurface = s.io[5][l] != 0.0 || s.io[6][l] <= g.surfaceTolerance2;
     loc[l].region = inside ? GreenCoordinates::Region::Inside : GreenCoordinates::Region::Outside;
-    if (inside && !maybeSurface && locations == nullptr) continue;
+    if (inside && !maybeSurface && locations == nullptr && raw == nullptr) continue;
     nearest[l] = findNearest(g, s, static_cast<int>(l));
     loc[l].triangle = nearest[l].face;
     loc[l].distance = std::sqrt(nearest[l].dist2);
@@ -630,6 +635,19 @@ void evaluate(const detail::GreenData& g, const Vec3* points, std::size_t count,
   }
   // Surface: principal value plus (1 − σ) times the hat values at the point.
   if (anySurface) facePassOf(g, s, true);
+  if (raw != nullptr) {
+    for (std::size_t l = 0; l < count; ++l) {
+      const bool surface = loc[l].region == GreenCoordinates::Region::Surface;
+      if (surface) copyRow(l);
+      raw[l] = {s.io[4][l],
+                nearest[l].dist2,
+                nearest[l].face,
+                nearest[l].beta,
+                {nearest[l].bary[0], nearest[l].bary[1], nearest[l].bary[2]},
+                surface};
+    }
+    return;
+  }
   for (std::size_t l = 0; l < count; ++l) {
     double* row = rows + l * stride;
     const detail::GreenData::Face& f = g.faces[nearest[l].face];
@@ -679,18 +697,20 @@ constexpr double kOverflowScan = 1e100;
 
 // The rows (and locations, if set) of any number of points, N at a time on activePath().
 void evaluateRange(const detail::GreenData& g, const Vec3* points, std::size_t count, double* rows,
-                   std::size_t stride, GreenCoordinates::Location* locations) {
+                   std::size_t stride, GreenCoordinates::Location* locations,
+                   detail::GreenTriangleTerms::Point* raw = nullptr) {
   const Path path = activePath();
   const std::size_t lanes = path == Path::V4 ? 8 : 4;
   for (std::size_t i = 0; i < count; i += lanes) {
     const std::size_t n = std::min(lanes, count - i);
     GreenCoordinates::Location* at = locations ? locations + i : nullptr;
+    detail::GreenTriangleTerms::Point* rawAt = raw ? raw + i : nullptr;
     if (path == Path::V4) {
-      evaluate<V8D>(g, points + i, n, rows + i * stride, stride, at, edgePassV4, facePassV4);
+      evaluate<V8D>(g, points + i, n, rows + i * stride, stride, at, rawAt, edgePassV4, facePassV4);
     } else if (path == Path::V3) {
-      evaluate<V4D>(g, points + i, n, rows + i * stride, stride, at, edgePassV3, facePassV3);
+      evaluate<V4D>(g, points + i, n, rows + i * stride, stride, at, rawAt, edgePassV3, facePassV3);
     } else {
-      evaluate<V4D>(g, points + i, n, rows + i * stride, stride, at, edgePassBaseline,
+      evaluate<V4D>(g, points + i, n, rows + i * stride, stride, at, rawAt, edgePassBaseline,
                     facePassBaseline);
     }
   }
@@ -753,6 +773,55 @@ void checkSizes(const char* what, std::size_t a, std::size_t b, std::size_t out)
   }
 }
 
+// The rest data of triangles `tris` over vertices `v`; tol: the surface tolerance, world units.
+void buildGreenData(detail::GreenData& g, std::span<const Vec3> v, std::span<const Triangle> tris,
+                    double tol) {
+  g.vertices.assign(v.begin(), v.end());
+  for (const Vec3& p : v)
+    g.largestCoordinate =
+        std::max({g.largestCoordinate, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
+  g.surfaceTolerance2 = tol * tol;
+
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> edgeIndex;
+  g.faces.resize(tris.size());
+  g.frames.resize(tris.size());
+  for (std::size_t j = 0; j < tris.size(); ++j) {
+    detail::GreenData::Face& f = g.faces[j];
+    const std::uint32_t idx[3] = {tris[j].x, tris[j].y, tris[j].z};
+    const Vec3 p[3] = {v[idx[0]], v[idx[1]], v[idx[2]]};
+    const Vec3 cross = glm::cross(p[1] - p[0], p[2] - p[0]);
+    const double twiceArea = glm::length(cross);
+    f.normal = cross / twiceArea;  // the Cage rejects zero-area triangles
+    f.twiceArea = twiceArea;
+    for (int i = 0; i < 3; ++i) {
+      f.vertex[i] = idx[i];
+      const std::uint32_t a = idx[i], b = idx[(i + 1) % 3];
+      const Vec3 edgeVector = p[(i + 1) % 3] - p[i];
+      const double length = glm::length(edgeVector);
+      f.edgeNormal[i] = glm::normalize(glm::cross(edgeVector, f.normal));
+      f.edgeFactor[i] = length / twiceArea;
+      const auto key = std::minmax(a, b);
+      auto [it, inserted] = edgeIndex.try_emplace(key, static_cast<std::uint32_t>(g.edges.size()));
+      if (inserted) {
+        const Vec3 ab = v[key.second] - v[key.first];
+        g.edges.push_back({key.first, key.second, ab / glm::length(ab), glm::length(ab)});
+      }
+      f.edge[i] = it->second;
+    }
+    // g_l = −m_{l+1} ℓ_{l+1} / 2A, the in-plane gradient of the barycentric coordinate of corner l.
+    for (int l = 0; l < 2; ++l) {
+      const int opposite = (l + 1) % 3;
+      for (int i = 0; i < 3; ++i) {
+        f.gradDotEdge[l][i] =
+            -f.edgeFactor[opposite] * glm::dot(f.edgeNormal[opposite], f.edgeNormal[i]);
+      }
+    }
+    const Vec3 u = p[1] - p[0], w = p[2] - p[0];
+    g.frames[j] = {glm::dot(u, u), glm::dot(w, w), glm::dot(u, w),
+                   std::sqrt(8.0) * 0.5 * twiceArea};
+  }
+}
+
 }  // namespace
 
 namespace detail {
@@ -763,6 +832,23 @@ void greenLogRatio(std::span<const double> num, std::span<const double> den, std
   if (out.empty()) return;
   if (baseline) return logRatioBaseline(num.data(), den.data(), out.data(), out.size());
   kLogRatio[static_cast<int>(activePath())](num.data(), den.data(), out.data(), out.size());
+}
+
+GreenTriangleTerms::GreenTriangleTerms(std::span<const Vec3> vertices,
+                                       std::span<const Triangle> triangles,
+                                       double surfaceTolerance) {
+  auto data = std::make_unique<GreenData>();
+  buildGreenData(*data, vertices, triangles, surfaceTolerance);
+  data_ = std::move(data);
+}
+
+GreenTriangleTerms::~GreenTriangleTerms() = default;
+
+std::size_t GreenTriangleTerms::lanes() const { return activePath() == Path::V4 ? 8 : 4; }
+
+void GreenTriangleTerms::evaluate(const Vec3* points, std::size_t count, double* rows,
+                                  std::size_t stride, Point* info) const {
+  evaluateRange(*data_, points, count, rows, stride, nullptr, info);
 }
 
 void greenAtan2(std::span<const double> y, std::span<const double> x, std::span<double> out,
@@ -785,54 +871,8 @@ GreenCoordinates::GreenCoordinates(std::shared_ptr<const Cage> cage, GreenOption
                        std::to_string(options_.surfaceTolerance));
   }
   auto impl = std::make_unique<Impl>();
-  const std::span<const Vec3> v = cage_->vertices();
-  const std::span<const Triangle> tris = cage_->triangles();
-  impl->vertices.assign(v.begin(), v.end());
-  for (const Vec3& p : v)
-    impl->largestCoordinate =
-        std::max({impl->largestCoordinate, std::fabs(p.x), std::fabs(p.y), std::fabs(p.z)});
-  const double tol = options_.surfaceTolerance * cage_->diagonal();
-  impl->surfaceTolerance2 = tol * tol;
-
-  std::map<std::pair<std::uint32_t, std::uint32_t>, std::uint32_t> edgeIndex;
-  impl->faces.resize(tris.size());
-  impl->frames.resize(tris.size());
-  for (std::size_t j = 0; j < tris.size(); ++j) {
-    detail::GreenData::Face& f = impl->faces[j];
-    const std::uint32_t idx[3] = {tris[j].x, tris[j].y, tris[j].z};
-    const Vec3 p[3] = {v[idx[0]], v[idx[1]], v[idx[2]]};
-    const Vec3 cross = glm::cross(p[1] - p[0], p[2] - p[0]);
-    const double twiceArea = glm::length(cross);
-    f.normal = cross / twiceArea;  // the Cage rejects zero-area triangles
-    f.twiceArea = twiceArea;
-    for (int i = 0; i < 3; ++i) {
-      f.vertex[i] = idx[i];
-      const std::uint32_t a = idx[i], b = idx[(i + 1) % 3];
-      const Vec3 edgeVector = p[(i + 1) % 3] - p[i];
-      const double length = glm::length(edgeVector);
-      f.edgeNormal[i] = glm::normalize(glm::cross(edgeVector, f.normal));
-      f.edgeFactor[i] = length / twiceArea;
-      const auto key = std::minmax(a, b);
-      auto [it, inserted] =
-          edgeIndex.try_emplace(key, static_cast<std::uint32_t>(impl->edges.size()));
-      if (inserted) {
-        const Vec3 ab = v[key.second] - v[key.first];
-        impl->edges.push_back({key.first, key.second, ab / glm::length(ab), glm::length(ab)});
-      }
-      f.edge[i] = it->second;
-    }
-    // g_l = −m_{l+1} ℓ_{l+1} / 2A, the in-plane gradient of the barycentric coordinate of corner l.
-    for (int l = 0; l < 2; ++l) {
-      const int opposite = (l + 1) % 3;
-      for (int i = 0; i < 3; ++i) {
-        f.gradDotEdge[l][i] =
-            -f.edgeFactor[opposite] * glm::dot(f.edgeNormal[opposite], f.edgeNormal[i]);
-      }
-    }
-    const Vec3 u = p[1] - p[0], w = p[2] - p[0];
-    impl->frames[j] = {glm::dot(u, u), glm::dot(w, w), glm::dot(u, w),
-                       std::sqrt(8.0) * 0.5 * twiceArea};
-  }
+  buildGreenData(*impl, cage_->vertices(), cage_->triangles(),
+                 options_.surfaceTolerance * cage_->diagonal());
   impl_ = std::move(impl);
 }
 

@@ -1,0 +1,605 @@
+#include <spacewarp/coords/quad_green.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <spacewarp/coords/detail/green_triangles.h>
+#include <spacewarp/coords/green.h>
+#include <spacewarp/core/archive.h>
+#include <spacewarp/core/errors.h>
+
+namespace spacewarp {
+
+// The coordinates. A quad q_0 q_1 q_2 q_3 (outward) is the bilinear patch
+//
+//     ξ(u, v) = Σ_k B_k(u, v) q_k,  B = ((1−u)(1−v), u(1−v), uv, (1−u)v),  (u, v) ∈ [0, 1]²,
+//
+// whose area-weighted normal N(u, v) = ξ_u × ξ_v is itself bilinear: N = Σ_k B_k N_k with the
+// corner normals N_k = (q_{k+1} − q_k) × (q_{k−1} − q_k). Green's third identity for f(ξ) = ξ
+// (boundary values Σ B_k q_k on the patch, exactly the patch itself) then writes a point inside
+// the cage as x = Σ_i φ_i v_i + Σ_faces (normal terms), a quad adding
+//
+//     φ_{q_k} += 1/4π ∫∫ B_k (ξ − x)·N / |ξ − x|³ du dv       (the double layer)
+//     ψ_{q,k}  = 1/4π ∫∫ B_k / |ξ − x| du dv                  (the single layer, control N_k)
+//
+// which is the paper's Neumann condition: the normal derivative of the identity, n dσ = N du dv,
+// split over the four corner normals. Triangles are coords/green.h's, computed by its kernels
+// (detail::GreenTriangleTerms); an all-triangle cage is handed to a GreenCoordinates whole.
+//
+// The quad integrals are computed by adaptive Gauss-Legendre quadrature in (u, v): a square of
+// the parameter domain is integrated by a tensor rule when x is at least kAdmissible times the
+// radius ρ of the square's patch piece from its centre (the piece lies in the convex hull of its
+// corners, hence in that ball), with the order chosen from ρ / D (kOrderLimit, measured so that
+// the rule's error is below ~1e-16 of the piece's contribution); otherwise it is cut in four. A
+// square whose radius falls to the surface tolerance (or to 1e-16 of the cage diagonal) while x
+// is still that close to it is a surface contact (below).
+//
+// Inside: the integrals. Σ φ = 1 there (the solid angle of the closed surface).
+// Surface (x within the tolerance of a triangle, or of a quad as above): the limit from inside,
+// φ = φ_pv + (1 − σ) Γ(x0) as in green.h: the pieces touching x contribute no double layer,
+// σ = Σ φ_pv, Γ(x0) the hat values where x touches (B_k(u, v) on a quad).
+// Outside: the raw integrals reproduce 0; the coordinates are continued through the nearest face
+// f. For a triangle as in green.h. For a quad, x is written as x = ξ(u, v) + t N(u, v) (u, v, t
+// by Newton's method from the nearest point of the quad's two triangles, (u, v) not restricted
+// to the unit square), and B_k(u, v) is added to φ_{q_k}, t B_k(u, v) to ψ_{q,k}: this
+// reproduces x (N = Σ B_k N_k), and on the quad (t = 0) it equals the surface limit, so the
+// coordinates are continuous across the quad. It is not the analytic continuation of the
+// interior coordinates (that of a curved patch has no closed form): the derivatives jump across
+// the quad. A non-convergent Newton solve (far from a strongly warped quad) keeps the nearest
+// point's (u, v) and the normal part of x − ξ(u, v); x is then reproduced up to the tangential
+// rest. The nearest face is that of the nearest triangle of the cage's triangulation (a quad by
+// its two triangles).
+//
+// Posed controls (columnControls): the posed vertices; for a triangle, GreenCoordinates' stretched
+// unit normal; for quad corner k, σ_k N'_k with N'_k the posed corner normal and
+//     σ_k = ∫∫ B_k σ_L / |N| du dv  /  ∫∫ B_k σ_a / |N| du dv,
+// σ_a = |N'| / |N| the area stretch and σ_L = sqrt((|ξ'_u|²|ξ_v|² + |ξ_u|²|ξ'_v|² −
+// 2 (ξ'_u·ξ'_v)(ξ_u·ξ_v)) / (2 |N|²)) the length stretch of the bilinear map at (u, v), as the
+// authors' code (integrated here by an 8 × 8 Gauss rule). A similarity of scale s gives σ_k = 1/s
+// at every node, so σ_k N'_k = s R N_k: similarities are reproduced.
+
+namespace {
+
+constexpr double kInv4Pi = 0.25 * std::numbers::inv_pi;
+constexpr int kMaxOrder = 14;
+// x is at least kAdmissible ρ from a square's centre before the square is integrated.
+constexpr double kAdmissible = 2.0;
+// Gauss order n is used for ρ / D ≤ kOrderLimit[n] (n = 1 unused).
+constexpr std::array<double, kMaxOrder + 1> kOrderLimit = {
+    0.0, 0.0, 0.0, 0.0, 0.008, 0.02, 0.06, 0.1, 0.18, 0.25, 0.3, 0.36, 0.42, 0.47, 0.5};
+constexpr int kStretchOrder = 8;
+
+struct GaussRule {
+  std::array<double, kMaxOrder> node{}, weight{};  // on [0, 1]
+};
+
+// Gauss-Legendre rules of every order up to kMaxOrder on [0, 1]: Newton on the Legendre
+// polynomial from the Chebyshev guess.
+const std::array<GaussRule, kMaxOrder + 1>& gaussRules() {
+  static const std::array<GaussRule, kMaxOrder + 1> rules = [] {
+    std::array<GaussRule, kMaxOrder + 1> r{};
+    for (int n = 1; n <= kMaxOrder; ++n) {
+      for (int i = 0; i < n; ++i) {
+        double z = std::cos(std::numbers::pi * (i + 0.75) / (n + 0.5)), dp = 0.0;
+        for (int it = 0; it < 100; ++it) {
+          double p0 = 1.0, p1 = z;
+          for (int k = 2; k <= n; ++k) {
+            const double p2 = ((2.0 * k - 1.0) * z * p1 - (k - 1.0) * p0) / k;
+            p0 = p1;
+            p1 = p2;
+          }
+          dp = n * (z * p1 - p0) / (z * z - 1.0);
+          const double step = p1 / dp;
+          z -= step;
+          if (std::fabs(step) < 1e-17) break;
+        }
+        r[n].node[i] = 0.5 * (1.0 - z);
+        r[n].weight[i] = 1.0 / ((1.0 - z * z) * dp * dp);  // 2 / ((1 − z²) P'²) halved
+      }
+    }
+    return r;
+  }();
+  return rules;
+}
+
+std::array<double, 4> bilinear(double u, double v) {
+  return {(1.0 - u) * (1.0 - v), u * (1.0 - v), u * v, (1.0 - u) * v};
+}
+
+// A quad face: corners, the patch ξ = q_0 + u e_u + v e_v + uv e_uv and its corner normals.
+struct Quad {
+  std::uint32_t vertex[4] = {0, 0, 0, 0};
+  Vec3 corner[4];
+  Vec3 eu{0.0}, ev{0.0}, euv{0.0};
+  Vec3 cornerNormal[4];
+  std::size_t face = 0, column = 0;  // face index, first of its four ψ columns
+
+  Vec3 at(double u, double v) const { return corner[0] + u * eu + v * ev + (u * v) * euv; }
+  Vec3 tangentU(double v) const { return eu + v * euv; }
+  Vec3 tangentV(double u) const { return ev + u * euv; }
+};
+
+Quad makeQuad(std::span<const Vec3> vertices, std::span<const std::uint32_t> face) {
+  Quad q;
+  for (int k = 0; k < 4; ++k) {
+    q.vertex[k] = face[k];
+    q.corner[k] = vertices[face[k]];
+  }
+  q.eu = q.corner[1] - q.corner[0];
+  q.ev = q.corner[3] - q.corner[0];
+  q.euv = q.corner[0] - q.corner[1] + q.corner[2] - q.corner[3];
+  for (int k = 0; k < 4; ++k) {
+    q.cornerNormal[k] =
+        glm::cross(q.corner[(k + 1) % 4] - q.corner[k], q.corner[(k + 3) % 4] - q.corner[k]);
+  }
+  return q;
+}
+
+// The integrals of one quad at one point (φ: 4 corners, ψ: 4 corners) and whether x touches it.
+struct QuadSums {
+  double phi[4] = {0.0, 0.0, 0.0, 0.0};
+  double psi[4] = {0.0, 0.0, 0.0, 0.0};
+  bool touched = false;
+  double u = 0.0, v = 0.0;  // where (first contact found)
+};
+
+// Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s], x at the origin of
+// r = ξ − x.
+void gaussSquare(const Quad& q, const Vec3& x, double u0, double v0, double s, int n,
+                 QuadSums& out) {
+  const GaussRule& rule = gaussRules()[n];
+  const Vec3 base = q.corner[0] - x;
+  for (int i = 0; i < n; ++i) {
+    const double u = u0 + s * rule.node[i];
+    const Vec3 tv = q.tangentV(u);
+    const Vec3 rowBase = base + u * q.eu;
+    const Vec3 rowSlope = q.ev + u * q.euv;
+    for (int j = 0; j < n; ++j) {
+      const double v = v0 + s * rule.node[j];
+      const Vec3 r = rowBase + v * rowSlope;
+      const Vec3 normal = glm::cross(q.tangentU(v), tv);
+      const double r2 = glm::dot(r, r);
+      const double inv = 1.0 / std::sqrt(r2);
+      const double w = rule.weight[i] * rule.weight[j] * s * s;
+      const double single = w * inv;
+      const double dbl = single * inv * inv * glm::dot(r, normal);
+      const std::array<double, 4> b = bilinear(u, v);
+      for (int k = 0; k < 4; ++k) {
+        out.phi[k] += b[k] * dbl;
+        out.psi[k] += b[k] * single;
+      }
+    }
+  }
+}
+
+// The integrals of quad q at x (see the file comment); touchRadius: squares this small that x is
+// still close to (within (kAdmissible + 1) ρ) are contacts.
+void integrateQuad(const Quad& q, const Vec3& x, double touchRadius, QuadSums& out) {
+  struct Square {
+    double u0, v0, s;
+  };
+  Square stack[4 * 80];
+  int top = 0;
+  stack[top++] = {0.0, 0.0, 1.0};
+  while (top > 0) {
+    const Square sq = stack[--top];
+    const double h = 0.5 * sq.s;
+    const Vec3 centre = q.at(sq.u0 + h, sq.v0 + h) - x;
+    double rho2 = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const double cu = sq.u0 + ((k == 1 || k == 2) ? sq.s : 0.0);
+      const double cv = sq.v0 + (k >= 2 ? sq.s : 0.0);
+      const Vec3 d = q.at(cu, cv) - x - centre;
+      rho2 = std::max(rho2, glm::dot(d, d));
+    }
+    const double d2 = glm::dot(centre, centre);
+    if (d2 >= kAdmissible * kAdmissible * rho2) {
+      const double t = std::sqrt(rho2 / d2);
+      int n = 4;
+      while (n < kMaxOrder && t > kOrderLimit[n]) ++n;
+      gaussSquare(q, x, sq.u0, sq.v0, sq.s, n, out);
+      continue;
+    }
+    const double rho = std::sqrt(rho2);
+    if (rho <= touchRadius || sq.s < 0x1p-60) {
+      // x is within (kAdmissible + 1) ρ of this tiny piece: a contact. Its double layer is the
+      // jump the surface limit accounts for; its single layer is O(ρ) and dropped.
+      if (!out.touched) {
+        out.touched = true;
+        out.u = sq.u0 + h;
+        out.v = sq.v0 + h;
+      }
+      continue;
+    }
+    stack[top++] = {sq.u0, sq.v0, h};
+    stack[top++] = {sq.u0 + h, sq.v0, h};
+    stack[top++] = {sq.u0, sq.v0 + h, h};
+    stack[top++] = {sq.u0 + h, sq.v0 + h, h};
+  }
+  for (int k = 0; k < 4; ++k) {
+    out.phi[k] *= kInv4Pi;
+    out.psi[k] *= kInv4Pi;
+  }
+}
+
+// The squared distance from x to triangle abc and the barycentric coordinates of the nearest
+// point (Ericson, Real-Time Collision Detection, 5.1.5).
+double triangleDistance2(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c,
+                         double (&bary)[3]) {
+  const Vec3 ab = b - a, ac = c - a, ap = x - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  auto result = [&](double wa, double wb, double wc) {
+    bary[0] = wa;
+    bary[1] = wb;
+    bary[2] = wc;
+    const Vec3 d = x - (wa * a + wb * b + wc * c);
+    return glm::dot(d, d);
+  };
+  if (d1 <= 0.0 && d2 <= 0.0) return result(1, 0, 0);
+  const Vec3 bp = x - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0.0 && d4 <= d3) return result(0, 1, 0);
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+    const double w = d1 / (d1 - d3);
+    return result(1 - w, w, 0);
+  }
+  const Vec3 cp = x - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0.0 && d5 <= d6) return result(0, 0, 1);
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+    const double w = d2 / (d2 - d6);
+    return result(1 - w, 0, w);
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return result(0, 1 - w, w);
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  const double v = vb * denom, w = vc * denom;
+  return result(1 - v - w, v, w);
+}
+
+// The squared distance from x to a quad's two triangles (q0 q1 q2, q0 q2 q3) and the (u, v) of
+// the nearest point.
+double quadDistance2(const Quad& q, const Vec3& x, double& u, double& v) {
+  double b1[3], b2[3];
+  const double d1 = triangleDistance2(x, q.corner[0], q.corner[1], q.corner[2], b1);
+  const double d2 = triangleDistance2(x, q.corner[0], q.corner[2], q.corner[3], b2);
+  if (d1 <= d2) {
+    u = b1[1] + b1[2];
+    v = b1[2];
+    return d1;
+  }
+  u = b2[1];
+  v = b2[1] + b2[2];
+  return d2;
+}
+
+// Solves x = ξ(u, v) + t N(u, v) by Newton's method from (u, v, 0), halving steps that do not
+// reduce the residual; returns whether it converged (to `tolerance`, world units).
+bool quadFoot(const Quad& q, const Vec3& x, double tolerance, double& u, double& v, double& t) {
+  auto residual = [&](double uu, double vv, double tt) {
+    return q.at(uu, vv) + tt * glm::cross(q.tangentU(vv), q.tangentV(uu)) - x;
+  };
+  t = 0.0;
+  Vec3 f = residual(u, v, t);
+  double err = glm::length(f);
+  for (int it = 0; it < 100 && err > tolerance; ++it) {
+    const Vec3 pu = q.tangentU(v), pv = q.tangentV(u);
+    const Vec3 nu = glm::cross(pu, q.euv), nv = glm::cross(q.euv, pv);
+    const Mat3 jac(pu + t * nu, pv + t * nv, glm::cross(pu, pv));
+    if (!(std::fabs(glm::determinant(jac)) > 0.0)) break;
+    const Vec3 step = glm::inverse(jac) * f;
+    double scale = 1.0;
+    bool reduced = false;
+    for (int h = 0; h < 40 && !reduced; ++h, scale *= 0.5) {
+      const Vec3 g = residual(u - scale * step.x, v - scale * step.y, t - scale * step.z);
+      const double e = glm::length(g);
+      if (e < err) {
+        u -= scale * step.x;
+        v -= scale * step.y;
+        t -= scale * step.z;
+        f = g;
+        err = e;
+        reduced = true;
+      }
+    }
+    if (!reduced) break;
+  }
+  return err <= tolerance;
+}
+
+}  // namespace
+
+namespace detail {
+
+// The rest data of the coordinates.
+struct QuadGreenData {
+  std::shared_ptr<const Cage> cage;
+  QuadGreenOptions options;
+  // Over the cage's triangulation: the whole evaluation of an all-triangle cage, and the
+  // triangles' stretched normals of any cage.
+  std::unique_ptr<GreenCoordinates> green;
+  bool allTriangles = true;
+  // Mixed cages: the triangle faces' terms, their faces and columns; the quads.
+  std::unique_ptr<detail::GreenTriangleTerms> triangles;
+  std::vector<std::size_t> triangleFace, triangleColumn, greenTriangle;
+  std::vector<Quad> quads;
+  std::vector<std::size_t> faceColumn;  // the first column of each face
+  std::size_t columns = 0;
+  double tolerance = 0.0;    // world units
+  double touchRadius = 0.0;  // world units
+  double footTolerance = 0.0;
+};
+
+}  // namespace detail
+
+struct QuadGreenCoordinates::Impl : detail::QuadGreenData {};
+
+namespace {
+
+// The rows of `count` points of a mixed cage (see the file comment), row i at rows + i · stride.
+void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size_t count,
+                   double* rows, std::size_t stride) {
+  const std::size_t nv = m.cage->vertexCount(), nt = m.triangleFace.size();
+  const std::size_t lanes = m.triangles->lanes();
+  thread_local std::vector<double> triRows;
+  thread_local std::vector<detail::GreenTriangleTerms::Point> info;
+  triRows.assign(lanes * (nv + nt), 0.0);
+  info.resize(lanes);
+  for (std::size_t start = 0; start < count; start += lanes) {
+    const std::size_t n = std::min(lanes, count - start);
+    m.triangles->evaluate(points + start, n, triRows.data(), nv + nt, info.data());
+    for (std::size_t l = 0; l < n; ++l) {
+      const Vec3& x = points[start + l];
+      double* row = rows + (start + l) * stride;
+      const double* tri = triRows.data() + l * (nv + nt);
+      std::fill(row, row + stride, 0.0);
+      std::copy(tri, tri + nv, row);
+      for (std::size_t t = 0; t < nt; ++t) row[m.triangleColumn[t]] = tri[nv + t];
+      double solidAngle = info[l].solidAngle;
+      bool touchedQuad = false;
+      std::size_t touchQuad = 0;
+      double tu = 0.0, tv = 0.0;
+      for (std::size_t j = 0; j < m.quads.size(); ++j) {
+        const Quad& q = m.quads[j];
+        QuadSums sums;
+        integrateQuad(q, x, m.touchRadius, sums);
+        for (int k = 0; k < 4; ++k) {
+          row[q.vertex[k]] += sums.phi[k];
+          row[q.column + k] = sums.psi[k];
+          solidAngle += 4.0 * std::numbers::pi * sums.phi[k];
+        }
+        if (sums.touched && !touchedQuad) {
+          touchedQuad = true;
+          touchQuad = j;
+          tu = sums.u;
+          tv = sums.v;
+        }
+      }
+      if (touchedQuad || info[l].surface) {
+        // Surface: principal value plus (1 − σ) times the hat values where x touches.
+        double sigma = 0.0;
+        for (std::size_t i = 0; i < nv; ++i) sigma += row[i];
+        if (touchedQuad) {
+          const Quad& q = m.quads[touchQuad];
+          const std::array<double, 4> b = bilinear(tu, tv);
+          for (int k = 0; k < 4; ++k) row[q.vertex[k]] += (1.0 - sigma) * b[k];
+        } else {
+          const Triangle& t = m.cage->triangles()[m.greenTriangle[info[l].triangle]];
+          const std::uint32_t idx[3] = {t.x, t.y, t.z};
+          for (int k = 0; k < 3; ++k) row[idx[k]] += (1.0 - sigma) * info[l].bary[k];
+        }
+        continue;
+      }
+      if (solidAngle * kInv4Pi > 0.5) continue;  // inside
+      // Outside: through the nearest face.
+      double best = info[l].dist2, bu = 0.0, bv = 0.0;
+      const Quad* nearest = nullptr;
+      for (const Quad& q : m.quads) {
+        double u, v;
+        const double d2 = quadDistance2(q, x, u, v);
+        if (d2 < best) {
+          best = d2;
+          nearest = &q;
+          bu = u;
+          bv = v;
+        }
+      }
+      if (nearest == nullptr) {
+        const Triangle& t = m.cage->triangles()[m.greenTriangle[info[l].triangle]];
+        const std::uint32_t idx[3] = {t.x, t.y, t.z};
+        for (int k = 0; k < 3; ++k) row[idx[k]] += info[l].bary[k];
+        row[m.triangleColumn[info[l].triangle]] += info[l].beta;
+        continue;
+      }
+      // x = ξ(u, v) + a ξ_u + b ξ_v + t N at the foot (a = b = 0) or, failing that, at the seed.
+      double u = bu, v = bv, t = 0.0;
+      if (!quadFoot(*nearest, x, m.footTolerance, u, v, t)) u = bu, v = bv;
+      const Vec3 pu = nearest->tangentU(v), pv = nearest->tangentV(u);
+      const Vec3 abt = glm::inverse(Mat3(pu, pv, glm::cross(pu, pv))) * (x - nearest->at(u, v));
+      const std::array<double, 4> b = bilinear(u, v);
+      const double du[4] = {-(1.0 - v), 1.0 - v, v, -v}, dv[4] = {-(1.0 - u), -u, u, 1.0 - u};
+      for (int k = 0; k < 4; ++k) {
+        row[nearest->vertex[k]] += b[k] + abt.x * du[k] + abt.y * dv[k];
+        row[nearest->column + k] += abt.z * b[k];
+      }
+    }
+  }
+}
+
+}  // namespace
+
+QuadGreenCoordinates::QuadGreenCoordinates(std::shared_ptr<const Cage> cage,
+                                           const QuadGreenOptions& options) {
+  if (!cage) throw InvalidInput("QuadGreenCoordinates: the cage is null");
+  if (!(options.surfaceTolerance >= 0.0 && options.surfaceTolerance <= 1e-3)) {
+    throw InvalidInput("QuadGreenCoordinates: surfaceTolerance must be in [0, 1e-3], not " +
+                       std::to_string(options.surfaceTolerance));
+  }
+  auto m = std::make_unique<Impl>();
+  m->cage = cage;
+  m->options = options;
+  const std::size_t nv = cage->vertexCount();
+  std::size_t column = nv;
+  m->faceColumn.resize(cage->faceCount());
+  std::vector<Triangle> triangleFaces;
+  for (std::size_t f = 0; f < cage->faceCount(); ++f) {
+    const std::span<const std::uint32_t> face = cage->face(f);
+    m->faceColumn[f] = column;
+    if (face.size() == 3) {
+      triangleFaces.push_back({face[0], face[1], face[2]});
+      m->triangleFace.push_back(f);
+      m->triangleColumn.push_back(column);
+      column += 1;
+    } else if (face.size() == 4) {
+      Quad q = makeQuad(cage->vertices(), face);
+      q.face = f;
+      q.column = column;
+      m->quads.push_back(q);
+      column += 4;
+    } else {
+      throw InvalidInput(cage->name() + ": QuadGreenCoordinates: face " + std::to_string(f) +
+                         " has " + std::to_string(face.size()) +
+                         " vertices; only triangles and quads are supported");
+    }
+  }
+  m->columns = column;
+  m->allTriangles = m->quads.empty();
+  GreenOptions greenOptions;
+  greenOptions.surfaceTolerance = options.surfaceTolerance;
+  m->green = std::make_unique<GreenCoordinates>(cage, greenOptions);
+  if (!m->allTriangles) {
+    // The triangulation keeps a triangle face as one triangle: find it for the nearest-triangle
+    // look-ups (GreenTriangleTerms indexes its own triangles).
+    std::vector<std::size_t> triangleOfFace(cage->faceCount(), 0);
+    const std::span<const std::uint32_t> source = cage->triangleSource();
+    for (std::size_t t = 0; t < source.size(); ++t) triangleOfFace[source[t]] = t;
+    for (std::size_t f : m->triangleFace) m->greenTriangle.push_back(triangleOfFace[f]);
+    const double diagonal = cage->diagonal();
+    m->tolerance = options.surfaceTolerance * diagonal;
+    m->touchRadius = std::max(m->tolerance, 1e-16 * diagonal) / kAdmissible;
+    m->footTolerance = 1e-14 * diagonal;
+    m->triangles =
+        std::make_unique<detail::GreenTriangleTerms>(cage->vertices(), triangleFaces, m->tolerance);
+  }
+  impl_ = std::move(m);
+}
+
+QuadGreenCoordinates::~QuadGreenCoordinates() = default;
+
+std::size_t QuadGreenCoordinates::controlPointCount() const { return impl_->cage->vertexCount(); }
+
+std::span<const Vec3> QuadGreenCoordinates::restControlPoints() const {
+  return impl_->cage->vertices();
+}
+
+std::size_t QuadGreenCoordinates::columnCount() const { return impl_->columns; }
+
+std::string QuadGreenCoordinates::columnName(std::size_t c) const {
+  const std::size_t nv = impl_->cage->vertexCount();
+  if (c < nv || c >= impl_->columns) return Coordinates::columnName(c);
+  const auto& offsets = impl_->faceColumn;
+  const std::size_t f = static_cast<std::size_t>(
+                            std::upper_bound(offsets.begin(), offsets.end(), c) - offsets.begin()) -
+                        1;
+  // Built by append: GCC 12 warns (-Wrestrict, falsely) on "literal" + std::string.
+  std::string name(1, 'f');
+  name += std::to_string(f);
+  if (impl_->cage->face(f).size() == 3) return name;
+  name += '.';
+  name += std::to_string(c - offsets[f]);
+  return name;
+}
+
+void QuadGreenCoordinates::weights(const Vec3& x, std::span<double> row) const {
+  checkWeightsArguments(x, row.size());
+  if (impl_->allTriangles) return impl_->green->weights(x, row);
+  evaluateMixed(*impl_, &x, 1, row.data(), row.size());
+}
+
+UnmappedPoints QuadGreenCoordinates::weightsRange(std::span<const Vec3> points,
+                                                  std::span<double> rows, std::size_t begin,
+                                                  std::size_t end) const {
+  const std::size_t m = columnCount();
+  if (impl_->allTriangles) {
+    // Through the public batch call on the sub-range: the same kernel as GreenCoordinates'.
+    impl_->green->weightsBatch(points.subspan(begin, end - begin),
+                               rows.subspan(begin * m, (end - begin) * m));
+    return {};
+  }
+  evaluateMixed(*impl_, points.data() + begin, end - begin, rows.data() + begin * m, m);
+  return {};
+}
+
+void QuadGreenCoordinates::columnControls(std::span<const Vec3> posed, std::span<Vec3> out) const {
+  const Impl& m = *impl_;
+  if (m.allTriangles) return m.green->columnControls(posed, out);
+  Coordinates::columnControls(posed, out);  // checks sizes and finiteness, copies the vertices
+  const std::size_t nv = m.cage->vertexCount();
+  thread_local std::vector<Vec3> greenControls;
+  greenControls.resize(m.green->columnCount());
+  m.green->columnControls(posed, greenControls);
+  for (std::size_t t = 0; t < m.triangleFace.size(); ++t)
+    out[m.triangleColumn[t]] = greenControls[nv + m.greenTriangle[t]];
+  const GaussRule& rule = gaussRules()[kStretchOrder];
+  for (const Quad& q : m.quads) {
+    Vec3 c[4];
+    for (int k = 0; k < 4; ++k) c[k] = posed[q.vertex[k]];
+    const Vec3 eu = c[1] - c[0], ev = c[3] - c[0], euv = c[0] - c[1] + c[2] - c[3];
+    double lengthSum[4] = {0, 0, 0, 0}, areaSum[4] = {0, 0, 0, 0};
+    for (int i = 0; i < kStretchOrder; ++i) {
+      for (int j = 0; j < kStretchOrder; ++j) {
+        const double u = rule.node[i], v = rule.node[j];
+        const Vec3 a = q.tangentU(v), b = q.tangentV(u);
+        const Vec3 pa = eu + v * euv, pb = ev + u * euv;
+        const double rest2 = glm::dot(glm::cross(a, b), glm::cross(a, b));
+        const double restArea = std::sqrt(rest2);
+        const double lengthStretch = std::sqrt(
+            std::max(0.0, (glm::dot(pa, pa) * glm::dot(b, b) + glm::dot(a, a) * glm::dot(pb, pb) -
+                           2.0 * glm::dot(pa, pb) * glm::dot(a, b)) /
+                              (2.0 * rest2)));
+        const double areaStretch = glm::length(glm::cross(pa, pb)) / restArea;
+        const std::array<double, 4> bk = bilinear(u, v);
+        const double w = rule.weight[i] * rule.weight[j] / restArea;
+        for (int k = 0; k < 4; ++k) {
+          lengthSum[k] += w * bk[k] * lengthStretch;
+          areaSum[k] += w * bk[k] * areaStretch;
+        }
+      }
+    }
+    for (int k = 0; k < 4; ++k) {
+      const Vec3 normal = glm::cross(c[(k + 1) % 4] - c[k], c[(k + 3) % 4] - c[k]);
+      out[q.column + k] = areaSum[k] > 0.0 ? normal * (lengthSum[k] / areaSum[k]) : Vec3(0.0);
+    }
+  }
+}
+
+const Cage& QuadGreenCoordinates::cage() const { return *impl_->cage; }
+
+const QuadGreenOptions& QuadGreenCoordinates::options() const { return impl_->options; }
+
+void QuadGreenCoordinates::save(ArchiveWriter& out) const {
+  out.tag("quad-green");
+  impl_->cage->save(out);
+  out.f64(impl_->options.surfaceTolerance);
+}
+
+std::shared_ptr<const QuadGreenCoordinates> QuadGreenCoordinates::load(ArchiveReader& in) {
+  auto cage = std::make_shared<const Cage>(Cage::load(in));
+  QuadGreenOptions options;
+  options.surfaceTolerance = in.f64();
+  return std::make_shared<const QuadGreenCoordinates>(std::move(cage), options);
+}
+
+}  // namespace spacewarp
