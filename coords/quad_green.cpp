@@ -47,15 +47,15 @@ namespace spacewarp {
 // σ = Σ φ_pv, Γ(x0) the hat values where x touches (B_k(u, v) on a quad).
 // Outside: the raw integrals reproduce 0; the coordinates are continued through the nearest face
 // f. For a triangle as in green.h. For a quad, x is written as x = ξ(u, v) + t N(u, v) (u, v, t
-// by Newton's method from the nearest point of the quad's two triangles, (u, v) not restricted
-// to the unit square), and B_k(u, v) is added to φ_{q_k}, t B_k(u, v) to ψ_{q,k}: this
-// reproduces x (N = Σ B_k N_k), and on the quad (t = 0) it equals the surface limit, so the
+// by Newton's method from the nearest point of the quad's four triangles (of both diagonals), (u,
+// v) not restricted to the unit square), and B_k(u, v) is added to φ_{q_k}, t B_k(u, v) to ψ_{q,k}:
+// this reproduces x (N = Σ B_k N_k), and on the quad (t = 0) it equals the surface limit, so the
 // coordinates are continuous across the quad. It is not the analytic continuation of the
 // interior coordinates (that of a curved patch has no closed form): the derivatives jump across
 // the quad. A non-convergent Newton solve (far from a strongly warped quad) keeps the nearest
 // point's (u, v) and the normal part of x − ξ(u, v); x is then reproduced up to the tangential
-// rest. The nearest face is that of the nearest triangle of the cage's triangulation (a quad by
-// its two triangles).
+// rest. The nearest face is found by distances to the triangles (a quad by the four triangles of
+// its two diagonals, which do not depend on its first vertex).
 //
 // Posed controls (columnControls): the posed vertices; for a triangle, GreenCoordinates' stretched
 // unit normal; for quad corner k, σ_k N'_k with N'_k the posed corner normal and
@@ -75,6 +75,9 @@ constexpr double kAdmissible = 2.0;
 constexpr std::array<double, kMaxOrder + 1> kOrderLimit = {
     0.0, 0.0, 0.0, 0.0, 0.008, 0.02, 0.06, 0.1, 0.18, 0.25, 0.3, 0.36, 0.42, 0.47, 0.5};
 constexpr int kStretchOrder = 8;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Relative difference below which two faces are equally near (see evaluateMixed()).
+constexpr double kTie = 1e-12;
 
 struct GaussRule {
   std::array<double, kMaxOrder> node{}, weight{};  // on [0, 1]
@@ -269,20 +272,22 @@ double triangleDistance2(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3
   return result(1 - v - w, v, w);
 }
 
-// The squared distance from x to a quad's two triangles (q0 q1 q2, q0 q2 q3) and the (u, v) of
-// the nearest point.
+// The squared distance from x to the four triangles of a quad's two triangulations (so that it
+// does not depend on the quad's first vertex) and the (u, v) of the nearest point.
 double quadDistance2(const Quad& q, const Vec3& x, double& u, double& v) {
-  double b1[3], b2[3];
-  const double d1 = triangleDistance2(x, q.corner[0], q.corner[1], q.corner[2], b1);
-  const double d2 = triangleDistance2(x, q.corner[0], q.corner[2], q.corner[3], b2);
-  if (d1 <= d2) {
-    u = b1[1] + b1[2];
-    v = b1[2];
-    return d1;
+  static constexpr int kTriangles[4][3] = {{0, 1, 2}, {0, 2, 3}, {0, 1, 3}, {1, 2, 3}};
+  static constexpr double kU[4] = {0, 1, 1, 0}, kV[4] = {0, 0, 1, 1};
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& t : kTriangles) {
+    double b[3];
+    const double d2 = triangleDistance2(x, q.corner[t[0]], q.corner[t[1]], q.corner[t[2]], b);
+    if (d2 < best) {
+      best = d2;
+      u = b[0] * kU[t[0]] + b[1] * kU[t[1]] + b[2] * kU[t[2]];
+      v = b[0] * kV[t[0]] + b[1] * kV[t[1]] + b[2] * kV[t[2]];
+    }
   }
-  u = b2[1];
-  v = b2[1] + b2[2];
-  return d2;
+  return best;
 }
 
 // Solves x = ξ(u, v) + t N(u, v) by Newton's method from (u, v, 0), halving steps that do not
@@ -403,18 +408,27 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
         continue;
       }
       if (solidAngle * kInv4Pi > 0.5) continue;  // inside
-      // Outside: through the nearest face.
-      double best = info[l].dist2, bu = 0.0, bv = 0.0;
+      // Outside: through the nearest face. Distances within a relative 1e-12 of each other are
+      // ties (a nearest point on a shared edge or vertex, where round-off would decide): they go
+      // to the face whose plane x is farthest in front of, then to the lowest face index.
+      double best = info[l].dist2, bestBeta = info[l].beta, bu = 0.0, bv = 0.0;
+      std::size_t bestFace =
+          info[l].dist2 < kInf ? m.triangleFace[info[l].triangle] : m.cage->faceCount();
       const Quad* nearest = nullptr;
       for (const Quad& q : m.quads) {
         double u, v;
         const double d2 = quadDistance2(q, x, u, v);
-        if (d2 < best) {
-          best = d2;
-          nearest = &q;
-          bu = u;
-          bv = v;
-        }
+        if (d2 > best * (1.0 + kTie)) continue;
+        const Vec3 normal = glm::normalize(glm::cross(q.tangentU(v), q.tangentV(u)));
+        const double beta = glm::dot(x - q.at(u, v), normal);
+        const bool tie = d2 >= best * (1.0 - kTie);
+        if (tie && (beta < bestBeta || (beta == bestBeta && q.face > bestFace))) continue;
+        best = std::min(best, d2);
+        bestBeta = beta;
+        bestFace = q.face;
+        nearest = &q;
+        bu = u;
+        bv = v;
       }
       if (nearest == nullptr) {
         const Triangle& t = m.cage->triangles()[m.greenTriangle[info[l].triangle]];
