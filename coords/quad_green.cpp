@@ -416,7 +416,7 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
           info[l].dist2 < kInf ? m.triangleFace[info[l].triangle] : m.cage->faceCount();
       const Quad* nearest = nullptr;
       for (const Quad& q : m.quads) {
-        double u, v;
+        double u = 0.0, v = 0.0;
         const double d2 = quadDistance2(q, x, u, v);
         if (d2 > best * (1.0 + kTie)) continue;
         const Vec3 normal = glm::normalize(glm::cross(q.tangentU(v), q.tangentV(u)));
