@@ -13,6 +13,7 @@
 #include <spacewarp/coords/detail/green_triangles.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/core/archive.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp {
@@ -153,38 +154,54 @@ struct QuadSums {
   double u = 0.0, v = 0.0;  // where (first contact found)
 };
 
-// Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s], x at the origin of
-// r = ξ − x.
-void gaussSquare(const Quad& q, const Vec3& x, double u0, double v0, double s, int n,
-                 QuadSums& out) {
+// Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s]. Along a row of
+// nodes (u fixed) r = ξ − x = r0 + v' ξ_v (r0 = ξ(u, v0) − x, v' = v − v0) and r·N = r0·(ξ_u ×
+// ξ_v) is linear in v', so a node costs a square root and a division; |r0| ≤ 3 |r| for an
+// admissible square, so |r|² from its expansion loses no more than a few ulps.
+[[gnu::always_inline]] inline void gaussSquare(const Quad& q, const Vec3& x, double u0, double v0,
+                                               double s, int n, QuadSums& out) {
   const GaussRule& rule = gaussRules()[n];
-  const Vec3 base = q.corner[0] - x;
   for (int i = 0; i < n; ++i) {
     const double u = u0 + s * rule.node[i];
     const Vec3 tv = q.tangentV(u);
-    const Vec3 rowBase = base + u * q.eu;
-    const Vec3 rowSlope = q.ev + u * q.euv;
+    const Vec3 r0 = q.at(u, v0) - x;
+    const Vec3 tu0 = q.tangentU(v0);
+    const double c0 = glm::dot(r0, r0), c1 = 2.0 * glm::dot(r0, tv), c2 = glm::dot(tv, tv);
+    const double a = glm::dot(r0, glm::cross(tu0, tv)), b = glm::dot(r0, glm::cross(q.euv, tv));
+    // Two loops: the first (square roots and divisions, independent across nodes) vectorises
+    // (this file is compiled with -fno-math-errno), the sums stay in node order.
+    double single[kMaxOrder], dbl[kMaxOrder];
+    for (int j = 0; j < n; ++j) {
+      const double dv = s * rule.node[j];
+      const double inv = 1.0 / std::sqrt(c0 + dv * (c1 + dv * c2));
+      single[j] = rule.weight[j] * inv;
+      dbl[j] = single[j] * inv * inv * (a + dv * b);
+    }
+    double dbl0 = 0.0, dbl1 = 0.0, single0 = 0.0, single1 = 0.0;
     for (int j = 0; j < n; ++j) {
       const double v = v0 + s * rule.node[j];
-      const Vec3 r = rowBase + v * rowSlope;
-      const Vec3 normal = glm::cross(q.tangentU(v), tv);
-      const double r2 = glm::dot(r, r);
-      const double inv = 1.0 / std::sqrt(r2);
-      const double w = rule.weight[i] * rule.weight[j] * s * s;
-      const double single = w * inv;
-      const double dbl = single * inv * inv * glm::dot(r, normal);
-      const std::array<double, 4> b = bilinear(u, v);
-      for (int k = 0; k < 4; ++k) {
-        out.phi[k] += b[k] * dbl;
-        out.psi[k] += b[k] * single;
-      }
+      dbl0 += (1.0 - v) * dbl[j];
+      dbl1 += v * dbl[j];
+      single0 += (1.0 - v) * single[j];
+      single1 += v * single[j];
     }
+    const double w = rule.weight[i] * s * s;
+    const double wu = w * u, wu1 = w * (1.0 - u);
+    out.phi[0] += wu1 * dbl0;
+    out.phi[1] += wu * dbl0;
+    out.phi[2] += wu * dbl1;
+    out.phi[3] += wu1 * dbl1;
+    out.psi[0] += wu1 * single0;
+    out.psi[1] += wu * single0;
+    out.psi[2] += wu * single1;
+    out.psi[3] += wu1 * single1;
   }
 }
 
 // The integrals of quad q at x (see the file comment); touchRadius: squares this small that x is
 // still close to (within (kAdmissible + 1) ρ) are contacts.
-void integrateQuad(const Quad& q, const Vec3& x, double touchRadius, QuadSums& out) {
+[[gnu::always_inline]] inline void integrateQuad(const Quad& q, const Vec3& x, double touchRadius,
+                                                 QuadSums& out) {
   struct Square {
     double u0, v0, s;
   };
@@ -231,6 +248,24 @@ void integrateQuad(const Quad& q, const Vec3& x, double touchRadius, QuadSums& o
     out.psi[k] *= kInv4Pi;
   }
 }
+
+// integrateQuad compiled for each simd::Path (core/detail/simd.h): the node loop vectorises to
+// the path's width, with the same bits on every path (IEEE square roots and divisions, no FMA
+// contraction, sums in node order).
+void integrateBaseline(const Quad& q, const Vec3& x, double touchRadius, QuadSums& out) {
+  integrateQuad(q, x, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V3 void integrateV3(const Quad& q, const Vec3& x, double touchRadius,
+                                          QuadSums& out) {
+  integrateQuad(q, x, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V4 void integrateV4(const Quad& q, const Vec3& x, double touchRadius,
+                                          QuadSums& out) {
+  integrateQuad(q, x, touchRadius, out);
+}
+using IntegrateFn = void (*)(const Quad&, const Vec3&, double, QuadSums&);
+constexpr IntegrateFn kIntegrate[detail::simd::kPathCount] = {integrateBaseline, integrateV3,
+                                                              integrateV4};
 
 // The squared distance from x to triangle abc and the barycentric coordinates of the nearest
 // point (Ericson, Real-Time Collision Detection, 5.1.5).
@@ -376,10 +411,11 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
       bool touchedQuad = false;
       std::size_t touchQuad = 0;
       double tu = 0.0, tv = 0.0;
+      const IntegrateFn integrate = kIntegrate[static_cast<int>(detail::simd::activePath())];
       for (std::size_t j = 0; j < m.quads.size(); ++j) {
         const Quad& q = m.quads[j];
         QuadSums sums;
-        integrateQuad(q, x, m.touchRadius, sums);
+        integrate(q, x, m.touchRadius, sums);
         for (int k = 0; k < 4; ++k) {
           row[q.vertex[k]] += sums.phi[k];
           row[q.column + k] = sums.psi[k];

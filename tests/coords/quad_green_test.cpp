@@ -14,6 +14,7 @@
 #include <spacewarp/coords/green.h>
 #include <spacewarp/core/archive.h>
 #include <spacewarp/core/binding.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
@@ -304,6 +305,25 @@ TEST(QuadGreen, BatchIsBitIdenticalToSinglePointsForAnyThreadCount) {
   for (std::size_t i = 0; i < points.size(); i += 17) {
     const std::vector<double> row = rowOf(qgc, points[i]);
     EXPECT_TRUE(std::equal(row.begin(), row.end(), one.begin() + i * m)) << i;
+  }
+}
+
+// The quadrature runs vectorised on every simd::Path with the same bits.
+TEST(QuadGreen, EverySimdPathGivesTheSameBits) {
+  const auto cage = makeCage(lPrismQuads(true), "lPrismTriQuad");
+  const QuadGreenCoordinates qgc(cage);
+  std::mt19937 rng(4);
+  const std::vector<Vec3> points = test::randomPoints(rng, 40, -0.5, 2.5);
+  std::vector<double> reference;
+  for (int p = 0; p < detail::simd::kPathCount; ++p) {
+    const auto path = static_cast<detail::simd::Path>(p);
+    if (!detail::simd::pathSupported(path)) continue;
+    detail::simd::forcePath(path);
+    std::vector<double> rows(points.size() * qgc.columnCount());
+    qgc.weightsBatch(points, rows);
+    detail::simd::forcePath(std::nullopt);
+    if (reference.empty()) reference = rows;
+    EXPECT_EQ(rows, reference) << detail::simd::pathName(path);
   }
 }
 
