@@ -30,6 +30,7 @@
 #include <spacewarp/coords/cage.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/quad_green.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/io/mesh_io.h>
@@ -142,6 +143,40 @@ void BM_MvcBindBox(benchmark::State& state) {
   reportPairs(state, points.size(), cage->triangleCount());
 }
 
+// Green coordinates of a quad cage: QGC on the box with 6 x 6 quads per side (216 quads, 218
+// vertices), and triangle Green on the same cage triangulated (432 triangles), 2000 points inside;
+// pair_time is per (point x face) of each: quads for QGC, triangles for Green.
+template <bool quads>
+void BM_GreenBindQuadBox(benchmark::State& state) {
+  const auto cage =
+      std::make_shared<const Cage>(makeBoxSurface(Vec3(-1.0), Vec3(1.0), {6, 6, 6}), "box");
+  PolygonSoup triangulated;
+  triangulated.positions.assign(cage->vertices().begin(), cage->vertices().end());
+  for (const Triangle& t : cage->triangles()) triangulated.addPolygon({t.x, t.y, t.z});
+  const auto triangles = std::make_shared<const Cage>(triangulated, "box triangulated");
+  const std::shared_ptr<const Coordinates> coordinates =
+      quads ? std::shared_ptr<const Coordinates>(std::make_shared<QuadGreenCoordinates>(cage))
+            : std::make_shared<GreenCoordinates>(triangles);
+  const std::vector<Vec3> points = makeRandomPoints(Vec3(-0.99), Vec3(0.99), 2000, 7).positions;
+  for (auto _ : state) {
+    Binding binding(coordinates, points);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, points.size(), quads ? cage->faceCount() : triangles->faceCount());
+}
+
+// QGC binding the armadillo model: its cage is all triangles, so this is triangle Green through
+// QuadGreenCoordinates (CageModeler's QGC: 0.35 s for the same binding).
+void BM_QgcBindArmadilloModel(benchmark::State& state) {
+  Armadillo& a = armadillo();
+  const auto qgc = std::make_shared<const QuadGreenCoordinates>(a.cage);
+  for (auto _ : state) {
+    Binding binding(qgc, a.model);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, a.model.size(), a.cage->faceCount());
+}
+
 // Binding the armadillo model or the 1M-point cloud with the coordinates `method` picks.
 template <bool green, bool cloud>
 void BM_BindArmadillo(benchmark::State& state) {
@@ -242,6 +277,12 @@ void registerCoordsBenchmarks() {
   benchmark::RegisterBenchmark("BM_MvcBindBox", BM_MvcBindBox)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
+  benchmark::RegisterBenchmark("BM_QgcBindQuadBox", BM_GreenBindQuadBox<true>)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("BM_GreenBindQuadBoxTriangulated", BM_GreenBindQuadBox<false>)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
   const auto dir = armadilloDir();
   const bool haveData = std::filesystem::exists(dir / "bounding_mesh.obj") &&
                         std::filesystem::exists(dir / "armadilloman.obj") &&
@@ -255,6 +296,9 @@ void registerCoordsBenchmarks() {
         ->UseRealTime()
         ->Iterations(3);
     benchmark::RegisterBenchmark("BM_GreenBindArmadilloModel", BM_BindArmadillo<true, false>)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+    benchmark::RegisterBenchmark("BM_QgcBindArmadilloModel", BM_QgcBindArmadilloModel)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
     benchmark::RegisterBenchmark("BM_GreenBindArmadilloCloud1M", BM_BindArmadillo<true, true>)
