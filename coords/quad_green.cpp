@@ -80,8 +80,14 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // Relative difference below which two faces are equally near (see evaluateMixed()).
 constexpr double kTie = 1e-12;
 
+constexpr int kBlock = 8;  // tensor nodes are summed in 8 interleaved partial sums
+constexpr int kMaxTensor = (kMaxOrder * kMaxOrder + kBlock - 1) / kBlock * kBlock;
+
 struct GaussRule {
   std::array<double, kMaxOrder> node{}, weight{};  // on [0, 1]
+  // The n² tensor nodes (u, v) and weights, padded with weight-0 nodes to a multiple of kBlock.
+  int tensorCount = 0;
+  alignas(64) std::array<double, kMaxTensor> tu{}, tv{}, tw{};
 };
 
 // Gauss-Legendre rules of every order up to kMaxOrder on [0, 1]: Newton on the Legendre
@@ -106,6 +112,14 @@ const std::array<GaussRule, kMaxOrder + 1>& gaussRules() {
         }
         r[n].node[i] = 0.5 * (1.0 - z);
         r[n].weight[i] = 1.0 / ((1.0 - z * z) * dp * dp);  // 2 / ((1 − z²) P'²) halved
+      }
+      GaussRule& g = r[n];
+      g.tensorCount = (n * n + kBlock - 1) / kBlock * kBlock;
+      for (int t = 0; t < g.tensorCount; ++t) {
+        const bool pad = t >= n * n;
+        g.tu[t] = pad ? 0.5 : g.node[t / n];
+        g.tv[t] = pad ? 0.5 : g.node[t % n];
+        g.tw[t] = pad ? 0.0 : g.weight[t / n] * g.weight[t % n];
       }
     }
     return r;
@@ -154,47 +168,48 @@ struct QuadSums {
   double u = 0.0, v = 0.0;  // where (first contact found)
 };
 
-// Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s]. Along a row of
-// nodes (u fixed) r = ξ − x = r0 + v' ξ_v (r0 = ξ(u, v0) − x, v' = v − v0) and r·N = r0·(ξ_u ×
-// ξ_v) is linear in v', so a node costs a square root and a division; |r0| ≤ 3 |r| for an
-// admissible square, so |r|² from its expansion loses no more than a few ulps.
+// Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s]: every node
+// directly (r = ξ − x, r·N = det(r, ξ_u, ξ_v)), kBlock nodes at a time into kBlock interleaved
+// partial sums, which the compiler vectorises without reordering any sum: the same bits on every
+// simd::Path.
 [[gnu::always_inline]] inline void gaussSquare(const Quad& q, const Vec3& x, double u0, double v0,
                                                double s, int n, QuadSums& out) {
   const GaussRule& rule = gaussRules()[n];
-  for (int i = 0; i < n; ++i) {
-    const double u = u0 + s * rule.node[i];
-    const Vec3 tv = q.tangentV(u);
-    const Vec3 r0 = q.at(u, v0) - x;
-    const Vec3 tu0 = q.tangentU(v0);
-    const double c0 = glm::dot(r0, r0), c1 = 2.0 * glm::dot(r0, tv), c2 = glm::dot(tv, tv);
-    const double a = glm::dot(r0, glm::cross(tu0, tv)), b = glm::dot(r0, glm::cross(q.euv, tv));
-    // Two loops: the first (square roots and divisions, independent across nodes) vectorises
-    // (this file is compiled with -fno-math-errno), the sums stay in node order.
-    double single[kMaxOrder], dbl[kMaxOrder];
-    for (int j = 0; j < n; ++j) {
-      const double dv = s * rule.node[j];
-      const double inv = 1.0 / std::sqrt(c0 + dv * (c1 + dv * c2));
-      single[j] = rule.weight[j] * inv;
-      dbl[j] = single[j] * inv * inv * (a + dv * b);
+  const Vec3 base = q.corner[0] - x;
+  const double bx = base.x, by = base.y, bz = base.z;
+  const double ux = q.eu.x, uy = q.eu.y, uz = q.eu.z, vx = q.ev.x, vy = q.ev.y, vz = q.ev.z;
+  const double wx = q.euv.x, wy = q.euv.y, wz = q.euv.z;
+  alignas(64) double acc[8][kBlock] = {};
+  for (int t0 = 0; t0 < rule.tensorCount; t0 += kBlock) {
+    for (int l = 0; l < kBlock; ++l) {
+      const double u = u0 + s * rule.tu[t0 + l], v = v0 + s * rule.tv[t0 + l];
+      const double uv = u * v;
+      const double rx = bx + u * ux + v * vx + uv * wx;
+      const double ry = by + u * uy + v * vy + uv * wy;
+      const double rz = bz + u * uz + v * vz + uv * wz;
+      const double ax = ux + v * wx, ay = uy + v * wy, az = uz + v * wz;  // ξ_u
+      const double cx = vx + u * wx, cy = vy + u * wy, cz = vz + u * wz;  // ξ_v
+      const double det =
+          rx * (ay * cz - az * cy) + ry * (az * cx - ax * cz) + rz * (ax * cy - ay * cx);
+      const double inv = 1.0 / std::sqrt(rx * rx + ry * ry + rz * rz);
+      const double single = rule.tw[t0 + l] * inv;
+      const double dbl = single * inv * inv * det;
+      const double b0 = (1.0 - u) * (1.0 - v), b1 = u * (1.0 - v), b2 = uv, b3 = (1.0 - u) * v;
+      acc[0][l] += b0 * dbl;
+      acc[1][l] += b1 * dbl;
+      acc[2][l] += b2 * dbl;
+      acc[3][l] += b3 * dbl;
+      acc[4][l] += b0 * single;
+      acc[5][l] += b1 * single;
+      acc[6][l] += b2 * single;
+      acc[7][l] += b3 * single;
     }
-    double dbl0 = 0.0, dbl1 = 0.0, single0 = 0.0, single1 = 0.0;
-    for (int j = 0; j < n; ++j) {
-      const double v = v0 + s * rule.node[j];
-      dbl0 += (1.0 - v) * dbl[j];
-      dbl1 += v * dbl[j];
-      single0 += (1.0 - v) * single[j];
-      single1 += v * single[j];
-    }
-    const double w = rule.weight[i] * s * s;
-    const double wu = w * u, wu1 = w * (1.0 - u);
-    out.phi[0] += wu1 * dbl0;
-    out.phi[1] += wu * dbl0;
-    out.phi[2] += wu * dbl1;
-    out.phi[3] += wu1 * dbl1;
-    out.psi[0] += wu1 * single0;
-    out.psi[1] += wu * single0;
-    out.psi[2] += wu * single1;
-    out.psi[3] += wu1 * single1;
+  }
+  const double area = s * s;
+  for (int k = 0; k < 8; ++k) {
+    double sum = 0.0;
+    for (int l = 0; l < kBlock; ++l) sum += acc[k][l];
+    (k < 4 ? out.phi[k] : out.psi[k - 4]) += area * sum;
   }
 }
 
@@ -399,7 +414,11 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
   info.resize(lanes);
   for (std::size_t start = 0; start < count; start += lanes) {
     const std::size_t n = std::min(lanes, count - start);
-    m.triangles->evaluate(points + start, n, triRows.data(), nv + nt, info.data());
+    if (nt > 0) {
+      m.triangles->evaluate(points + start, n, triRows.data(), nv + nt, info.data());
+    } else {
+      std::fill(info.begin(), info.end(), detail::GreenTriangleTerms::Point{});
+    }
     for (std::size_t l = 0; l < n; ++l) {
       const Vec3& x = points[start + l];
       double* row = rows + (start + l) * stride;
