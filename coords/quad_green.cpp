@@ -37,26 +37,37 @@ namespace spacewarp {
 // The quad integrals are computed by adaptive Gauss-Legendre quadrature in (u, v): a square of
 // the parameter domain is integrated by a tensor rule when x is at least kAdmissible times the
 // radius ρ of the square's patch piece from its centre (the piece lies in the convex hull of its
-// corners, hence in that ball), with the order chosen from ρ / D (kOrderLimit, measured so that
-// the rule's error is below ~1e-16 of the piece's contribution); otherwise it is cut in four. A
-// square whose radius falls to the surface tolerance (or to 1e-16 of the cage diagonal) while x
-// is still that close to it is a surface contact (below).
+// corners, hence in that ball), with the order chosen from t = ρ / D (kOrderLimit: measured on
+// 4000 random planar and warped quads against a 60-point rule in long double, the rule's error is
+// below 1e-15 of the piece's contribution); otherwise it is cut in four. A square whose radius
+// falls to the surface tolerance (or to 1e-16 of the cage diagonal) while x is still that close
+// to it is a surface contact (below). Accuracy measured (tests): at rest x is reproduced to
+// ~5e-15 of the diagonal and Σ φ = 1 to ~1e-15, inside and outside, on planar, concave and warped
+// quad cages; on parallelograms A Σ_k ψ_k equals triangle Green's closed-form single layer to
+// 3e-15 relative, down to 1e-9 of the diagonal from the face. The node positions r = ξ − x carry
+// an absolute round-off of ~1e-16 of the coordinates, as if x moved by that much: near a quad's
+// edge (distance δ) φ is then good to ~1e-16 |x| / δ, as the function's own conditioning allows.
+// A typical point inside a 216-quad box needs ~90 nodes per quad (orders 7 to 14).
 //
 // Inside: the integrals. Σ φ = 1 there (the solid angle of the closed surface).
 // Surface (x within the tolerance of a triangle, or of a quad as above): the limit from inside,
 // φ = φ_pv + (1 − σ) Γ(x0) as in green.h: the pieces touching x contribute no double layer,
 // σ = Σ φ_pv, Γ(x0) the hat values where x touches (B_k(u, v) on a quad).
-// Outside: the raw integrals reproduce 0; the coordinates are continued through the nearest face
-// f. For a triangle as in green.h. For a quad, x is written as x = ξ(u, v) + t N(u, v) (u, v, t
-// by Newton's method from the nearest point of the quad's four triangles (of both diagonals), (u,
-// v) not restricted to the unit square), and B_k(u, v) is added to φ_{q_k}, t B_k(u, v) to ψ_{q,k}:
-// this reproduces x (N = Σ B_k N_k), and on the quad (t = 0) it equals the surface limit, so the
-// coordinates are continuous across the quad. It is not the analytic continuation of the
-// interior coordinates (that of a curved patch has no closed form): the derivatives jump across
-// the quad. A non-convergent Newton solve (far from a strongly warped quad) keeps the nearest
-// point's (u, v) and the normal part of x − ξ(u, v); x is then reproduced up to the tangential
-// rest. The nearest face is found by distances to the triangles (a quad by the four triangles of
-// its two diagonals, which do not depend on its first vertex).
+// Outside: the raw integrals reproduce 0; the coordinates are continued through the nearest face.
+// For a triangle as in green.h. For a quad, x is written in the frame of the patch at a point
+// (u, v): x = ξ(u, v) + a ξ_u + b ξ_v + t N (a 3 × 3 solve), and B_k + a ∂_u B_k + b ∂_v B_k
+// (at (u, v)) is added to φ_{q_k}, t B_k(u, v) to ψ_{q,k}. This reproduces x exactly (Σ_k ∂B_k
+// q_k = ξ_u, ..., N = Σ B_k N_k) and keeps Σ φ = 1 (Σ_k ∂B_k = 0). (u, v) is the foot of x on
+// the extended patch, x = ξ(u, v) + t N(u, v) (then a = b = 0), by damped Newton from the nearest
+// point of the quad's four triangles (both diagonals); where that has no solution (far from a
+// warped quad) the nearest point itself. On the quad (t = 0) this equals the surface limit, so
+// the coordinates are continuous across quads. It is not the analytic continuation of the
+// interior coordinates (a curved patch has none in closed form; for a planar quad the continuation
+// of the bilinear hats is not bilinear either): the derivatives jump across a quad. The nearest
+// face is found by distances to the triangles (a quad by the four triangles of its two diagonals,
+// which do not depend on its first vertex); distances equal to 1e-12 relative are ties, going to
+// the face x is farthest in front of, then to the lowest index. As for triangles, the outside
+// coordinates are discontinuous across the exterior's medial surface.
 //
 // Posed controls (columnControls): the posed vertices; for a triangle, GreenCoordinates' stretched
 // unit normal; for quad corner k, σ_k N'_k with N'_k the posed corner normal and
