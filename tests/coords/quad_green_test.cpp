@@ -61,6 +61,23 @@ PolygonSoup jitteredBox(double jitter) {
   return s;
 }
 
+// jitteredBox with every third quad cut into two triangles: non-planar quads beside triangles.
+PolygonSoup jitteredTriQuadBox(double jitter) {
+  const PolygonSoup quads = jitteredBox(jitter);
+  PolygonSoup s;
+  s.positions = quads.positions;
+  for (std::size_t f = 0; f < quads.polygonCount(); ++f) {
+    const std::uint32_t* q = quads.faceIndices.data() + quads.faceOffsets[f];
+    if (f % 3 == 0) {
+      s.addPolygon({q[0], q[1], q[2]});
+      s.addPolygon({q[0], q[2], q[3]});
+    } else {
+      s.addPolygon({q[0], q[1], q[2], q[3]});
+    }
+  }
+  return s;
+}
+
 struct NamedCage {
   std::string name;
   std::shared_ptr<const Cage> cage;
@@ -72,6 +89,7 @@ std::vector<NamedCage> quadCages() {
       {"lPrismQuads", makeCage(lPrismQuads(false), "lPrismQuads")},
       {"lPrismTriQuad", makeCage(lPrismQuads(true), "lPrismTriQuad")},
       {"nonPlanarBox", makeCage(jitteredBox(0.2), "nonPlanarBox")},
+      {"nonPlanarTriQuadBox", makeCage(jitteredTriQuadBox(0.2), "nonPlanarTriQuadBox")},
   };
 }
 
