@@ -645,6 +645,7 @@ void QuadGreenCoordinates::columnControls(std::span<const Vec3> posed, std::span
         const Vec3 pa = eu + v * euv, pb = ev + u * euv;
         const double rest2 = glm::dot(glm::cross(a, b), glm::cross(a, b));
         const double restArea = std::sqrt(rest2);
+        if (!(restArea > 0.0)) continue;  // a node where a folded quad has no normal
         const double lengthStretch = std::sqrt(
             std::max(0.0, (glm::dot(pa, pa) * glm::dot(b, b) + glm::dot(a, a) * glm::dot(pb, pb) -
                            2.0 * glm::dot(pa, pb) * glm::dot(a, b)) /

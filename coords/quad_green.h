@@ -3,8 +3,11 @@
 // triquad cages in 3D", SIGGRAPH Asia 2022. Triangles are as in coords/green.h (one normal
 // coordinate each); quads, planar or not, are bilinear patches with four normal coordinates
 // each, from the paper's Neumann boundary condition. Interior, surface and exterior points are
-// handled as for triangle Green coordinates. The numerics are described at the top of
-// quad_green.cpp.
+// handled as for triangle Green coordinates; outside, a quad continues the coordinates through
+// the frame of its patch at the foot of x (exact reproduction, continuous across the quad, not
+// analytic there). The quad integrals are adaptive Gauss-Legendre quadrature to ~1e-15; an
+// all-triangle cage gives GreenCoordinates' rows bit for bit. The numerics are described at the
+// top of quad_green.cpp.
 
 #include <memory>
 #include <span>
