@@ -399,6 +399,7 @@ struct QuadGreenData {
   bool allTriangles = true;
   // Mixed cages: the triangle faces' terms, their faces and columns; the quads.
   std::unique_ptr<detail::GreenTriangleTerms> triangles;
+  std::vector<Triangle> triangleVertices;  // the triangle faces, as their faces list them
   std::vector<std::size_t> triangleFace, triangleColumn, greenTriangle;
   std::vector<Quad> quads;
   std::vector<std::size_t> faceColumn;  // the first column of each face
@@ -467,7 +468,7 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
           const std::array<double, 4> b = bilinear(tu, tv);
           for (int k = 0; k < 4; ++k) row[q.vertex[k]] += (1.0 - sigma) * b[k];
         } else {
-          const Triangle& t = m.cage->triangles()[m.greenTriangle[info[l].triangle]];
+          const Triangle& t = m.triangleVertices[info[l].triangle];
           const std::uint32_t idx[3] = {t.x, t.y, t.z};
           for (int k = 0; k < 3; ++k) row[idx[k]] += (1.0 - sigma) * info[l].bary[k];
         }
@@ -497,7 +498,7 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
         bv = v;
       }
       if (nearest == nullptr) {
-        const Triangle& t = m.cage->triangles()[m.greenTriangle[info[l].triangle]];
+        const Triangle& t = m.triangleVertices[info[l].triangle];
         const std::uint32_t idx[3] = {t.x, t.y, t.z};
         for (int k = 0; k < 3; ++k) row[idx[k]] += info[l].bary[k];
         row[m.triangleColumn[info[l].triangle]] += info[l].beta;
@@ -533,12 +534,11 @@ QuadGreenCoordinates::QuadGreenCoordinates(std::shared_ptr<const Cage> cage,
   const std::size_t nv = cage->vertexCount();
   std::size_t column = nv;
   m->faceColumn.resize(cage->faceCount());
-  std::vector<Triangle> triangleFaces;
   for (std::size_t f = 0; f < cage->faceCount(); ++f) {
     const std::span<const std::uint32_t> face = cage->face(f);
     m->faceColumn[f] = column;
     if (face.size() == 3) {
-      triangleFaces.push_back({face[0], face[1], face[2]});
+      m->triangleVertices.push_back({face[0], face[1], face[2]});
       m->triangleFace.push_back(f);
       m->triangleColumn.push_back(column);
       column += 1;
@@ -560,8 +560,8 @@ QuadGreenCoordinates::QuadGreenCoordinates(std::shared_ptr<const Cage> cage,
   greenOptions.surfaceTolerance = options.surfaceTolerance;
   m->green = std::make_unique<GreenCoordinates>(cage, greenOptions);
   if (!m->allTriangles) {
-    // The triangulation keeps a triangle face as one triangle: find it for the nearest-triangle
-    // look-ups (GreenTriangleTerms indexes its own triangles).
+    // The triangulation keeps a triangle face as one triangle: find it for the stretched normals
+    // of the triangle faces (GreenCoordinates' columns follow the triangulation).
     std::vector<std::size_t> triangleOfFace(cage->faceCount(), 0);
     const std::span<const std::uint32_t> source = cage->triangleSource();
     for (std::size_t t = 0; t < source.size(); ++t) triangleOfFace[source[t]] = t;
@@ -570,8 +570,8 @@ QuadGreenCoordinates::QuadGreenCoordinates(std::shared_ptr<const Cage> cage,
     m->tolerance = options.surfaceTolerance * diagonal;
     m->touchRadius = std::max(m->tolerance, 1e-16 * diagonal) / kAdmissible;
     m->footTolerance = 1e-14 * diagonal;
-    m->triangles =
-        std::make_unique<detail::GreenTriangleTerms>(cage->vertices(), triangleFaces, m->tolerance);
+    m->triangles = std::make_unique<detail::GreenTriangleTerms>(cage->vertices(),
+                                                                m->triangleVertices, m->tolerance);
   }
   impl_ = std::move(m);
 }
