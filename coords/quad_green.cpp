@@ -179,120 +179,6 @@ struct QuadSums {
   double u = 0.0, v = 0.0;  // where (first contact found)
 };
 
-// Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s]: every node
-// directly (r = ξ − x, r·N = det(r, ξ_u, ξ_v)), kBlock nodes at a time into kBlock interleaved
-// partial sums, which the compiler vectorises without reordering any sum: the same bits on every
-// simd::Path.
-[[gnu::always_inline]] inline void gaussSquare(const Quad& q, const Vec3& x, double u0, double v0,
-                                               double s, int n, QuadSums& out) {
-  const GaussRule& rule = gaussRules()[n];
-  const Vec3 base = q.corner[0] - x;
-  const double bx = base.x, by = base.y, bz = base.z;
-  const double ux = q.eu.x, uy = q.eu.y, uz = q.eu.z, vx = q.ev.x, vy = q.ev.y, vz = q.ev.z;
-  const double wx = q.euv.x, wy = q.euv.y, wz = q.euv.z;
-  alignas(64) double acc[8][kBlock] = {};
-  for (int t0 = 0; t0 < rule.tensorCount; t0 += kBlock) {
-    for (int l = 0; l < kBlock; ++l) {
-      const double u = u0 + s * rule.tu[t0 + l], v = v0 + s * rule.tv[t0 + l];
-      const double uv = u * v;
-      const double rx = bx + u * ux + v * vx + uv * wx;
-      const double ry = by + u * uy + v * vy + uv * wy;
-      const double rz = bz + u * uz + v * vz + uv * wz;
-      const double ax = ux + v * wx, ay = uy + v * wy, az = uz + v * wz;  // ξ_u
-      const double cx = vx + u * wx, cy = vy + u * wy, cz = vz + u * wz;  // ξ_v
-      const double det =
-          rx * (ay * cz - az * cy) + ry * (az * cx - ax * cz) + rz * (ax * cy - ay * cx);
-      const double inv = 1.0 / std::sqrt(rx * rx + ry * ry + rz * rz);
-      const double single = rule.tw[t0 + l] * inv;
-      const double dbl = single * inv * inv * det;
-      const double b0 = (1.0 - u) * (1.0 - v), b1 = u * (1.0 - v), b2 = uv, b3 = (1.0 - u) * v;
-      acc[0][l] += b0 * dbl;
-      acc[1][l] += b1 * dbl;
-      acc[2][l] += b2 * dbl;
-      acc[3][l] += b3 * dbl;
-      acc[4][l] += b0 * single;
-      acc[5][l] += b1 * single;
-      acc[6][l] += b2 * single;
-      acc[7][l] += b3 * single;
-    }
-  }
-  const double area = s * s;
-  for (int k = 0; k < 8; ++k) {
-    double sum = 0.0;
-    for (int l = 0; l < kBlock; ++l) sum += acc[k][l];
-    (k < 4 ? out.phi[k] : out.psi[k - 4]) += area * sum;
-  }
-}
-
-// The integrals of quad q at x (see the file comment); touchRadius: squares this small that x is
-// still close to (within (kAdmissible + 1) ρ) are contacts.
-[[gnu::always_inline]] inline void integrateQuad(const Quad& q, const Vec3& x, double touchRadius,
-                                                 QuadSums& out) {
-  struct Square {
-    double u0, v0, s;
-  };
-  Square stack[4 * 80];
-  int top = 0;
-  stack[top++] = {0.0, 0.0, 1.0};
-  while (top > 0) {
-    const Square sq = stack[--top];
-    const double h = 0.5 * sq.s;
-    const Vec3 centre = q.at(sq.u0 + h, sq.v0 + h) - x;
-    double rho2 = 0.0;
-    for (int k = 0; k < 4; ++k) {
-      const double cu = sq.u0 + ((k == 1 || k == 2) ? sq.s : 0.0);
-      const double cv = sq.v0 + (k >= 2 ? sq.s : 0.0);
-      const Vec3 d = q.at(cu, cv) - x - centre;
-      rho2 = std::max(rho2, glm::dot(d, d));
-    }
-    const double d2 = glm::dot(centre, centre);
-    if (d2 >= kAdmissible * kAdmissible * rho2) {
-      const double t = std::sqrt(rho2 / d2);
-      int n = 4;
-      while (n < kMaxOrder && t > kOrderLimit[n]) ++n;
-      gaussSquare(q, x, sq.u0, sq.v0, sq.s, n, out);
-      continue;
-    }
-    const double rho = std::sqrt(rho2);
-    if (rho <= touchRadius || sq.s < 0x1p-60) {
-      // x is within (kAdmissible + 1) ρ of this tiny piece: a contact. Its double layer is the
-      // jump the surface limit accounts for; its single layer is O(ρ) and dropped.
-      if (!out.touched) {
-        out.touched = true;
-        out.u = sq.u0 + h;
-        out.v = sq.v0 + h;
-      }
-      continue;
-    }
-    stack[top++] = {sq.u0, sq.v0, h};
-    stack[top++] = {sq.u0 + h, sq.v0, h};
-    stack[top++] = {sq.u0, sq.v0 + h, h};
-    stack[top++] = {sq.u0 + h, sq.v0 + h, h};
-  }
-  for (int k = 0; k < 4; ++k) {
-    out.phi[k] *= kInv4Pi;
-    out.psi[k] *= kInv4Pi;
-  }
-}
-
-// integrateQuad compiled for each simd::Path (core/detail/simd.h): the node loop vectorises to
-// the path's width, with the same bits on every path (IEEE square roots and divisions, no FMA
-// contraction, sums in node order).
-void integrateBaseline(const Quad& q, const Vec3& x, double touchRadius, QuadSums& out) {
-  integrateQuad(q, x, touchRadius, out);
-}
-SPACEWARP_SIMD_TARGET_V3 void integrateV3(const Quad& q, const Vec3& x, double touchRadius,
-                                          QuadSums& out) {
-  integrateQuad(q, x, touchRadius, out);
-}
-SPACEWARP_SIMD_TARGET_V4 void integrateV4(const Quad& q, const Vec3& x, double touchRadius,
-                                          QuadSums& out) {
-  integrateQuad(q, x, touchRadius, out);
-}
-using IntegrateFn = void (*)(const Quad&, const Vec3&, double, QuadSums&);
-constexpr IntegrateFn kIntegrate[detail::simd::kPathCount] = {integrateBaseline, integrateV3,
-                                                              integrateV4};
-
 // The squared distance from x to triangle abc and the barycentric coordinates of the nearest
 // point (Ericson, Real-Time Collision Detection, 5.1.5).
 double triangleDistance2(const Vec3& x, const Vec3& a, const Vec3& b, const Vec3& c,
@@ -350,6 +236,159 @@ double quadDistance2(const Quad& q, const Vec3& x, double& u, double& v) {
   }
   return best;
 }
+
+// Where the node vectors r = ξ(u, v) − x are measured from: a point (u_o, v_o) of the patch and
+// ξ(u_o, v_o) − x, computed once. r = offset + Δ with Δ = ξ(u, v) − ξ(u_o, v_o) in differences of
+// the parameters, so that near x (origin at its foot) r has round-off relative to |r|, not to
+// the coordinates' size.
+struct Origin {
+  double u = 0.0, v = 0.0;
+  Vec3 offset{0.0};
+};
+
+Vec3 fromOrigin(const Quad& q, const Origin& o, double u, double v) {
+  const double du = u - o.u, dv = v - o.v;
+  return o.offset + du * q.eu + dv * q.ev + (du * v + o.u * dv) * q.euv;
+}
+
+// The point of the patch nearest to x, near enough: Gauss-Newton on |ξ(u, v) − x|² in the unit
+// square from the nearest point of the quad's triangles.
+Origin footOf(const Quad& q, const Vec3& x) {
+  double u = 0.0, v = 0.0;
+  quadDistance2(q, x, u, v);
+  for (int it = 0; it < 8; ++it) {
+    const Vec3 r = q.at(u, v) - x, a = q.tangentU(v), b = q.tangentV(u);
+    const double aa = glm::dot(a, a), ab = glm::dot(a, b), bb = glm::dot(b, b);
+    const double ga = glm::dot(r, a), gb = glm::dot(r, b);
+    const double det = aa * bb - ab * ab;
+    if (!(det > 0.0)) break;
+    u = std::clamp(u - (bb * ga - ab * gb) / det, 0.0, 1.0);
+    v = std::clamp(v - (aa * gb - ab * ga) / det, 0.0, 1.0);
+  }
+  return {u, v, q.at(u, v) - x};
+}
+
+// Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s]: every node
+// directly (r·N = det(r, ξ_u, ξ_v)), kBlock nodes at a time into kBlock interleaved partial sums,
+// which the compiler vectorises without reordering any sum: the same bits on every simd::Path.
+[[gnu::always_inline]] inline void gaussSquare(const Quad& q, const Origin& o, double u0, double v0,
+                                               double s, int n, QuadSums& out) {
+  const GaussRule& rule = gaussRules()[n];
+  const double bx = o.offset.x, by = o.offset.y, bz = o.offset.z;
+  const double ux = q.eu.x, uy = q.eu.y, uz = q.eu.z, vx = q.ev.x, vy = q.ev.y, vz = q.ev.z;
+  const double wx = q.euv.x, wy = q.euv.y, wz = q.euv.z;
+  const double du0 = u0 - o.u, dv0 = v0 - o.v, uo = o.u;
+  alignas(64) double acc[8][kBlock] = {};
+  for (int t0 = 0; t0 < rule.tensorCount; t0 += kBlock) {
+    for (int l = 0; l < kBlock; ++l) {
+      const double su = s * rule.tu[t0 + l], sv = s * rule.tv[t0 + l];
+      const double u = u0 + su, v = v0 + sv, du = du0 + su, dv = dv0 + sv;
+      const double dw = du * v + uo * dv;
+      const double rx = bx + du * ux + dv * vx + dw * wx;
+      const double ry = by + du * uy + dv * vy + dw * wy;
+      const double rz = bz + du * uz + dv * vz + dw * wz;
+      const double uv = u * v;
+      const double ax = ux + v * wx, ay = uy + v * wy, az = uz + v * wz;  // ξ_u
+      const double cx = vx + u * wx, cy = vy + u * wy, cz = vz + u * wz;  // ξ_v
+      const double det =
+          rx * (ay * cz - az * cy) + ry * (az * cx - ax * cz) + rz * (ax * cy - ay * cx);
+      const double inv = 1.0 / std::sqrt(rx * rx + ry * ry + rz * rz);
+      const double single = rule.tw[t0 + l] * inv;
+      const double dbl = single * inv * inv * det;
+      const double b0 = (1.0 - u) * (1.0 - v), b1 = u * (1.0 - v), b2 = uv, b3 = (1.0 - u) * v;
+      acc[0][l] += b0 * dbl;
+      acc[1][l] += b1 * dbl;
+      acc[2][l] += b2 * dbl;
+      acc[3][l] += b3 * dbl;
+      acc[4][l] += b0 * single;
+      acc[5][l] += b1 * single;
+      acc[6][l] += b2 * single;
+      acc[7][l] += b3 * single;
+    }
+  }
+  const double area = s * s;
+  for (int k = 0; k < 8; ++k) {
+    double sum = 0.0;
+    for (int l = 0; l < kBlock; ++l) sum += acc[k][l];
+    (k < 4 ? out.phi[k] : out.psi[k - 4]) += area * sum;
+  }
+}
+
+// The integrals of quad q at x (see the file comment); touchRadius: squares this small that x is
+// still close to (within (kAdmissible + 1) ρ) are contacts.
+[[gnu::always_inline]] inline void integrateQuad(const Quad& q, const Vec3& x, double touchRadius,
+                                                 QuadSums& out) {
+  struct Square {
+    double u0, v0, s;
+  };
+  Square stack[4 * 80];
+  int top = 0;
+  stack[top++] = {0.0, 0.0, 1.0};
+  Origin origin{0.0, 0.0, q.corner[0] - x};
+  bool near = false;
+  while (top > 0) {
+    const Square sq = stack[--top];
+    const double h = 0.5 * sq.s;
+    const Vec3 centre = fromOrigin(q, origin, sq.u0 + h, sq.v0 + h);
+    double rho2 = 0.0;
+    for (int k = 0; k < 4; ++k) {
+      const double cu = sq.u0 + ((k == 1 || k == 2) ? sq.s : 0.0);
+      const double cv = sq.v0 + (k >= 2 ? sq.s : 0.0);
+      const Vec3 d = fromOrigin(q, origin, cu, cv) - centre;
+      rho2 = std::max(rho2, glm::dot(d, d));
+    }
+    const double d2 = glm::dot(centre, centre);
+    if (d2 >= kAdmissible * kAdmissible * rho2) {
+      const double t = std::sqrt(rho2 / d2);
+      int n = 4;
+      while (n < kMaxOrder && t > kOrderLimit[n]) ++n;
+      gaussSquare(q, origin, sq.u0, sq.v0, sq.s, n, out);
+      continue;
+    }
+    if (!near) {
+      // x is near the quad: measure from its foot from now on.
+      near = true;
+      origin = footOf(q, x);
+    }
+    const double rho = std::sqrt(rho2);
+    if (rho <= touchRadius || sq.s < 0x1p-60) {
+      // x is within (kAdmissible + 1) ρ of this tiny piece: a contact. Its double layer is the
+      // jump the surface limit accounts for; its single layer is O(ρ) and dropped.
+      if (!out.touched) {
+        out.touched = true;
+        out.u = sq.u0 + h;
+        out.v = sq.v0 + h;
+      }
+      continue;
+    }
+    stack[top++] = {sq.u0, sq.v0, h};
+    stack[top++] = {sq.u0 + h, sq.v0, h};
+    stack[top++] = {sq.u0, sq.v0 + h, h};
+    stack[top++] = {sq.u0 + h, sq.v0 + h, h};
+  }
+  for (int k = 0; k < 4; ++k) {
+    out.phi[k] *= kInv4Pi;
+    out.psi[k] *= kInv4Pi;
+  }
+}
+
+// integrateQuad compiled for each simd::Path (core/detail/simd.h): the node loop vectorises to
+// the path's width, with the same bits on every path (IEEE square roots and divisions, no FMA
+// contraction, sums in node order).
+void integrateBaseline(const Quad& q, const Vec3& x, double touchRadius, QuadSums& out) {
+  integrateQuad(q, x, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V3 void integrateV3(const Quad& q, const Vec3& x, double touchRadius,
+                                          QuadSums& out) {
+  integrateQuad(q, x, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V4 void integrateV4(const Quad& q, const Vec3& x, double touchRadius,
+                                          QuadSums& out) {
+  integrateQuad(q, x, touchRadius, out);
+}
+using IntegrateFn = void (*)(const Quad&, const Vec3&, double, QuadSums&);
+constexpr IntegrateFn kIntegrate[detail::simd::kPathCount] = {integrateBaseline, integrateV3,
+                                                              integrateV4};
 
 // Solves x = ξ(u, v) + t N(u, v) by Newton's method from (u, v, 0), halving steps that do not
 // reduce the residual; returns whether it converged (to `tolerance`, world units).

@@ -303,7 +303,7 @@ TEST(QuadGreen, ContinuousAcrossTheSurface) {
       const Vec3 n = glm::normalize(glm::cross((1 - v) * (q[1] - q[0]) + v * (q[2] - q[3]),
                                                (1 - u) * (q[3] - q[0]) + u * (q[2] - q[1])));
       const std::vector<double> on = rowOf(qgc, x0);
-      for (double delta : {1e-6, 1e-9}) {
+      for (double delta : {1e-6, 1e-9, 1e-12}) {
         const std::vector<double> in = rowOf(qgc, x0 - delta * cage.diagonal() * n);
         const std::vector<double> out = rowOf(qgc, x0 + delta * cage.diagonal() * n);
         double worstIn = 0.0, worstOut = 0.0;
