@@ -44,9 +44,14 @@ namespace spacewarp {
 // to it is a surface contact (below). Accuracy measured (tests): at rest x is reproduced to
 // ~5e-15 of the diagonal and Σ φ = 1 to ~1e-15, inside and outside, on planar, concave and warped
 // quad cages; on parallelograms A Σ_k ψ_k equals triangle Green's closed-form single layer to
-// 3e-15 relative, down to 1e-9 of the diagonal from the face. The node positions r = ξ − x carry
-// an absolute round-off of ~1e-16 of the coordinates, as if x moved by that much: near a quad's
-// edge (distance δ) φ is then good to ~1e-16 |x| / δ, as the function's own conditioning allows.
+// 3e-15 relative, down to 1e-9 of the diagonal from the face. Near a quad the node vectors
+// r = ξ − x are measured from x's foot on it, and that offset from the nearest point of the quad's
+// boundary (the same bits for every face at that edge or vertex, see footOf()): r then has
+// round-off relative to |r| and the faces around an edge see x at the same place. Measured: x is
+// reproduced to ~1e-15 of the diagonal and Σ φ = 1 to ~1e-15 at 1e-12 of the diagonal from a
+// face or an edge (planar or warped quads) and from a vertex of planar quads; near a vertex
+// where warped quads meet the error still grows as ~1e-18 diag / δ (4e-12 at δ = 1e-6 of the
+// diagonal, 3e-6 at 1e-12), a limitation not yet understood.
 // A typical point inside a 216-quad box needs ~90 nodes per quad (orders 7 to 14).
 //
 // Inside: the integrals. Σ φ = 1 there (the solid angle of the closed surface).
@@ -265,7 +270,34 @@ Origin footOf(const Quad& q, const Vec3& x) {
     u = std::clamp(u - (bb * ga - ab * gb) / det, 0.0, 1.0);
     v = std::clamp(v - (aa * gb - ab * ga) / det, 0.0, 1.0);
   }
-  return {u, v, q.at(u, v) - x};
+  // The offset ξ(u, v) − x is measured from the nearest point of the quad's boundary, written
+  // from the nearer end vertex of its edge (v_k − x + μ (v_other − v_k), end points in
+  // vertex-index order): the same bits, up to round-off relative to |μ (v_other − v_k)|, for
+  // every face at that vertex or edge. So all the faces near x see it at the same rounded place;
+  // with ξ(u, v) − x from each face's own parametrisation, their round-off (~1e-16 of the
+  // coordinates) would move x differently for each face, which at distance δ from an edge
+  // changes their solid angles inconsistently by ~1e-16 / δ.
+  // Edges: v = 0 from q0 to q1 along u, u = 1 from q1 to q2 along v, v = 1 from q3 to q2
+  // along u, u = 0 from q0 to q3 along v.
+  static constexpr int kStart[4] = {0, 1, 3, 0}, kEnd[4] = {1, 2, 2, 3};
+  static constexpr double kCornerU[4] = {0, 1, 1, 0}, kCornerV[4] = {0, 0, 1, 1};
+  double best = kInf, au = 0.0, av = 0.0;
+  Vec3 anchor(0.0);
+  for (int e = 0; e < 4; ++e) {
+    const bool swap = q.vertex[kStart[e]] > q.vertex[kEnd[e]];
+    const int ia = swap ? kEnd[e] : kStart[e], ib = swap ? kStart[e] : kEnd[e];
+    const Vec3 ab = q.corner[ib] - q.corner[ia];
+    const double lambda = std::clamp(glm::dot(x - q.corner[ia], ab) / glm::dot(ab, ab), 0.0, 1.0);
+    const Vec3 d =
+        lambda <= 0.5 ? (q.corner[ia] - x) + lambda * ab : (q.corner[ib] - x) - (1.0 - lambda) * ab;
+    if (!(glm::dot(d, d) < best)) continue;
+    best = glm::dot(d, d);
+    anchor = d;
+    au = kCornerU[ia] + lambda * (kCornerU[ib] - kCornerU[ia]);
+    av = kCornerV[ia] + lambda * (kCornerV[ib] - kCornerV[ia]);
+  }
+  const double du = u - au, dv = v - av;
+  return {u, v, anchor + du * q.eu + dv * q.ev + (du * v + au * dv) * q.euv};
 }
 
 // Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s]: every node
