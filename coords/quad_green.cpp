@@ -297,7 +297,11 @@ Origin footOf(const Quad& q, const Vec3& x) {
     av = kCornerV[ia] + lambda * (kCornerV[ib] - kCornerV[ia]);
   }
   const double du = u - au, dv = v - av;
-  return {u, v, anchor + du * q.eu + dv * q.ev + (du * v + au * dv) * q.euv};
+  const Vec3 offset = anchor + du * q.eu + dv * q.ev + (du * v + au * dv) * q.euv;
+  // Near the boundary (x not much farther from it than from the patch) the boundary point itself
+  // is the origin: no difference from a foot, whose own round-off would differ between faces.
+  if (glm::dot(anchor, anchor) <= 4.0 * glm::dot(offset, offset)) return {au, av, anchor};
+  return {u, v, offset};
 }
 
 // Tensor Gauss rule of order n over the square [u0, u0 + s] × [v0, v0 + s]: every node
