@@ -49,9 +49,12 @@ namespace spacewarp {
 // boundary (the same bits for every face at that edge or vertex, see footOf()): r then has
 // round-off relative to |r| and the faces around an edge see x at the same place. Measured: x is
 // reproduced to ~1e-15 of the diagonal and Σ φ = 1 to ~1e-15 at 1e-12 of the diagonal from a
-// face or an edge (planar or warped quads) and from a vertex of planar quads; near a vertex
-// where warped quads meet the error still grows as ~1e-18 diag / δ (4e-12 at δ = 1e-6 of the
-// diagonal, 3e-6 at 1e-12), a limitation not yet understood.
+// face or an edge (planar or warped quads) and from a vertex of planar quads. Near a vertex
+// where warped quads meet, on a line towards the cage centre, the error still grows as
+// ~1e-18 diag / δ (4e-12 at δ = 1e-6 of the diagonal, 3e-6 at 1e-12) whatever the orders and
+// admissibility (checked): a geometric round-off, not the quadrature; probably x there is far
+// closer to one face (h) than to the vertex and that face's offset, written from the vertex,
+// carries round-off ~1e-16 δ, i.e. 1e-16 δ / h relative. Not resolved.
 // A typical point inside a 216-quad box needs ~90 nodes per quad (orders 7 to 14).
 //
 // Inside: the integrals. Σ φ = 1 there (the solid angle of the closed surface).
