@@ -956,6 +956,11 @@ std::pair<typename GridT::Ptr, double> assembleGrid(
   grid->setTransform(in.transform().copy());
   for (auto it = in.beginMeta(); it != in.endMeta(); ++it) {
     if (it->first.rfind("file_", 0) == 0) continue;  // stale statistics of the input file
+    // Name and class are set below as strings; a file may store them under another type (a
+    // type OpenVDB does not know), which insertMeta would keep and the setters then refuse.
+    if (it->first == openvdb::GridBase::META_GRID_NAME ||
+        it->first == openvdb::GridBase::META_GRID_CLASS)
+      continue;
     grid->insertMeta(it->first, *it->second);
   }
   grid->setName(in.getName());

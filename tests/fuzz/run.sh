@@ -34,6 +34,7 @@ for format in $targets; do build_targets+=("fuzz_$format"); done
 ninja -C "$build" -j "$jobs" "${build_targets[@]}"
 
 status=0
+findings=()
 for format in $targets; do
   corpus="$build/fuzz-corpus/$format"
   artifacts="$build/fuzz-artifacts/$format/"
@@ -51,13 +52,29 @@ for format in $targets; do
   # there is a node OpenVDB's readTopology allocated before throwing.
   asan_options="${ASAN_OPTIONS:-}"
   if [[ "$format" == vdb ]]; then max_len=32768 leaks=0 rss=8192 asan_options="detect_leaks=0"; fi
+  log="$build/fuzz-logs/$format.log"
+  mkdir -p "$(dirname "$log")"
   echo "== fuzz_$format for ${seconds}s"
   if ! ASAN_OPTIONS="$asan_options" "$build/tests/fuzz/fuzz_$format" \
       -max_total_time="$seconds" -max_len="$max_len" -detect_leaks="$leaks" -timeout="$timeout" -rss_limit_mb="$rss" \
       -print_final_stats=1 -artifact_prefix="$artifacts" \
-      "$corpus" "$root/tests/fuzz/corpus/$format"; then
+      "$corpus" "$root/tests/fuzz/corpus/$format" 2>&1 | tee "$log"; then
     echo "fuzz_$format: FINDING (reproducer in $artifacts)" >&2
+    findings+=("$format")
     status=1
   fi
+done
+# The findings again at the very end, where a log cut to its tail (CI's) still shows them: the
+# sanitizer's or libFuzzer's report, its first stack frames and the reproducer's bytes.
+for format in "${findings[@]}"; do
+  echo "== FINDING of fuzz_$format (full output: $build/fuzz-logs/$format.log)" >&2
+  grep -m1 -A 30 -E '^==[0-9]+== *ERROR|ERROR: libFuzzer|^SUMMARY|runtime error' \
+    "$build/fuzz-logs/$format.log" | grep -vE '^ *#([3-9][0-9]|2[0-9])' >&2 || true
+  for crash in "$build/fuzz-artifacts/$format"/*; do
+    if [[ -f "$crash" ]]; then
+      echo "$crash:" >&2
+      head -c 600 "$crash" | od -c | head -20 >&2
+    fi
+  done
 done
 exit "$status"

@@ -71,6 +71,22 @@ TEST(WarpVolume, IdentityReturnsTheSameLevelSet) {
   EXPECT_NEAR(warped.report.halfWidth, 3.0, 1e-6);
 }
 
+// A file may store the grid's name or class under a type OpenVDB does not know (the fuzzer's
+// "class" of type "tsring"): the warp keeps the other metadata and gives a proper string class.
+TEST(WarpVolume, NameAndClassOfAnUnknownTypeDoNotStopTheWarp) {
+  const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.1, -0.2, 0.3), 1.0, 0.25);
+  fog->removeMeta(openvdb::GridBase::META_GRID_CLASS);
+  fog->removeMeta(openvdb::GridBase::META_GRID_NAME);
+  fog->insertMeta(openvdb::GridBase::META_GRID_CLASS, openvdb::UnknownMetadata("tsring"));
+  fog->insertMeta(openvdb::GridBase::META_GRID_NAME, openvdb::UnknownMetadata("tsring"));
+  fog->insertMeta("author", openvdb::StringMetadata("spacewarp"));
+  const auto warped = warpVolume(IdentityWarp(), *fog);
+  expectSameGrid(*fog, *warped.grid, 1e-6);
+  EXPECT_EQ(warped.grid->getGridClass(), openvdb::GRID_UNKNOWN);
+  EXPECT_EQ(warped.grid->getName(), "");
+  EXPECT_EQ(warped.grid->metaValue<std::string>("author"), "spacewarp");
+}
+
 TEST(WarpVolume, RigidMotionMatchesOpenVdbResampling) {
   const FloatGrid::Ptr fog = makeGaussianFog(Vec3(0.4, -0.3, 0.2), 1.0, 0.2);
   // x' = Q x + t: a rotation of 0.3 rad about z and a translation.
