@@ -1,0 +1,194 @@
+#include <spacewarp/coords/discrete_harmonic.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <spacewarp/coords/properties.h>
+#include <spacewarp/core/archive.h>
+#include <spacewarp/core/errors.h>
+#include "convex_test_shapes.h"
+#include "test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::shared_ptr<const DiscreteHarmonicCoordinates> harmonic(
+    const PolygonSoup& soup, const DiscreteHarmonicOptions& options = {}) {
+  return std::make_shared<const DiscreteHarmonicCoordinates>(std::make_shared<const Cage>(soup),
+                                                             options);
+}
+
+TEST(DiscreteHarmonic, PropertiesOnConvexCages) {
+  for (const auto& [name, soup] : test::convexCases()) {
+    SCOPED_TRACE(name);
+    const auto coordinates = harmonic(soup);
+    const Cage& cage = coordinates->cage();
+    const PropertyReport r = measureProperties(*coordinates, cage, interiorSamples(cage, 2000, 3));
+    EXPECT_LE(r.partitionOfUnity, 1e-12);
+    EXPECT_LE(r.linearReproduction, 1e-12);
+    EXPECT_LE(r.lagrange, 1e-12);
+    EXPECT_LE(test::edgeLinearityError(*coordinates, cage), 1e-12);
+    if (cage.maxFaceSize() == 3 && std::string(name) != "triangulated box") {
+      EXPECT_LE(r.faceInterpolation, 1e-12);
+    }
+  }
+}
+
+// CGAL's Discrete_harmonic_coordinates_3, restated on the triangles: corner c of every triangle
+// (a, b, c) gets ½ |ab| cot θ, θ the dihedral angle at ab between the triangle and the plane
+// through x and ab.
+TEST(DiscreteHarmonic, MatchCgalsTriangleMeshFormula) {
+  for (const PolygonSoup& soup :
+       {test::randomSphereHull(40, 11, 2.0, Vec3(5.0, -3.0, 1.0)), test::icosphere(1)}) {
+    const auto coordinates = harmonic(soup);
+    const Cage& cage = coordinates->cage();
+    const auto p = cage.vertices();
+    std::vector<double> row(cage.vertexCount()), expected(cage.vertexCount());
+    double worst = 0.0;
+    for (const Vec3& x : interiorSamples(cage, 200, 5)) {
+      std::fill(expected.begin(), expected.end(), 0.0);
+      double sum = 0.0;
+      for (const Triangle& tri : cage.triangles()) {
+        for (int c = 0; c < 3; ++c) {
+          const Vec3 a = p[tri[(c + 1) % 3]], b = p[tri[(c + 2) % 3]], corner = p[tri[c]];
+          const Vec3 e = glm::normalize(b - a);
+          // Directions, perpendicular to the edge, towards the corner and towards x.
+          const Vec3 toCorner = glm::normalize((corner - a) - glm::dot(corner - a, e) * e);
+          const Vec3 toX = glm::normalize((x - a) - glm::dot(x - a, e) * e);
+          const double theta =
+              std::atan2(glm::length(glm::cross(toCorner, toX)), glm::dot(toCorner, toX));
+          const double w = 0.5 * glm::length(b - a) / std::tan(theta);
+          expected[tri[c]] += w;
+          sum += w;
+        }
+      }
+      coordinates->weights(x, row);
+      for (std::size_t v = 0; v < row.size(); ++v)
+        worst = std::max(worst, std::fabs(row[v] - expected[v] / sum));
+    }
+    EXPECT_LE(worst, 1e-12);
+  }
+}
+
+// On a face the coordinates are the face's 2D discrete harmonic coordinates (w_j = cot of the
+// angles facing the segment y v_j, evaluated here directly), on a pentagon that is not cyclic;
+// on the squares of a box they are bilinear. A triangulated box has the box's coordinates.
+TEST(DiscreteHarmonic, ReduceToTheFaceCoordinatesOnAFace) {
+  const auto coordinates = harmonic(test::pentagonalPrism());
+  const auto p = coordinates->cage().vertices();
+  std::vector<std::uint32_t> cap = {4, 3, 2, 1, 0};  // the bottom, counter-clockwise from below
+  auto cot = [](const Vec3& apex, const Vec3& a, const Vec3& b) {
+    const Vec3 u = a - apex, v = b - apex;
+    return glm::dot(u, v) / glm::length(glm::cross(u, v));
+  };
+  std::vector<double> row(p.size());
+  double worst = 0.0, nearWorst = 0.0;
+  for (const Vec3& y : {Vec3(0.5, 0.5, 0.0), Vec3(0.1, 0.2, 0.0), Vec3(1.5, 0.8, 0.0)}) {
+    std::vector<double> w(5);
+    double sum = 0.0;
+    for (std::size_t j = 0; j < 5; ++j) {
+      const Vec3 prev = p[cap[(j + 4) % 5]], v = p[cap[j]], next = p[cap[(j + 1) % 5]];
+      w[j] = cot(prev, y, v) + cot(next, v, y);
+      sum += w[j];
+    }
+    coordinates->weights(y, row);
+    for (std::size_t j = 0; j < 5; ++j)
+      worst = std::max(worst, std::fabs(row[cap[j]] - w[j] / sum));
+    for (double delta : {1e-4, 1e-8, 1e-12}) {
+      const double distance = test::rowDistance(*coordinates, y, y + Vec3(0.0, 0.0, delta));
+      nearWorst = std::max(nearWorst, distance / (delta + 1e-14));
+    }
+  }
+  EXPECT_LE(worst, 1e-14);
+  EXPECT_LE(nearWorst, 100.0);
+
+  const auto quads = harmonic(test::convexBox(Vec3(0.0), Vec3(1.0)));
+  const auto triangles = harmonic(test::triangulated(test::convexBox(Vec3(0.0), Vec3(1.0))));
+  std::vector<double> a(8);
+  quads->weights(Vec3(0.3, 0.8, 1.0), a);
+  for (std::size_t v = 0; v < 8; ++v) {
+    const Vec3 c = quads->cage().vertices()[v];
+    const double expected = c.z * (c.x > 0.5 ? 0.3 : 0.7) * (c.y > 0.5 ? 0.8 : 0.2);
+    EXPECT_NEAR(a[v], expected, 1e-15);
+  }
+  double triangulation = 0.0;
+  std::vector<double> b(8);
+  for (const Vec3& x : interiorSamples(quads->cage(), 200, 8)) {
+    quads->weights(x, a);
+    triangles->weights(x, b);
+    for (std::size_t v = 0; v < 8; ++v)
+      triangulation = std::max(triangulation, std::fabs(a[v] - b[v]));
+  }
+  EXPECT_LE(triangulation, 1e-15);
+}
+
+TEST(DiscreteHarmonic, OutsidePolicies) {
+  const auto strict = harmonic(test::truncatedOctahedron());
+  std::vector<Vec3> points = {Vec3(0.0), Vec3(0.0, 0.0, 2.5)};
+  std::vector<double> rows(points.size() * 24);
+  const std::string message =
+      test::messageOf<InvalidInput>([&] { strict->weightsBatch(points, rows); });
+  EXPECT_THAT(message, HasSubstr("DiscreteHarmonicCoordinates: 1 of 2 points are outside"));
+  EXPECT_THAT(message, HasSubstr("point 1 at (0, 0, 2.5)"));
+  DiscreteHarmonicOptions options;
+  options.outside = ConvexOutsidePolicy::NearestPoint;
+  const auto nearest = harmonic(test::truncatedOctahedron(), options);
+  EXPECT_EQ(test::rowDistance(*nearest, Vec3(0.1, -0.2, 2.5), Vec3(0.1, -0.2, 2.0)), 0.0);
+  EXPECT_LE(test::rowDistance(*strict, Vec3(0.1, -0.2, 2.0), Vec3(0.1, -0.2, 2.0 - 1e-13)), 1e-12);
+}
+
+TEST(DiscreteHarmonic, BatchRowsAreTheSingleRowsForAnyThreadCount) {
+  const auto coordinates = harmonic(test::truncatedOctahedron());
+  const std::size_t m = coordinates->columnCount();
+  std::vector<Vec3> points = interiorSamples(coordinates->cage(), 1000, 2);
+  std::vector<double> many(points.size() * m), one(points.size() * m), row(m);
+  coordinates->weightsBatch(points, many);
+  tbb::task_arena(1).execute([&] { coordinates->weightsBatch(points, one); });
+  EXPECT_EQ(many, one);
+  coordinates->weights(points[17], row);
+  EXPECT_TRUE(std::equal(row.begin(), row.end(), many.begin() + 17 * m));
+}
+
+TEST(DiscreteHarmonic, SaveAndLoadRebuildTheSameCoordinates) {
+  DiscreteHarmonicOptions options;
+  options.snapTolerance = 1e-11;
+  options.outside = ConvexOutsidePolicy::NearestPoint;
+  const auto coordinates = harmonic(test::pentagonalPrism(), options);
+  ArchiveWriter out;
+  coordinates->save(out);
+  const ArchiveLoaders loaders;
+  ArchiveReader in(out.bytes(), loaders);
+  EXPECT_EQ(in.string(), "discrete-harmonic");
+  const auto loaded = DiscreteHarmonicCoordinates::load(in);
+  EXPECT_TRUE(in.atEnd());
+  EXPECT_EQ(loaded->options().snapTolerance, 1e-11);
+  EXPECT_EQ(loaded->options().outside, ConvexOutsidePolicy::NearestPoint);
+  std::vector<double> a(10), b(10);
+  for (const Vec3& x : {Vec3(0.5, 0.5, 0.3), Vec3(5.0, 0.0, 0.5)}) {
+    coordinates->weights(x, a);
+    loaded->weights(x, b);
+    EXPECT_EQ(a, b);
+  }
+}
+
+TEST(DiscreteHarmonic, RejectsBadInputNamingIt) {
+  EXPECT_THAT(test::messageOf<InvalidInput>([] { DiscreteHarmonicCoordinates(nullptr); }),
+              HasSubstr("the cage is null"));
+  DiscreteHarmonicOptions options;
+  options.snapTolerance = -1.0;
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { harmonic(test::tetrahedron(), options); }),
+              HasSubstr("snapTolerance must be in [0, 1e-3]"));
+  EXPECT_THAT(test::messageOf<InvalidInput>([] { harmonic(test::pinchedBox(0.5)); }),
+              HasSubstr("DiscreteHarmonicCoordinates: cage: the cage is not convex"));
+}
+
+}  // namespace
+}  // namespace spacewarp
