@@ -30,6 +30,8 @@
 // snapTolerance × diagonal of the surface, and outside points under NearestPoint, get the surface
 // coordinates of the nearest surface point.
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -47,21 +49,32 @@ void interiorRow(const void*, const detail::ConvexPolyhedron& poly, const Vec3& 
                  std::span<const double> heights, std::span<double> row) {
   thread_local std::vector<double> local;
   std::fill(row.begin(), row.end(), 0.0);
-  double sum = 0.0;
+  const std::span<const Vec3> p = poly.vertices;
   for (std::size_t g = 0; g < poly.faces.size(); ++g) {
     const detail::ConvexPolyhedron::Face& face = poly.faces[g];
+    const std::uint32_t* c = face.loop.data();
+    if (face.loop.size() == 3) {  // A λ_c(x₀) = area(x₀, a, b), a and b the other two corners
+      const Vec3 u = p[c[0]] - x, v = p[c[1]] - x, w = p[c[2]] - x;
+      const double scale = 0.5 / heights[g];
+      row[c[0]] += scale * glm::dot(face.normal, glm::cross(v, w));
+      row[c[1]] += scale * glm::dot(face.normal, glm::cross(w, u));
+      row[c[2]] += scale * glm::dot(face.normal, glm::cross(u, v));
+      continue;
+    }
     local.resize(face.loop.size());
     const Vec3 x0 = x + heights[g] * face.normal;
-    if (!detail::faceCoordinates(face, poly.vertices, x0, detail::FaceCoordinates::DiscreteHarmonic,
-                                 local)) {
+    if (!detail::faceCoordinates(face, p, x0, detail::FaceCoordinates::DiscreteHarmonic, local)) {
       throw SolverError(std::string(kName) + ": the point " + detail::pointText(x) +
                         " projects onto a pole of the 2D coordinates of face " +
                         std::to_string(face.source[0]) + " (not a cyclic polygon)");
     }
     const double scale = face.area / heights[g];
-    for (std::size_t j = 0; j < face.loop.size(); ++j) row[face.loop[j]] += scale * local[j];
-    sum += scale;
+    for (std::size_t j = 0; j < face.loop.size(); ++j) row[c[j]] += scale * local[j];
   }
+  double sum = 0.0;
+  for (double w : row) sum += w;
+  if (!(std::isfinite(sum) && sum > 0.0))
+    throw SolverError(std::string(kName) + ": the weight sum vanishes at " + detail::pointText(x));
   for (double& w : row) w /= sum;
 }
 

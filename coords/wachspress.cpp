@@ -20,6 +20,7 @@
 // snapTolerance × diagonal of the surface get those directly (detail::faceCoordinates at the
 // nearest surface point), and so do points outside under ConvexOutsidePolicy::NearestPoint.
 
+#include <cmath>
 #include <string>
 #include <vector>
 
