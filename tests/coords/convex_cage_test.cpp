@@ -1,5 +1,6 @@
 #include <spacewarp/coords/convex_cage.h>
 
+#include <filesystem>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -121,6 +122,18 @@ TEST(ConvexCage, JudgesRelativeToTheDiagonal) {
     for (Vec3& p : lPrism.positions) p = p * scale + Vec3(1e3 * scale);
     EXPECT_THAT(convexityError(lPrism), HasSubstr("reflex")) << scale;
   }
+}
+
+// The armadillo's cage (optional shared data) is far from convex: the message names one edge.
+TEST(ConvexCage, RejectsTheArmadilloCageNamingAReflexEdge) {
+  const auto path =
+      std::filesystem::path(SPACEWARP_SHARED_DATA_DIR) / "ju2005-armadillo" / "bounding_mesh.obj";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared data not found: " << path;
+  const std::string message = test::messageOf<InvalidInput>(
+      [&] { checkConvexCage(Cage::fromFile(path), "WachspressCoordinates"); });
+  EXPECT_THAT(message, HasSubstr("bounding_mesh.obj: the cage is not convex: the edge between "
+                                 "vertices "));
+  EXPECT_THAT(message, HasSubstr(") is reflex (turning inward by "));
 }
 
 }  // namespace
