@@ -2,7 +2,9 @@
 
 #include <cmath>
 #include <memory>
+#include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -78,37 +80,55 @@ TEST(DiscreteHarmonic, MatchCgalsTriangleMeshFormula) {
   }
 }
 
-// On a face the coordinates are the face's 2D discrete harmonic coordinates (w_j = cot of the
-// angles facing the segment y v_j, evaluated here directly), on a pentagon that is not cyclic;
-// on the squares of a box they are bilinear. A triangulated box has the box's coordinates.
-TEST(DiscreteHarmonic, ReduceToTheFaceCoordinatesOnAFace) {
-  const auto coordinates = harmonic(test::pentagonalPrism());
-  const auto p = coordinates->cage().vertices();
-  std::vector<std::uint32_t> cap = {4, 3, 2, 1, 0};  // the bottom, counter-clockwise from below
+// The largest difference between the row at points y of a face (its corners `cap`,
+// counter-clockwise seen from outside) and the face's 2D discrete harmonic coordinates, w_j = the
+// cotangents of the two angles facing the segment y v_j, evaluated directly; and the largest
+// change of the row, over the distance, as y moves into the cage along `inward`.
+std::pair<double, double> faceError(const Coordinates& coordinates, std::span<const Vec3> p,
+                                    const std::vector<std::uint32_t>& cap,
+                                    std::initializer_list<Vec3> points, const Vec3& inward) {
   auto cot = [](const Vec3& apex, const Vec3& a, const Vec3& b) {
     const Vec3 u = a - apex, v = b - apex;
     return glm::dot(u, v) / glm::length(glm::cross(u, v));
   };
-  std::vector<double> row(p.size());
+  const std::size_t m = cap.size();
+  std::vector<double> row(p.size()), w(m);
   double worst = 0.0, nearWorst = 0.0;
-  for (const Vec3& y : {Vec3(0.5, 0.5, 0.0), Vec3(0.1, 0.2, 0.0), Vec3(1.5, 0.8, 0.0)}) {
-    std::vector<double> w(5);
+  for (const Vec3& y : points) {
     double sum = 0.0;
-    for (std::size_t j = 0; j < 5; ++j) {
-      const Vec3 prev = p[cap[(j + 4) % 5]], v = p[cap[j]], next = p[cap[(j + 1) % 5]];
+    for (std::size_t j = 0; j < m; ++j) {
+      const Vec3 prev = p[cap[(j + m - 1) % m]], v = p[cap[j]], next = p[cap[(j + 1) % m]];
       w[j] = cot(prev, y, v) + cot(next, v, y);
       sum += w[j];
     }
-    coordinates->weights(y, row);
-    for (std::size_t j = 0; j < 5; ++j)
+    coordinates.weights(y, row);
+    for (std::size_t j = 0; j < m; ++j)
       worst = std::max(worst, std::fabs(row[cap[j]] - w[j] / sum));
     for (double delta : {1e-4, 1e-8, 1e-12}) {
-      const double distance = test::rowDistance(*coordinates, y, y + Vec3(0.0, 0.0, delta));
+      const double distance = test::rowDistance(coordinates, y, y + delta * inward);
       nearWorst = std::max(nearWorst, distance / (delta + 1e-14));
     }
   }
+  return {worst, nearWorst};
+}
+
+// On a face the coordinates are the face's 2D discrete harmonic coordinates: on a pentagon that
+// is not cyclic, and on a regular hexagon, whose coordinates are computed in the (equal)
+// Wachspress form; points approaching the face tend to them. On the squares of a box they are
+// bilinear. A triangulated box has the box's coordinates.
+TEST(DiscreteHarmonic, ReduceToTheFaceCoordinatesOnAFace) {
+  const auto pentagon = harmonic(test::pentagonalPrism());
+  const auto [worst, nearWorst] =
+      faceError(*pentagon, pentagon->cage().vertices(), {4, 3, 2, 1, 0},
+                {Vec3(0.5, 0.5, 0.0), Vec3(0.1, 0.2, 0.0), Vec3(1.5, 0.8, 0.0)}, Vec3(0, 0, 1));
   EXPECT_LE(worst, 1e-14);
   EXPECT_LE(nearWorst, 100.0);
+  const auto hexagon = harmonic(test::hexagonalPrism());
+  const auto [hexWorst, hexNear] =
+      faceError(*hexagon, hexagon->cage().vertices(), {6, 7, 8, 9, 10, 11},
+                {Vec3(0.2, 0.3, 1.0), Vec3(-0.5, 0.1, 1.0), Vec3(0.6, -0.6, 1.0)}, Vec3(0, 0, -1));
+  EXPECT_LE(hexWorst, 1e-14);
+  EXPECT_LE(hexNear, 100.0);
 
   const auto quads = harmonic(test::convexBox(Vec3(0.0), Vec3(1.0)));
   const auto triangles = harmonic(test::triangulated(test::convexBox(Vec3(0.0), Vec3(1.0))));
