@@ -122,6 +122,45 @@ void WachspressCoordinates::weights(const Vec3& x, std::span<double> row) const 
   if (!impl_->row(x, row)) throw InvalidInput(detail::outsideMessage(kName, 1, 1, 0, x));
 }
 
+// With ∇r_g = r_g² n_g (as ∂h_g/∂x = −n_g): ∇w_v by the product rule over the fan terms, and
+// ∇(w_v / W) = (∇w_v − φ_v ∇W) / W.
+bool WachspressCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
+  if (!isFinite(x)) throw InvalidInput(std::string(kName) + ": the query point is not finite");
+  if (out.size() != columnCount())
+    throw InvalidInput(std::string(kName) + ": the gradient output has the wrong size");
+  const detail::ConvexPolyhedron& poly = impl_->poly;
+  const Fans& fans = impl_->fans;
+  thread_local std::vector<double> r, w;
+  thread_local std::vector<Vec3> dr;
+  r.resize(poly.faces.size());
+  dr.resize(poly.faces.size());
+  w.resize(out.size());
+  for (std::size_t g = 0; g < poly.faces.size(); ++g) {
+    const double h = poly.faces[g].offset - glm::dot(poly.faces[g].normal, x);
+    if (!(h > impl_->snapLength)) return false;
+    r[g] = 1.0 / h;
+    dr[g] = (r[g] * r[g]) * poly.faces[g].normal;
+  }
+  double sum = 0.0;
+  Vec3 dsum(0.0);
+  for (std::size_t v = 0; v < out.size(); ++v) {
+    double s = 0.0;
+    Vec3 ds(0.0);
+    for (std::uint32_t t = fans.offsets[v]; t < fans.offsets[v + 1]; ++t) {
+      const std::uint32_t a = fans.a[t], b = fans.b[t];
+      s += fans.det[t] * r[a] * r[b];
+      ds += fans.det[t] * (r[b] * dr[a] + r[a] * dr[b]);
+    }
+    const std::uint32_t pivot = fans.pivot[v];
+    w[v] = r[pivot] * s;
+    out[v] = s * dr[pivot] + r[pivot] * ds;
+    sum += w[v];
+    dsum += out[v];
+  }
+  for (std::size_t v = 0; v < out.size(); ++v) out[v] = (out[v] - (w[v] / sum) * dsum) / sum;
+  return true;
+}
+
 UnmappedPoints WachspressCoordinates::weightsRange(std::span<const Vec3> points,
                                                    std::span<double> rows, std::size_t begin,
                                                    std::size_t end) const {
