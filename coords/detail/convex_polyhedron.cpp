@@ -78,88 +78,115 @@ double area(const Vec3& n, const Vec3& qa, const Vec3& qb) {
   return 0.5 * glm::dot(n, glm::cross(qa, qb));
 }
 
-}  // namespace
-
-ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
-  const std::string prefix = std::string(method) + ": " + cage.name() + ": ";
-  const std::span<const Vec3> p = cage.vertices();
-  const double tol = kConvexTolerance * cage.diagonal();
-  const std::size_t nF = cage.faceCount(), nV = cage.vertexCount();
-
-  std::vector<Plane> planes(nF);
-  std::unordered_map<std::uint64_t, std::uint32_t> edgeFace;  // directed edge -> face
-  for (std::size_t f = 0; f < nF; ++f) {
-    const auto face = cage.face(f);
-    planes[f] = polygonPlane(p, face, tol, prefix, f);
-    for (std::size_t j = 0; j < face.size(); ++j)
-      edgeFace[edgeKey(face[j], face[(j + 1) % face.size()])] = static_cast<std::uint32_t>(f);
-  }
-
-  // Every edge between two faces turns outward or is flat (then the faces merge).
-  std::vector<std::uint32_t> parent(nF);
-  std::iota(parent.begin(), parent.end(), 0u);
-  for (std::size_t f = 0; f < nF; ++f) {
-    const auto face = cage.face(f);
-    for (std::size_t j = 0; j < face.size(); ++j) {
-      const std::uint32_t a = face[j], b = face[(j + 1) % face.size()];
-      const std::uint32_t g = edgeFace.at(edgeKey(b, a));
-      if (a > b || g == f) continue;  // each edge once
-      // sin of the turn from F to G about a → b: positive outward, 0 where they are coplanar.
-      const double turn =
-          glm::dot(glm::cross(planes[f].normal, planes[g].normal), glm::normalize(p[b] - p[a]));
-      const bool flat = std::fabs(turn) <= kConvexTolerance;
-      if (turn < -kConvexTolerance || (flat && glm::dot(planes[f].normal, planes[g].normal) < 0)) {
-        char text[96];
-        std::snprintf(text, sizeof text, " (turning inward by %.3g degrees)",
-                      std::atan2(-turn, glm::dot(planes[f].normal, planes[g].normal)) * 180.0 /
-                          std::numbers::pi);
-        throw InvalidInput(prefix + "the cage is not convex: the edge between vertices " +
-                           std::to_string(a) + " and " + std::to_string(b) + " (faces " +
-                           std::to_string(f) + " and " + std::to_string(g) + ") is reflex" + text);
+// The steps of buildConvexPolyhedron(), over one cage.
+class Builder {
+ public:
+  Builder(const Cage& cage, const char* method)
+      : cage_(cage),
+        p_(cage.vertices()),
+        prefix_(std::string(method) + ": " + cage.name() + ": "),
+        tol_(kConvexTolerance * cage.diagonal()),
+        planes_(cage.faceCount()),
+        firstFace_(cage.vertexCount(), 0),
+        incident_(cage.vertexCount(), 0) {
+    for (std::size_t f = cage.faceCount(); f-- > 0;) {
+      const auto face = cage.face(f);
+      planes_[f] = polygonPlane(p_, face, tol_, prefix_, f);
+      for (std::uint32_t v : face) {
+        firstFace_[v] = static_cast<std::uint32_t>(f);
+        ++incident_[v];
       }
-      if (flat) parent[findRoot(parent, g)] = findRoot(parent, f);
+      for (std::size_t j = 0; j < face.size(); ++j)
+        edgeFace_[edgeKey(face[j], face[(j + 1) % face.size()])] = static_cast<std::uint32_t>(f);
     }
   }
 
-  // One face per coplanar group, its corners the boundary of the group.
-  ConvexPolyhedron poly;
-  poly.vertices.assign(p.begin(), p.end());
-  poly.diagonal = cage.diagonal();
-  std::vector<std::uint32_t> groupOf(nF, 0), groupIndex(nF, UINT32_MAX);
-  for (std::size_t f = 0; f < nF; ++f) {
-    const std::uint32_t root = findRoot(parent, static_cast<std::uint32_t>(f));
-    if (groupIndex[root] == UINT32_MAX) {
-      groupIndex[root] = static_cast<std::uint32_t>(poly.faces.size());
-      poly.faces.emplace_back();
+  ConvexPolyhedron build() {
+    ConvexPolyhedron poly;
+    poly.vertices.assign(p_.begin(), p_.end());
+    poly.diagonal = cage_.diagonal();
+    groupFaces(poly);
+    for (std::size_t g = 0; g < poly.faces.size(); ++g) mergeFace(poly.faces[g], g);
+    poly.ringOffsets.assign(1, 0);
+    for (std::uint32_t v = 0; v < cage_.vertexCount(); ++v) {
+      const std::vector<std::uint32_t> ring = vertexRing(v);
+      poly.ring.insert(poly.ring.end(), ring.begin(), ring.end());
+      poly.ringOffsets.push_back(static_cast<std::uint32_t>(poly.ring.size()));
     }
-    groupOf[f] = groupIndex[root];
-    poly.faces[groupOf[f]].source.push_back(static_cast<std::uint32_t>(f));
+    for (const ConvexPolyhedron::Face& face : poly.faces) checkSupporting(face);
+    return poly;
   }
-  for (std::size_t g = 0; g < poly.faces.size(); ++g) {
-    ConvexPolyhedron::Face& face = poly.faces[g];
+
+ private:
+  std::uint32_t faceOfEdge(std::uint32_t from, std::uint32_t to) const {
+    return edgeFace_.at(edgeKey(from, to));
+  }
+
+  // Every edge between two faces turns outward or is flat; flat edges join their faces' groups.
+  void groupFaces(ConvexPolyhedron& poly) {
+    const std::size_t nF = cage_.faceCount();
+    std::vector<std::uint32_t> parent(nF);
+    std::iota(parent.begin(), parent.end(), 0u);
+    for (std::size_t f = 0; f < nF; ++f) {
+      const auto face = cage_.face(f);
+      for (std::size_t j = 0; j < face.size(); ++j) {
+        const std::uint32_t a = face[j], b = face[(j + 1) % face.size()], g = faceOfEdge(b, a);
+        if (a > b || g == f) continue;  // each edge once
+        if (edgeIsFlat(f, g, a, b)) parent[findRoot(parent, g)] = findRoot(parent, f);
+      }
+    }
+    groupOf_.assign(nF, 0);
+    std::vector<std::uint32_t> groupIndex(nF, UINT32_MAX);
+    for (std::size_t f = 0; f < nF; ++f) {
+      const std::uint32_t root = findRoot(parent, static_cast<std::uint32_t>(f));
+      if (groupIndex[root] == UINT32_MAX) {
+        groupIndex[root] = static_cast<std::uint32_t>(poly.faces.size());
+        poly.faces.emplace_back();
+      }
+      groupOf_[f] = groupIndex[root];
+      poly.faces[groupOf_[f]].source.push_back(static_cast<std::uint32_t>(f));
+    }
+  }
+
+  // Whether faces f and g (edge a → b in f) are coplanar; throws if the edge is reflex.
+  bool edgeIsFlat(std::size_t f, std::size_t g, std::uint32_t a, std::uint32_t b) const {
+    const Vec3 nf = planes_[f].normal, ng = planes_[g].normal;
+    // sin of the turn from f to g about a → b: positive outward, 0 where they are coplanar.
+    const double turn = glm::dot(glm::cross(nf, ng), glm::normalize(p_[b] - p_[a]));
+    const bool flat = std::fabs(turn) <= kConvexTolerance;
+    if (turn < -kConvexTolerance || (flat && glm::dot(nf, ng) < 0)) {
+      char text[96];
+      std::snprintf(text, sizeof text, " (turning inward by %.3g degrees)",
+                    std::atan2(-turn, glm::dot(nf, ng)) * 180.0 / std::numbers::pi);
+      throw InvalidInput(prefix_ + "the cage is not convex: the edge between vertices " +
+                         std::to_string(a) + " and " + std::to_string(b) + " (faces " +
+                         std::to_string(f) + " and " + std::to_string(g) + ") is reflex" + text);
+    }
+    return flat;
+  }
+
+  // Face g of the polyhedron: its plane and area from its cage faces, its corners the boundary
+  // of their union (which must be one loop, in one plane).
+  void mergeFace(ConvexPolyhedron::Face& face, std::size_t g) const {
     Vec3 weighted(0.0);
     std::unordered_map<std::uint32_t, std::uint32_t> next;  // boundary edges
     for (std::uint32_t f : face.source) {
-      weighted += planes[f].area * planes[f].normal;
-      face.area += planes[f].area;
-      const auto corners = cage.face(f);
+      weighted += planes_[f].area * planes_[f].normal;
+      face.area += planes_[f].area;
+      const auto corners = cage_.face(f);
       for (std::size_t j = 0; j < corners.size(); ++j) {
         const std::uint32_t a = corners[j], b = corners[(j + 1) % corners.size()];
-        if (groupOf[edgeFace.at(edgeKey(b, a))] == g) continue;
+        if (groupOf_[faceOfEdge(b, a)] == g) continue;
         if (!next.emplace(a, b).second) {
-          throw InvalidInput(prefix + "the cage is not convex: vertex " + std::to_string(a) +
+          throw InvalidInput(prefix_ + "the cage is not convex: vertex " + std::to_string(a) +
                              " touches the flat region of face " + std::to_string(f) + " twice");
         }
       }
     }
     face.normal = glm::normalize(weighted);
-    std::uint32_t v = cage.face(face.source[0])[0];
-    for (std::uint32_t c : cage.face(face.source[0])) {
-      if (next.count(c)) {
-        v = c;
-        break;
-      }
-    }
+    const auto first = cage_.face(face.source[0]);
+    std::uint32_t v = *std::find_if(first.begin(), first.end(),
+                                    [&](std::uint32_t c) { return next.count(c) > 0; });
     for (std::size_t steps = 0; steps < next.size(); ++steps) {
       face.loop.push_back(v);
       const auto it = next.find(v);
@@ -167,15 +194,15 @@ ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
       v = it->second;
     }
     if (face.loop.size() != next.size() || v != face.loop[0]) {
-      throw InvalidInput(prefix + "the coplanar faces around face " +
+      throw InvalidInput(prefix_ + "the coplanar faces around face " +
                          std::to_string(face.source[0]) + " do not form one polygon");
     }
-    for (std::uint32_t c : face.loop) face.offset += glm::dot(face.normal, p[c]);
+    for (std::uint32_t c : face.loop) face.offset += glm::dot(face.normal, p_[c]);
     face.offset /= static_cast<double>(face.loop.size());
     for (std::uint32_t f : face.source) {
-      for (std::uint32_t c : cage.face(f)) {
-        if (std::fabs(glm::dot(face.normal, p[c]) - face.offset) > tol) {
-          throw InvalidInput(prefix + "faces " + vertexList(face.source) +
+      for (std::uint32_t c : cage_.face(f)) {
+        if (std::fabs(glm::dot(face.normal, p_[c]) - face.offset) > tol_) {
+          throw InvalidInput(prefix_ + "faces " + vertexList(face.source) +
                              " are almost but not exactly coplanar (at vertex " +
                              std::to_string(c) + "), so the cage is not convex");
         }
@@ -183,73 +210,78 @@ ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
     }
     const std::size_t m = face.loop.size();
     for (std::size_t j = 0; j < m; ++j) {
-      const Vec3 a = p[face.loop[(j + m - 1) % m]], b = p[face.loop[j]],
-                 c = p[face.loop[(j + 1) % m]];
-      face.cornerArea.push_back(area(face.normal, a - b, c - b) * -1.0);
+      const Vec3 a = p_[face.loop[(j + m - 1) % m]], b = p_[face.loop[j]],
+                 c = p_[face.loop[(j + 1) % m]];
+      face.cornerArea.push_back(area(face.normal, c - b, a - b));
     }
-    face.cyclic = onOneCircle(p, face.loop, tol);
+    face.cyclic = onOneCircle(p_, face.loop, tol_);
   }
 
-  // The faces around every vertex, counter-clockwise from outside: after face F (…, u, v, …) comes
-  // the face of the edge v → u.
-  std::vector<std::uint32_t> incident(nV, 0);
-  for (std::uint32_t v : cage.faceIndices()) ++incident[v];
-  poly.ringOffsets.assign(1, 0);
-  std::vector<std::uint32_t> firstFace(nV, UINT32_MAX);
-  for (std::size_t f = nF; f-- > 0;)
-    for (std::uint32_t v : cage.face(f)) firstFace[v] = static_cast<std::uint32_t>(f);
-  for (std::uint32_t v = 0; v < nV; ++v) {
+  // The polyhedron's faces around vertex v, counter-clockwise from outside: after cage face
+  // (…, u, v, …) comes the face of the edge v → u. Throws unless v is a corner.
+  std::vector<std::uint32_t> vertexRing(std::uint32_t v) const {
+    const std::size_t first = firstFace_[v], incident = incident_[v];
     std::vector<std::uint32_t> groups;
-    std::uint32_t f = firstFace[v];
-    std::size_t visited = 0;
+    std::size_t f = first, visited = 0;
     do {
-      const auto face = cage.face(f);
-      const std::size_t j =
+      const auto face = cage_.face(f);
+      const auto j =
           static_cast<std::size_t>(std::find(face.begin(), face.end(), v) - face.begin());
-      const std::uint32_t u = face[(j + face.size() - 1) % face.size()];
-      if (groups.empty() || groups.back() != groupOf[f]) groups.push_back(groupOf[f]);
-      f = edgeFace.at(edgeKey(v, u));
+      if (groups.empty() || groups.back() != groupOf_[f]) groups.push_back(groupOf_[f]);
+      f = faceOfEdge(v, face[(j + face.size() - 1) % face.size()]);
       ++visited;
-    } while (f != firstFace[v] && visited <= incident[v]);
-    if (visited != incident[v]) {
-      throw InvalidInput(prefix + "the surface is not a disk around vertex " + std::to_string(v));
+    } while (f != first && visited <= incident);
+    if (visited != incident) {
+      throw InvalidInput(prefix_ + "the surface is not a disk around vertex " + std::to_string(v));
     }
     if (groups.size() > 1 && groups.back() == groups.front()) groups.pop_back();
     std::vector<std::uint32_t> sorted = groups;
     std::sort(sorted.begin(), sorted.end());
     if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
-      throw InvalidInput(prefix + "the cage is not convex: its faces wind around vertex " +
+      throw InvalidInput(prefix_ + "the cage is not convex: its faces wind around vertex " +
                          std::to_string(v) + " more than once");
     }
     if (groups.size() < 3) {
-      throw InvalidInput(prefix + "vertex " + std::to_string(v) +
+      throw InvalidInput(prefix_ + "vertex " + std::to_string(v) +
                          " is not a corner of the polyhedron: its faces lie in " +
                          std::to_string(groups.size()) +
                          (groups.size() == 1 ? " plane" : " planes") +
                          " (remove it, or move it out of the plane(s))");
     }
-    poly.ring.insert(poly.ring.end(), groups.begin(), groups.end());
-    poly.ringOffsets.push_back(static_cast<std::uint32_t>(poly.ring.size()));
+    return groups;
   }
 
-  // Locally convex everywhere; a supporting plane per face makes it globally so.
-  for (std::size_t g = 0; g < poly.faces.size(); ++g) {
-    const ConvexPolyhedron::Face& face = poly.faces[g];
-    for (std::uint32_t v = 0; v < nV; ++v) {
-      if (glm::dot(face.normal, p[v]) - face.offset > tol) {
-        throw InvalidInput(prefix + "the cage is not convex: vertex " + std::to_string(v) +
+  // Locally convex everywhere; a supporting plane per face and convex faces make it globally so.
+  void checkSupporting(const ConvexPolyhedron::Face& face) const {
+    for (std::uint32_t v = 0; v < p_.size(); ++v) {
+      if (glm::dot(face.normal, p_[v]) - face.offset > tol_) {
+        throw InvalidInput(prefix_ + "the cage is not convex: vertex " + std::to_string(v) +
                            " lies outside the plane of face " + std::to_string(face.source[0]));
       }
     }
     for (std::size_t j = 0; j < face.loop.size(); ++j) {
       if (!(face.cornerArea[j] > 0.0)) {
-        throw InvalidInput(prefix + "the cage is not convex: face " +
+        throw InvalidInput(prefix_ + "the cage is not convex: face " +
                            std::to_string(face.source[0]) + " has a reflex corner at vertex " +
                            std::to_string(face.loop[j]));
       }
     }
   }
-  return poly;
+
+  const Cage& cage_;
+  std::span<const Vec3> p_;
+  std::string prefix_;
+  double tol_;
+  std::vector<Plane> planes_;
+  std::unordered_map<std::uint64_t, std::uint32_t> edgeFace_;  // directed edge -> cage face
+  std::vector<std::uint32_t> firstFace_, incident_;  // per vertex: its first face, how many
+  std::vector<std::uint32_t> groupOf_;               // cage face -> polyhedron face
+};
+
+}  // namespace
+
+ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
+  return Builder(cage, method).build();
 }
 
 // Product form of the 2D coordinates (so that points on an edge line need no division by 0):
