@@ -185,4 +185,42 @@ inline double rowDistance(const Coordinates& coordinates, const Vec3& x, const V
   return worst;
 }
 
+/// What nearSurface() found: the largest partition-of-unity or reproduction error (in diagonals)
+/// and the smallest weight.
+struct NearSurfaceReport {
+  double error = 0.0;
+  double minWeight = 0.0;
+};
+
+/// The rows at points approaching every corner and edge midpoint of the polyhedron from inside
+/// (towards the centre of its box), from 1e-3 down to 1e-13 of the distance.
+inline NearSurfaceReport nearSurface(const Coordinates& coordinates, const Cage& cage) {
+  const BoundingBox box = boundingBox(cage.vertices());
+  const Vec3 centre = 0.5 * (box.min + box.max);
+  std::vector<double> row(cage.vertexCount());
+  NearSurfaceReport report;
+  const detail::ConvexPolyhedron poly = detail::buildConvexPolyhedron(cage, "test");
+  for (const auto& face : poly.faces) {
+    for (std::size_t j = 0; j < face.loop.size(); ++j) {
+      const Vec3 corner = cage.vertices()[face.loop[j]];
+      const Vec3 mid = 0.5 * (corner + cage.vertices()[face.loop[(j + 1) % face.loop.size()]]);
+      for (double delta : {1e-3, 1e-7, 1e-11, 1e-13}) {
+        for (const Vec3& x : {corner + delta * (centre - corner), mid + delta * (centre - mid)}) {
+          coordinates.weights(x, row);
+          Vec3 reproduced(0.0);
+          double sum = 0.0;
+          for (std::size_t c = 0; c < row.size(); ++c) {
+            reproduced += row[c] * cage.vertices()[c];
+            sum += row[c];
+            report.minWeight = std::min(report.minWeight, row[c]);
+          }
+          report.error = std::max(
+              {report.error, glm::length(reproduced - x) / cage.diagonal(), std::fabs(sum - 1.0)});
+        }
+      }
+    }
+  }
+  return report;
+}
+
 }  // namespace spacewarp::test

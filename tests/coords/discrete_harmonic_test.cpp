@@ -168,6 +168,15 @@ TEST(DiscreteHarmonic, StayLinearlyPreciseOnParallelogramFaces) {
   EXPECT_LT(r.minWeight, -1.0);  // the documented caveat: not bounded like Wachspress's
 }
 
+// Near edges and corners, where two or three heights vanish together, the rows stay accurate.
+TEST(DiscreteHarmonic, StayAccurateNearEdgesAndCorners) {
+  for (const PolygonSoup& soup :
+       {test::truncatedOctahedron(), test::randomSphereHull(40, 11), test::pentagonalPrism()}) {
+    const auto coordinates = harmonic(soup);
+    EXPECT_LE(test::nearSurface(*coordinates, coordinates->cage()).error, 1e-14);
+  }
+}
+
 TEST(DiscreteHarmonic, OutsidePolicies) {
   const auto strict = harmonic(test::truncatedOctahedron());
   std::vector<Vec3> points = {Vec3(0.0), Vec3(0.0, 0.0, 2.5)};
