@@ -132,6 +132,57 @@ void DiscreteHarmonicCoordinates::weights(const Vec3& x, std::span<double> row) 
   if (!impl_->row(x, row)) throw InvalidInput(detail::outsideMessage(kName, 1, 1, 0, x));
 }
 
+// Per face, with ∇(1/h) = n / h²: a triangle's term area(x₀, a, b) / h = ½ n · ((a − x) × (b − x))
+// / h has ∇ = ½ (n × (b − a) / h + 2 area n / h²); a polygon's (A / h) φ(x₀) has
+// ∇ = A (φ n / h² + ∇φ(x₀) / h), ∇φ in the face's plane (x₀ moves with x's projection). Then
+// ∇(w_v / W) = (∇w_v − φ_v ∇W) / W.
+bool DiscreteHarmonicCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {
+  if (!isFinite(x)) throw InvalidInput(std::string(kName) + ": the query point is not finite");
+  if (out.size() != columnCount())
+    throw InvalidInput(std::string(kName) + ": the gradient output has the wrong size");
+  const detail::ConvexPolyhedron& poly = impl_->poly;
+  const std::span<const Vec3> p = poly.vertices;
+  std::vector<double> w(out.size(), 0.0), local;
+  std::vector<Vec3> localGradients;
+  std::fill(out.begin(), out.end(), Vec3(0.0));
+  for (const detail::ConvexPolyhedron::Face& face : poly.faces) {
+    const double h = face.offset - glm::dot(face.normal, x);
+    if (!(h > impl_->snapLength)) return false;
+    const Vec3 n = face.normal;
+    const std::uint32_t* c = face.loop.data();
+    const std::size_t m = face.loop.size();
+    if (m == 3) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        const Vec3 a = p[c[(k + 1) % 3]], b = p[c[(k + 2) % 3]];
+        const double twiceArea = glm::dot(n, glm::cross(a - x, b - x));
+        w[c[k]] += 0.5 * twiceArea / h;
+        out[c[k]] += 0.5 * (glm::cross(n, b - a) / h + (twiceArea / (h * h)) * n);
+      }
+      continue;
+    }
+    local.resize(m);
+    localGradients.resize(m);
+    const Vec3 x0 = x + h * n;
+    if (!detail::faceCoordinates(face, p, x0, detail::FaceCoordinates::DiscreteHarmonic, local) ||
+        !detail::faceCoordinateGradients(face, p, x0, detail::FaceCoordinates::DiscreteHarmonic,
+                                         localGradients)) {
+      return false;
+    }
+    for (std::size_t j = 0; j < m; ++j) {
+      w[c[j]] += face.area / h * local[j];
+      out[c[j]] += face.area * ((local[j] / (h * h)) * n + localGradients[j] / h);
+    }
+  }
+  double sum = 0.0;
+  Vec3 dsum(0.0);
+  for (std::size_t v = 0; v < out.size(); ++v) {
+    sum += w[v];
+    dsum += out[v];
+  }
+  for (std::size_t v = 0; v < out.size(); ++v) out[v] = (out[v] - (w[v] / sum) * dsum) / sum;
+  return true;
+}
+
 UnmappedPoints DiscreteHarmonicCoordinates::weightsRange(std::span<const Vec3> points,
                                                          std::span<double> rows, std::size_t begin,
                                                          std::size_t end) const {

@@ -339,6 +339,56 @@ bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> v
   return true;
 }
 
+// The product form differentiated term by term (∇A_k = ½ s n × (q_{k+1} − q_k), ∇|q_k|² =
+// −2 s q_k with s the scale), directly in O(m³): gradients are not the hot path.
+bool faceCoordinateGradients(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
+                             const Vec3& y, FaceCoordinates kind, std::span<Vec3> out) {
+  const std::size_t m = face.loop.size();
+  const double scale = 1.0 / std::sqrt(face.area);
+  const Vec3 n = face.normal;
+  std::vector<Vec3> q(m), da(m);
+  std::vector<double> a(m), value(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    q[j] = (vertices[face.loop[j]] - y) * scale;
+    if (q[j] == Vec3(0.0)) return false;
+  }
+  for (std::size_t k = 0; k < m; ++k) {
+    a[k] = area(n, q[k], q[(k + 1) % m]);
+    da[k] = 0.5 * scale * glm::cross(n, q[(k + 1) % m] - q[k]);
+  }
+  const bool harmonic = kind == FaceCoordinates::DiscreteHarmonic && !face.cyclic;
+  double sum = 0.0;
+  Vec3 dsum(0.0);
+  for (std::size_t j = 0; j < m; ++j) {
+    const std::size_t prev = (j + m - 1) % m, next = (j + 1) % m;
+    double others = 1.0;
+    Vec3 dothers(0.0);
+    for (std::size_t k = 0; k < m; ++k) {
+      if (k == prev || k == j) continue;
+      dothers = dothers * a[k] + others * da[k];
+      others *= a[k];
+    }
+    double c = face.cornerArea[j] * scale * scale;
+    Vec3 dc(0.0);
+    if (harmonic) {
+      const double b = area(n, q[prev], q[next]);
+      const Vec3 db = 0.5 * scale * glm::cross(n, q[next] - q[prev]);
+      const double rn = glm::dot(q[next], q[next]), rj = glm::dot(q[j], q[j]),
+                   rp = glm::dot(q[prev], q[prev]);
+      c = rn * a[prev] - rj * b + rp * a[j];
+      dc = -2.0 * scale * (a[prev] * q[next] - b * q[j] + a[j] * q[prev]) + rn * da[prev] -
+           rj * db + rp * da[j];
+    }
+    value[j] = c * others;
+    out[j] = dc * others + c * dothers;
+    sum += value[j];
+    dsum += out[j];
+  }
+  if (!(std::isfinite(sum) && sum != 0.0)) return false;
+  for (std::size_t j = 0; j < m; ++j) out[j] = (out[j] - (value[j] / sum) * dsum) / sum;
+  return true;
+}
+
 SurfacePoint nearestSurfacePoint(const ConvexPolyhedron& poly, const Vec3& x) {
   SurfacePoint best;
   best.distance = std::numeric_limits<double>::infinity();

@@ -52,6 +52,11 @@ inline constexpr double kConvexTolerance = 1e-9;
 bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
                      const Vec3& y, FaceCoordinates kind, std::span<double> out);
 
+/// The gradients ∇φ_j (per world unit, in the face's plane, into `out`) of the coordinates that
+/// faceCoordinates() gives at y. False at a corner and where their sum vanishes.
+bool faceCoordinateGradients(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
+                             const Vec3& y, FaceCoordinates kind, std::span<Vec3> out);
+
 /// The point of the polyhedron's surface nearest to x, its face and its distance (0 on it).
 struct SurfacePoint {
   std::size_t face = 0;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <set>
@@ -14,6 +15,7 @@
 
 #include <spacewarp/coords/cage.h>
 #include <spacewarp/coords/detail/convex_polyhedron.h>
+#include <spacewarp/coords/properties.h>
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/geometry.h>
 #include "coords_test_shapes.h"
@@ -217,6 +219,52 @@ inline NearSurfaceReport nearSurface(const Coordinates& coordinates, const Cage&
           report.error = std::max(
               {report.error, glm::length(reproduced - x) / cage.diagonal(), std::fabs(sum - 1.0)});
         }
+      }
+    }
+  }
+  return report;
+}
+
+/// What gradientErrors() found: the largest deviation from Σ_v ∇w_v = 0 (times the diagonal) and
+/// Σ_v p_v ⊗ ∇w_v = I (the derivatives of partition of unity and linear precision), and the
+/// largest difference from central differences (times the diagonal).
+struct GradientReport {
+  double identities = 0.0;
+  double differences = 0.0;
+};
+
+/// Checks weightGradients() at 100 interior points.
+inline GradientReport gradientErrors(const Coordinates& coordinates, const Cage& cage) {
+  const std::size_t n = cage.vertexCount();
+  std::vector<Vec3> gradients(n);
+  std::vector<double> plus(n), minus(n);
+  GradientReport report;
+  for (const Vec3& x : interiorSamples(cage, 100, 6)) {
+    if (!coordinates.weightGradients(x, gradients)) {
+      report.identities = std::numeric_limits<double>::infinity();
+      continue;
+    }
+    Vec3 total(0.0);
+    Mat3 moment(0.0);
+    for (std::size_t v = 0; v < n; ++v) {
+      total += gradients[v];
+      moment += glm::outerProduct(gradients[v], cage.vertices()[v]);
+    }
+    report.identities = std::max(report.identities, glm::length(total) * cage.diagonal());
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        report.identities =
+            std::max(report.identities, std::fabs(moment[i][j] - (i == j ? 1.0 : 0.0)));
+    const double step = 1e-7 * cage.diagonal();
+    for (int axis = 0; axis < 3; ++axis) {
+      Vec3 e(0.0);
+      e[axis] = step;
+      coordinates.weights(x + e, plus);
+      coordinates.weights(x - e, minus);
+      for (std::size_t v = 0; v < n; ++v) {
+        const double fd = (plus[v] - minus[v]) / (2.0 * step);
+        report.differences =
+            std::max(report.differences, std::fabs(fd - gradients[v][axis]) * cage.diagonal());
       }
     }
   }

@@ -177,6 +177,20 @@ TEST(DiscreteHarmonic, StayAccurateNearEdgesAndCorners) {
   }
 }
 
+// The analytic gradients are the derivatives (see test::gradientErrors), on triangle and polygon
+// faces (cyclic and not); none at the surface.
+TEST(DiscreteHarmonic, GradientsAreExactDerivatives) {
+  for (const PolygonSoup& soup :
+       {test::truncatedOctahedron(), test::randomSphereHull(40, 11), test::pentagonalPrism()}) {
+    const auto coordinates = harmonic(soup);
+    const test::GradientReport r = test::gradientErrors(*coordinates, coordinates->cage());
+    EXPECT_LE(r.identities, 1e-11);
+    EXPECT_LE(r.differences, 1e-6);
+    std::vector<Vec3> gradients(coordinates->columnCount());
+    EXPECT_FALSE(coordinates->weightGradients(coordinates->cage().vertices()[0], gradients));
+  }
+}
+
 TEST(DiscreteHarmonic, OutsidePolicies) {
   const auto strict = harmonic(test::truncatedOctahedron());
   std::vector<Vec3> points = {Vec3(0.0), Vec3(0.0, 0.0, 2.5)};
