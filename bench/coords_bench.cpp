@@ -1,5 +1,6 @@
 // Benchmarks of coords. Binding cost of mean-value and Green coordinates is reported per
-// (point × cage triangle) pair, on a procedural box cage (always) and on the Ju et al. armadillo
+// (point × cage triangle) pair, on a procedural box cage (always), beside Wachspress and discrete
+// harmonic on a convex hull of 200 sphere points (always) and on the Ju et al. armadillo
 // (when the shared data is present: the model's 15k vertices and a 1M-point cloud inside its cage,
 // the latter both through Binding and through weightsBatch into an allocated matrix). Deforming the
 // 1M-point dense binding is measured against a baseline that reads the same weight bytes (a plain
@@ -26,11 +27,14 @@
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 #include "bench/bench.h"
+#include "tests/coords/convex_test_shapes.h"
 
 #include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/discrete_harmonic.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/coords/mean_value.h>
 #include <spacewarp/coords/quad_green.h>
+#include <spacewarp/coords/wachspress.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/io/mesh_io.h>
@@ -177,6 +181,21 @@ void BM_QgcBindArmadilloModel(benchmark::State& state) {
   reportPairs(state, a.model.size(), a.cage->faceCount());
 }
 
+// Convex: the hull of 200 random points on the unit sphere (396 triangles, every one a face of
+// the polyhedron), 20k points inside it, bound by the coordinates C (mean-value for scale, and
+// the two convex-polyhedron coordinates), per (point × face).
+template <class C>
+void BM_BindSphereHull(benchmark::State& state) {
+  static const auto cage = std::make_shared<const Cage>(test::randomSphereHull(200, 3), "hull");
+  static const std::vector<Vec3> points = pointsInside(*cage, 20'000, 7);
+  const auto coordinates = std::make_shared<const C>(cage);
+  for (auto _ : state) {
+    Binding binding(coordinates, points);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, points.size(), cage->faceCount());
+}
+
 // Binding the armadillo model or the 1M-point cloud with the coordinates `method` picks.
 template <bool green, bool cloud>
 void BM_BindArmadillo(benchmark::State& state) {
@@ -281,6 +300,17 @@ void registerCoordsBenchmarks() {
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("BM_GreenBindQuadBoxTriangulated", BM_GreenBindQuadBox<false>)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("BM_MvcBindSphereHull", BM_BindSphereHull<MeanValueCoordinates>)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("BM_WachspressBindSphereHull",
+                               BM_BindSphereHull<WachspressCoordinates>)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("BM_DiscreteHarmonicBindSphereHull",
+                               BM_BindSphereHull<DiscreteHarmonicCoordinates>)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   const auto dir = armadilloDir();

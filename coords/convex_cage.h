@@ -14,10 +14,12 @@ enum class ConvexOutsidePolicy {
   NearestPoint,
 };
 
-/// Throws InvalidInput (naming the cage, its reflex edge by its two vertices, or a vertex that is
-/// not a corner of the polyhedron) unless `cage` is convex: every edge between two faces that are
-/// not coplanar (within a tolerance relative to the diagonal) turns outward. `method` names the
-/// coordinates in the message.
+/// Throws InvalidInput (naming the cage, its reflex edge by its two vertices, a face that is not
+/// planar, or a vertex that is not a corner of the polyhedron) unless `cage` is convex: every face
+/// planar, every edge between two faces that are not coplanar turns outward, every vertex lies in
+/// at least three face planes, and no vertex is outside a face plane (tolerances relative to the
+/// diagonal, see coords/detail/convex_polyhedron.h). Adjacent coplanar faces count as one face.
+/// `method` names the coordinates in the message.
 void checkConvexCage(const Cage& cage, const char* method);
 
 }  // namespace spacewarp

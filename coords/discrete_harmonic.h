@@ -1,7 +1,10 @@
 #pragma once
 // Discrete harmonic coordinates of a convex polyhedral cage ("discrete-harmonic"): the closed
 // form of CGAL 6.2's Discrete_harmonic_coordinates_3 (cotangent weights of the cone over each
-// face, seen from the point). They may be negative inside the cage.
+// face, seen from the point), the same weights on every cage of triangles in general position.
+// A polygonal face (or coplanar triangles, merged) takes its 2D discrete harmonic coordinates, so
+// the row is Lagrange and linear on edges there too (CGAL takes triangles only). They may be
+// negative inside the cage.
 // Both convex-polyhedron coordinates equal the barycentric coordinates on a tetrahedron. The
 // cage must be convex: a reflex edge is an error naming it. The numerics are described at the
 // top of discrete_harmonic.cpp.
@@ -44,6 +47,12 @@ class DiscreteHarmonicCoordinates final : public Coordinates {
   /// InvalidInput if x is not finite, the row has the wrong size, or x is outside and the
   /// policy is Throw.
   void weights(const Vec3& x, std::span<double> row) const override;
+
+  /// The gradients ∇w_v(x) (per world unit, cage vertex count entries) of the closed form, for x
+  /// inside the cage farther than the snap distance from its surface; false elsewhere (callers
+  /// then use finite differences). Throws InvalidInput if x is not finite or `out` has the wrong
+  /// size.
+  bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
 
   const Cage& cage() const;
   const DiscreteHarmonicOptions& options() const;

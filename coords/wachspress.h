@@ -45,6 +45,12 @@ class WachspressCoordinates final : public Coordinates {
   /// policy is Throw.
   void weights(const Vec3& x, std::span<double> row) const override;
 
+  /// The gradients ∇w_v(x) (per world unit, cage vertex count entries) of the closed form, for x
+  /// inside the cage farther than the snap distance from its surface; false elsewhere (callers
+  /// then use finite differences). Throws InvalidInput if x is not finite or `out` has the wrong
+  /// size.
+  bool weightGradients(const Vec3& x, std::span<Vec3> out) const override;
+
   const Cage& cage() const;
   const WachspressOptions& options() const;
 

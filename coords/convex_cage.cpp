@@ -1,0 +1,11 @@
+#include <spacewarp/coords/convex_cage.h>
+
+#include <spacewarp/coords/detail/convex_polyhedron.h>
+
+namespace spacewarp {
+
+void checkConvexCage(const Cage& cage, const char* method) {
+  (void)detail::buildConvexPolyhedron(cage, method);
+}
+
+}  // namespace spacewarp

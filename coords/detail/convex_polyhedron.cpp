@@ -1,0 +1,468 @@
+#include <spacewarp/coords/detail/convex_polyhedron.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <unordered_map>
+#include <utility>
+
+#include <spacewarp/core/errors.h>
+
+namespace spacewarp::detail {
+
+namespace {
+
+std::uint64_t edgeKey(std::uint32_t from, std::uint32_t to) {
+  return (std::uint64_t{from} << 32) | to;
+}
+
+std::string vertexList(std::span<const std::uint32_t> face) {
+  std::string text;
+  for (std::uint32_t v : face) text += (text.empty() ? "" : ", ") + std::to_string(v);
+  return text;
+}
+
+std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t f) {
+  while (parent[f] != f) f = parent[f] = parent[parent[f]];
+  return f;
+}
+
+// Outward unit normal (Newell) and offset of one input polygon; throws if it is not planar.
+struct Plane {
+  Vec3 normal{0.0};
+  double offset = 0.0;
+  double area = 0.0;
+};
+
+Plane polygonPlane(std::span<const Vec3> p, std::span<const std::uint32_t> face, double tol,
+                   const std::string& prefix, std::size_t f) {
+  Vec3 newell(0.0);
+  for (std::size_t j = 0; j < face.size(); ++j)
+    newell += glm::cross(p[face[j]], p[face[(j + 1) % face.size()]]);
+  Plane plane;
+  plane.area = 0.5 * glm::length(newell);
+  plane.normal = newell / (2.0 * plane.area);
+  for (std::uint32_t v : face) plane.offset += glm::dot(plane.normal, p[v]);
+  plane.offset /= static_cast<double>(face.size());
+  for (std::uint32_t v : face) {
+    const double off = std::fabs(glm::dot(plane.normal, p[v]) - plane.offset);
+    if (off > tol) {
+      char text[160];
+      std::snprintf(text, sizeof text, " is not planar (vertex %u is %.3g from its plane)", v, off);
+      throw InvalidInput(prefix + "face " + std::to_string(f) + " (vertices " + vertexList(face) +
+                         ")" + text +
+                         ", so the cage is not convex in some triangulation of that face");
+    }
+  }
+  return plane;
+}
+
+// Whether the corners lie on one circle (then 2D discrete harmonic = 2D Wachspress coordinates).
+bool onOneCircle(std::span<const Vec3> p, const std::vector<std::uint32_t>& loop, double tol) {
+  if (loop.size() == 3) return true;
+  const Vec3 a = p[loop[0]], u = p[loop[1]] - a, w = p[loop[2]] - a;
+  const Vec3 n = glm::cross(u, w);
+  const Vec3 centre = a + (glm::dot(u, u) * glm::cross(w, n) + glm::dot(w, w) * glm::cross(n, u)) /
+                              (2.0 * glm::dot(n, n));
+  const double radius = glm::length(a - centre);
+  return std::all_of(loop.begin(), loop.end(), [&](std::uint32_t v) {
+    return std::fabs(glm::length(p[v] - centre) - radius) <= tol;
+  });
+}
+
+// Signed area of (y, a, b) in the plane of normal n.
+double area(const Vec3& n, const Vec3& qa, const Vec3& qb) {
+  return 0.5 * glm::dot(n, glm::cross(qa, qb));
+}
+
+// The steps of buildConvexPolyhedron(), over one cage.
+class Builder {
+ public:
+  Builder(const Cage& cage, const char* method)
+      : cage_(cage),
+        p_(cage.vertices()),
+        prefix_(std::string(method) + ": " + cage.name() + ": "),
+        tol_(kConvexTolerance * cage.diagonal()),
+        planes_(cage.faceCount()),
+        firstFace_(cage.vertexCount(), 0),
+        incident_(cage.vertexCount(), 0) {
+    for (std::size_t f = cage.faceCount(); f-- > 0;) {
+      const auto face = cage.face(f);
+      planes_[f] = polygonPlane(p_, face, tol_, prefix_, f);
+      for (std::uint32_t v : face) {
+        firstFace_[v] = static_cast<std::uint32_t>(f);
+        ++incident_[v];
+      }
+      for (std::size_t j = 0; j < face.size(); ++j)
+        edgeFace_[edgeKey(face[j], face[(j + 1) % face.size()])] = static_cast<std::uint32_t>(f);
+    }
+  }
+
+  ConvexPolyhedron build() {
+    ConvexPolyhedron poly;
+    poly.vertices.assign(p_.begin(), p_.end());
+    poly.diagonal = cage_.diagonal();
+    groupFaces(poly);
+    for (std::size_t g = 0; g < poly.faces.size(); ++g) mergeFace(poly.faces[g], g);
+    poly.ringOffsets.assign(1, 0);
+    for (std::uint32_t v = 0; v < cage_.vertexCount(); ++v) {
+      const std::vector<std::uint32_t> ring = vertexRing(v);
+      poly.ring.insert(poly.ring.end(), ring.begin(), ring.end());
+      poly.ringOffsets.push_back(static_cast<std::uint32_t>(poly.ring.size()));
+    }
+    for (const ConvexPolyhedron::Face& face : poly.faces) checkSupporting(face);
+    return poly;
+  }
+
+ private:
+  std::uint32_t faceOfEdge(std::uint32_t from, std::uint32_t to) const {
+    return edgeFace_.at(edgeKey(from, to));
+  }
+
+  // Every edge between two faces turns outward or is flat; flat edges join their faces' groups.
+  void groupFaces(ConvexPolyhedron& poly) {
+    const std::size_t nF = cage_.faceCount();
+    std::vector<std::uint32_t> parent(nF);
+    std::iota(parent.begin(), parent.end(), 0u);
+    for (std::size_t f = 0; f < nF; ++f) {
+      const auto face = cage_.face(f);
+      for (std::size_t j = 0; j < face.size(); ++j) {
+        const std::uint32_t a = face[j], b = face[(j + 1) % face.size()], g = faceOfEdge(b, a);
+        if (a > b || g == f) continue;  // each edge once
+        if (edgeIsFlat(f, g, a, b)) parent[findRoot(parent, g)] = findRoot(parent, f);
+      }
+    }
+    groupOf_.assign(nF, 0);
+    std::vector<std::uint32_t> groupIndex(nF, UINT32_MAX);
+    for (std::size_t f = 0; f < nF; ++f) {
+      const std::uint32_t root = findRoot(parent, static_cast<std::uint32_t>(f));
+      if (groupIndex[root] == UINT32_MAX) {
+        groupIndex[root] = static_cast<std::uint32_t>(poly.faces.size());
+        poly.faces.emplace_back();
+      }
+      groupOf_[f] = groupIndex[root];
+      poly.faces[groupOf_[f]].source.push_back(static_cast<std::uint32_t>(f));
+    }
+  }
+
+  // Whether faces f and g (edge a → b in f) are coplanar; throws if the edge is reflex.
+  bool edgeIsFlat(std::size_t f, std::size_t g, std::uint32_t a, std::uint32_t b) const {
+    const Vec3 nf = planes_[f].normal, ng = planes_[g].normal;
+    // sin of the turn from f to g about a → b: positive outward, 0 where they are coplanar.
+    const double turn = glm::dot(glm::cross(nf, ng), glm::normalize(p_[b] - p_[a]));
+    const bool flat = std::fabs(turn) <= kConvexTolerance;
+    if (turn < -kConvexTolerance || (flat && glm::dot(nf, ng) < 0)) {
+      char text[96];
+      std::snprintf(text, sizeof text, " (turning inward by %.3g degrees)",
+                    std::atan2(-turn, glm::dot(nf, ng)) * 180.0 / std::numbers::pi);
+      throw InvalidInput(prefix_ + "the cage is not convex: the edge between vertices " +
+                         std::to_string(a) + " and " + std::to_string(b) + " (faces " +
+                         std::to_string(f) + " and " + std::to_string(g) + ") is reflex" + text);
+    }
+    return flat;
+  }
+
+  // Face g of the polyhedron: its plane and area from its cage faces, its corners the boundary
+  // of their union (which must be one loop, in one plane).
+  void mergeFace(ConvexPolyhedron::Face& face, std::size_t g) const {
+    Vec3 weighted(0.0);
+    std::unordered_map<std::uint32_t, std::uint32_t> next;  // boundary edges
+    for (std::uint32_t f : face.source) {
+      weighted += planes_[f].area * planes_[f].normal;
+      face.area += planes_[f].area;
+      const auto corners = cage_.face(f);
+      for (std::size_t j = 0; j < corners.size(); ++j) {
+        const std::uint32_t a = corners[j], b = corners[(j + 1) % corners.size()];
+        if (groupOf_[faceOfEdge(b, a)] == g) continue;
+        if (!next.emplace(a, b).second) {
+          throw InvalidInput(prefix_ + "the cage is not convex: vertex " + std::to_string(a) +
+                             " touches the flat region of face " + std::to_string(f) + " twice");
+        }
+      }
+    }
+    face.normal = glm::normalize(weighted);
+    const auto first = cage_.face(face.source[0]);
+    std::uint32_t v = *std::find_if(first.begin(), first.end(),
+                                    [&](std::uint32_t c) { return next.count(c) > 0; });
+    for (std::size_t steps = 0; steps < next.size(); ++steps) {
+      face.loop.push_back(v);
+      const auto it = next.find(v);
+      if (it == next.end()) break;
+      v = it->second;
+    }
+    if (face.loop.size() != next.size() || v != face.loop[0]) {
+      throw InvalidInput(prefix_ + "the coplanar faces around face " +
+                         std::to_string(face.source[0]) + " do not form one polygon");
+    }
+    for (std::uint32_t c : face.loop) face.offset += glm::dot(face.normal, p_[c]);
+    face.offset /= static_cast<double>(face.loop.size());
+    for (std::uint32_t f : face.source) {
+      for (std::uint32_t c : cage_.face(f)) {
+        if (std::fabs(glm::dot(face.normal, p_[c]) - face.offset) > tol_) {
+          throw InvalidInput(prefix_ + "faces " + vertexList(face.source) +
+                             " are almost but not exactly coplanar (at vertex " +
+                             std::to_string(c) + "), so the cage is not convex");
+        }
+      }
+    }
+    const std::size_t m = face.loop.size();
+    for (std::size_t j = 0; j < m; ++j) {
+      const Vec3 a = p_[face.loop[(j + m - 1) % m]], b = p_[face.loop[j]],
+                 c = p_[face.loop[(j + 1) % m]];
+      face.cornerArea.push_back(area(face.normal, c - b, a - b));
+    }
+    face.cyclic = onOneCircle(p_, face.loop, tol_);
+  }
+
+  // The polyhedron's faces around vertex v, counter-clockwise from outside: after cage face
+  // (…, u, v, …) comes the face of the edge v → u. Throws unless v is a corner.
+  std::vector<std::uint32_t> vertexRing(std::uint32_t v) const {
+    const std::size_t first = firstFace_[v], incident = incident_[v];
+    std::vector<std::uint32_t> groups;
+    std::size_t f = first, visited = 0;
+    do {
+      const auto face = cage_.face(f);
+      const auto j =
+          static_cast<std::size_t>(std::find(face.begin(), face.end(), v) - face.begin());
+      if (groups.empty() || groups.back() != groupOf_[f]) groups.push_back(groupOf_[f]);
+      f = faceOfEdge(v, face[(j + face.size() - 1) % face.size()]);
+      ++visited;
+    } while (f != first && visited <= incident);
+    if (visited != incident) {
+      throw InvalidInput(prefix_ + "the surface is not a disk around vertex " + std::to_string(v));
+    }
+    if (groups.size() > 1 && groups.back() == groups.front()) groups.pop_back();
+    std::vector<std::uint32_t> sorted = groups;
+    std::sort(sorted.begin(), sorted.end());
+    if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
+      throw InvalidInput(prefix_ + "the cage is not convex: its faces wind around vertex " +
+                         std::to_string(v) + " more than once");
+    }
+    if (groups.size() < 3) {
+      throw InvalidInput(prefix_ + "vertex " + std::to_string(v) +
+                         " is not a corner of the polyhedron: its faces lie in " +
+                         std::to_string(groups.size()) +
+                         (groups.size() == 1 ? " plane" : " planes") +
+                         " (remove it, or move it out of the plane(s))");
+    }
+    return groups;
+  }
+
+  // Locally convex everywhere; a supporting plane per face and convex faces make it globally so.
+  void checkSupporting(const ConvexPolyhedron::Face& face) const {
+    for (std::uint32_t v = 0; v < p_.size(); ++v) {
+      if (glm::dot(face.normal, p_[v]) - face.offset > tol_) {
+        throw InvalidInput(prefix_ + "the cage is not convex: vertex " + std::to_string(v) +
+                           " lies outside the plane of face " + std::to_string(face.source[0]));
+      }
+    }
+    for (std::size_t j = 0; j < face.loop.size(); ++j) {
+      if (!(face.cornerArea[j] > 0.0)) {
+        throw InvalidInput(prefix_ + "the cage is not convex: face " +
+                           std::to_string(face.source[0]) + " has a reflex corner at vertex " +
+                           std::to_string(face.loop[j]));
+      }
+    }
+  }
+
+  const Cage& cage_;
+  std::span<const Vec3> p_;
+  std::string prefix_;
+  double tol_;
+  std::vector<Plane> planes_;
+  std::unordered_map<std::uint64_t, std::uint32_t> edgeFace_;  // directed edge -> cage face
+  std::vector<std::uint32_t> firstFace_, incident_;  // per vertex: its first face, how many
+  std::vector<std::uint32_t> groupOf_;               // cage face -> polyhedron face
+};
+
+}  // namespace
+
+ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
+  return Builder(cage, method).build();
+}
+
+// Product form of the 2D coordinates (so that points on an edge line need no division by 0):
+// corner j gets N_j = c_j Π_{k ∉ {j−1, j}} A_k with A_k = area(y, v_k, v_{k+1}) and
+//   Wachspress:          c_j = area(v_{j−1}, v_j, v_{j+1}),
+//   discrete harmonic:   c_j = r²_{j+1} A_{j−1} − r²_j B_j + r²_{j−1} A_j,  B_j = area(y, v_{j−1},
+//                        v_{j+1}), r_k = |v_k − y|
+// (Floater's three-point family, p = 0 and p = 2), divided by their sum. Both coincide on a
+// polygon whose corners lie on a circle, where the Wachspress form is used: its sum does not
+// vanish on the rectangle's lines where the discrete harmonic form's does (removably). Lengths are
+// scaled by the face's √area so that the products of m − 2 areas stay representable.
+bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
+                     const Vec3& y, FaceCoordinates kind, std::span<double> out) {
+  const std::size_t m = face.loop.size();
+  const double scale = 1.0 / std::sqrt(face.area);
+  thread_local std::vector<Vec3> q;
+  thread_local std::vector<double> a, prefix;
+  q.resize(m);
+  a.resize(m);
+  prefix.resize(m + 1);
+  for (std::size_t j = 0; j < m; ++j) {
+    q[j] = (vertices[face.loop[j]] - y) * scale;
+    if (q[j] == Vec3(0.0)) {  // at a corner every product vanishes (the 0/0 of Lagrange)
+      std::fill(out.begin(), out.end(), 0.0);
+      out[j] = 1.0;
+      return true;
+    }
+  }
+  for (std::size_t j = 0; j < m; ++j) a[j] = area(face.normal, q[j], q[(j + 1) % m]);
+  prefix[0] = 1.0;
+  for (std::size_t j = 0; j < m; ++j) prefix[j + 1] = prefix[j] * a[j];
+  const bool harmonic = kind == FaceCoordinates::DiscreteHarmonic && !face.cyclic;
+  double sum = 0.0, suffix = 1.0;  // suffix = Π_{k > j} A_k
+  for (std::size_t j = m; j-- > 0;) {
+    double others;  // Π over k ∉ {j−1, j}
+    if (j == 0) {
+      others = 1.0;
+      for (std::size_t k = 1; k + 1 < m; ++k) others *= a[k];
+    } else {
+      others = prefix[j - 1] * suffix;
+    }
+    const std::size_t prev = (j + m - 1) % m, next = (j + 1) % m;
+    double c = face.cornerArea[j] * scale * scale;
+    if (harmonic) {
+      const double b = area(face.normal, q[prev], q[next]);
+      c = glm::dot(q[next], q[next]) * a[prev] - glm::dot(q[j], q[j]) * b +
+          glm::dot(q[prev], q[prev]) * a[j];
+    }
+    out[j] = c * others;
+    sum += out[j];
+    suffix *= a[j];
+  }
+  if (!(std::isfinite(sum) && sum != 0.0)) return false;
+  for (std::size_t j = 0; j < m; ++j) out[j] /= sum;
+  return true;
+}
+
+// The product form differentiated term by term (∇A_k = ½ s n × (q_{k+1} − q_k), ∇|q_k|² =
+// −2 s q_k with s the scale), directly in O(m³): gradients are not the hot path.
+bool faceCoordinateGradients(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
+                             const Vec3& y, FaceCoordinates kind, std::span<Vec3> out) {
+  const std::size_t m = face.loop.size();
+  const double scale = 1.0 / std::sqrt(face.area);
+  const Vec3 n = face.normal;
+  std::vector<Vec3> q(m), da(m);
+  std::vector<double> a(m), value(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    q[j] = (vertices[face.loop[j]] - y) * scale;
+    if (q[j] == Vec3(0.0)) return false;
+  }
+  for (std::size_t k = 0; k < m; ++k) {
+    a[k] = area(n, q[k], q[(k + 1) % m]);
+    da[k] = 0.5 * scale * glm::cross(n, q[(k + 1) % m] - q[k]);
+  }
+  const bool harmonic = kind == FaceCoordinates::DiscreteHarmonic && !face.cyclic;
+  double sum = 0.0;
+  Vec3 dsum(0.0);
+  for (std::size_t j = 0; j < m; ++j) {
+    const std::size_t prev = (j + m - 1) % m, next = (j + 1) % m;
+    double others = 1.0;
+    Vec3 dothers(0.0);
+    for (std::size_t k = 0; k < m; ++k) {
+      if (k == prev || k == j) continue;
+      dothers = dothers * a[k] + others * da[k];
+      others *= a[k];
+    }
+    double c = face.cornerArea[j] * scale * scale;
+    Vec3 dc(0.0);
+    if (harmonic) {
+      const double b = area(n, q[prev], q[next]);
+      const Vec3 db = 0.5 * scale * glm::cross(n, q[next] - q[prev]);
+      const double rn = glm::dot(q[next], q[next]), rj = glm::dot(q[j], q[j]),
+                   rp = glm::dot(q[prev], q[prev]);
+      c = rn * a[prev] - rj * b + rp * a[j];
+      dc = -2.0 * scale * (a[prev] * q[next] - b * q[j] + a[j] * q[prev]) + rn * da[prev] -
+           rj * db + rp * da[j];
+    }
+    value[j] = c * others;
+    out[j] = dc * others + c * dothers;
+    sum += value[j];
+    dsum += out[j];
+  }
+  if (!(std::isfinite(sum) && sum != 0.0)) return false;
+  for (std::size_t j = 0; j < m; ++j) out[j] = (out[j] - (value[j] / sum) * dsum) / sum;
+  return true;
+}
+
+SurfacePoint nearestSurfacePoint(const ConvexPolyhedron& poly, const Vec3& x) {
+  SurfacePoint best;
+  best.distance = std::numeric_limits<double>::infinity();
+  const std::span<const Vec3> p = poly.vertices;
+  for (std::size_t g = 0; g < poly.faces.size(); ++g) {
+    const ConvexPolyhedron::Face& face = poly.faces[g];
+    const double h = glm::dot(face.normal, x) - face.offset;
+    if (std::fabs(h) >= best.distance) continue;  // the face is no nearer than its plane
+    const Vec3 y = x - h * face.normal;
+    const std::size_t m = face.loop.size();
+    bool inside = true;
+    for (std::size_t j = 0; j < m && inside; ++j)
+      inside = area(face.normal, p[face.loop[j]] - y, p[face.loop[(j + 1) % m]] - y) >= 0.0;
+    if (inside) {
+      best = {g, y, std::fabs(h)};
+      continue;
+    }
+    for (std::size_t j = 0; j < m; ++j) {
+      const Vec3 a = p[face.loop[j]], e = p[face.loop[(j + 1) % m]] - a;
+      const double t = std::clamp(glm::dot(x - a, e) / glm::dot(e, e), 0.0, 1.0);
+      const Vec3 z = a + t * e;
+      const double d = glm::length(x - z);
+      if (d < best.distance) best = {g, z, d};
+    }
+  }
+  return best;
+}
+
+bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
+               ConvexOutsidePolicy policy, FaceCoordinates kind, InteriorRow interior,
+               const void* data, std::span<double> row) {
+  thread_local std::vector<double> heights;
+  heights.resize(poly.faces.size());
+  double lowest = std::numeric_limits<double>::infinity();
+  for (std::size_t g = 0; g < poly.faces.size(); ++g) {
+    heights[g] = poly.faces[g].offset - glm::dot(poly.faces[g].normal, x);
+    lowest = std::min(lowest, heights[g]);
+  }
+  if (lowest > snapLength) {
+    interior(data, poly, x, heights, row);
+    return true;
+  }
+  const SurfacePoint s = nearestSurfacePoint(poly, x);
+  if (lowest < 0.0 && s.distance > snapLength && policy == ConvexOutsidePolicy::Throw) return false;
+  const ConvexPolyhedron::Face& face = poly.faces[s.face];
+  thread_local std::vector<double> local;
+  local.resize(face.loop.size());
+  if (!faceCoordinates(face, poly.vertices, s.point, kind, local))
+    throw SolverError("convex cage coordinates: no surface coordinates at " + pointText(s.point));
+  std::fill(row.begin(), row.end(), 0.0);
+  for (std::size_t j = 0; j < face.loop.size(); ++j) row[face.loop[j]] = local[j];
+  return true;
+}
+
+std::string pointText(const Vec3& x) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.17g, %.17g, %.17g)", x.x, x.y, x.z);
+  return text;
+}
+
+std::string outsideMessage(const char* method, std::size_t count, std::size_t total,
+                           std::size_t first, const Vec3& x) {
+  return std::string(method) + ": " + std::to_string(count) + " of " + std::to_string(total) +
+         " points are outside the convex cage (the first is point " + std::to_string(first) +
+         " at " + pointText(x) +
+         "); ConvexOutsidePolicy::NearestPoint gives them the coordinates " +
+         "of the nearest surface point";
+}
+
+void checkSnapTolerance(const char* method, double snapTolerance) {
+  if (!(snapTolerance >= 0.0 && snapTolerance <= 1e-3)) {
+    throw InvalidInput(std::string(method) + ": snapTolerance must be in [0, 1e-3], got " +
+                       std::to_string(snapTolerance));
+  }
+}
+
+}  // namespace spacewarp::detail

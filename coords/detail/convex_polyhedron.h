@@ -1,0 +1,92 @@
+#pragma once
+// The convex polyhedron behind a convex cage, shared by the Wachspress and discrete harmonic
+// coordinates: the cage's adjacent coplanar faces merged into one planar face each (a
+// triangulated box becomes six quads), the face planes, the faces around every vertex, the 2D
+// coordinates of a face, the nearest surface point, and the row logic both coordinates follow
+// (interior closed form, surface coordinates within the snap distance, the outside policy).
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/convex_cage.h>
+
+namespace spacewarp::detail {
+
+/// Which 2D coordinates a face of the polyhedron gets.
+enum class FaceCoordinates { Wachspress, DiscreteHarmonic };
+
+struct ConvexPolyhedron {
+  struct Face {
+    Vec3 normal{0.0};                   ///< unit, outward
+    double offset = 0.0;                ///< normal · p for every p on the face (world units)
+    std::vector<std::uint32_t> loop;    ///< the corners, counter-clockwise seen from outside
+    std::vector<double> cornerArea;     ///< per corner j: area(v_{j−1}, v_j, v_{j+1}) > 0
+    double area = 0.0;                  ///< world units²
+    bool cyclic = false;                ///< corners on one circle (triangles always)
+    std::vector<std::uint32_t> source;  ///< the cage faces merged into it
+  };
+  std::vector<Vec3> vertices;  ///< the cage's vertices
+  std::vector<Face> faces;
+  /// The faces around vertex v, counter-clockwise seen from outside, each once (at least 3):
+  /// ring[ringOffsets[v], ringOffsets[v + 1]).
+  std::vector<std::uint32_t> ringOffsets, ring;
+  double diagonal = 0.0;
+};
+
+/// Merges and checks the faces of `cage`. Throws InvalidInput, prefixed by `method` and the cage's
+/// name, for a face that is not planar, a reflex edge (naming its two vertices), a vertex that is
+/// not a corner (its faces lie in fewer than 3 planes) or otherwise breaks convexity. A face is
+/// planar when its corners are within kConvexTolerance × the cage diagonal of its plane; two
+/// faces are coplanar (and merge) when they meet at an angle below kConvexTolerance radians, so
+/// that neither leaves the other's plane by more than that times the diagonal.
+ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method);
+inline constexpr double kConvexTolerance = 1e-9;
+
+/// The 2D coordinates (normalised, one per corner of `face`, into `out`) of y, a point of the
+/// face's plane; y may lie outside the polygon (the rational functions are continued there). False
+/// if their sum vanishes at y (a pole of the continued coordinates, never inside the polygon).
+bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
+                     const Vec3& y, FaceCoordinates kind, std::span<double> out);
+
+/// The gradients ∇φ_j (per world unit, in the face's plane, into `out`) of the coordinates that
+/// faceCoordinates() gives at y. False at a corner and where their sum vanishes.
+bool faceCoordinateGradients(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
+                             const Vec3& y, FaceCoordinates kind, std::span<Vec3> out);
+
+/// The point of the polyhedron's surface nearest to x, its face and its distance (0 on it).
+struct SurfacePoint {
+  std::size_t face = 0;
+  Vec3 point{0.0};
+  double distance = 0.0;
+};
+SurfacePoint nearestSurfacePoint(const ConvexPolyhedron& poly, const Vec3& x);
+
+/// The interior closed form of one coordinate: the normalised row (vertex count entries) of an
+/// inside point x whose height below every face plane (offset − normal · x, positive) is given.
+using InteriorRow = void (*)(const void* data, const ConvexPolyhedron& poly, const Vec3& x,
+                             std::span<const double> heights, std::span<double> row);
+
+/// One row: the interior closed form when x is farther than snapLength (world units) inside every
+/// face plane, the surface coordinates of the nearest surface point when it is within snapLength of
+/// the surface or outside with NearestPoint. Returns false (row unspecified) for a point outside
+/// under Throw.
+bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
+               ConvexOutsidePolicy policy, FaceCoordinates kind, InteriorRow interior,
+               const void* data, std::span<double> row);
+
+/// "(x, y, z)" with every digit, for messages.
+std::string pointText(const Vec3& x);
+
+/// The message for `count` of `total` points outside the cage, the first being point `first`
+/// at x.
+std::string outsideMessage(const char* method, std::size_t count, std::size_t total,
+                           std::size_t first, const Vec3& x);
+
+/// Throws InvalidInput unless snapTolerance is in [0, 1e-3].
+void checkSnapTolerance(const char* method, double snapTolerance);
+
+}  // namespace spacewarp::detail

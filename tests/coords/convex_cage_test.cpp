@@ -1,0 +1,140 @@
+#include <spacewarp/coords/convex_cage.h>
+
+#include <filesystem>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <spacewarp/coords/detail/convex_polyhedron.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/primitives.h>
+#include "convex_test_shapes.h"
+#include "coords_test_shapes.h"
+#include "test_util.h"
+
+namespace spacewarp {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string convexityError(const PolygonSoup& soup) {
+  return test::messageOf<InvalidInput>([&] { checkConvexCage(Cage(soup, "c.obj"), "M"); });
+}
+
+TEST(ConvexCage, AcceptsConvexPolyhedraOfAnyFaces) {
+  for (const PolygonSoup& soup :
+       {test::tetrahedron(), test::convexBox(Vec3(-1.0), Vec3(1.0)), test::hexagonalPrism(),
+        test::pentagonalPrism(), test::truncatedOctahedron(), test::randomSphereHull(30, 5),
+        test::pinchedBox(1.5), test::icosphere(2)}) {
+    EXPECT_EQ(convexityError(soup), "");
+  }
+}
+
+// The hull helper and the merge agree on the faces: a triangulated box has six quads again, the
+// truncated octahedron 6 squares and 8 hexagons, each corner in 3 faces.
+TEST(ConvexCage, MergesCoplanarFacesIntoOnePolygon) {
+  const Cage cube(test::triangulated(test::convexBox(Vec3(0.0), Vec3(1.0))));
+  ASSERT_EQ(cube.faceCount(), 12u);
+  const detail::ConvexPolyhedron box = detail::buildConvexPolyhedron(cube, "M");
+  ASSERT_EQ(box.faces.size(), 6u);
+  for (const auto& face : box.faces) {
+    EXPECT_EQ(face.loop.size(), 4u);
+    EXPECT_NEAR(face.area, 1.0, 1e-15);
+    EXPECT_TRUE(face.cyclic);
+  }
+  const detail::ConvexPolyhedron octa =
+      detail::buildConvexPolyhedron(Cage(test::truncatedOctahedron()), "M");
+  ASSERT_EQ(octa.faces.size(), 14u);
+  int squares = 0, hexagons = 0;
+  for (const auto& face : octa.faces) {
+    squares += face.loop.size() == 4;
+    hexagons += face.loop.size() == 6;
+  }
+  EXPECT_EQ(squares, 6);
+  EXPECT_EQ(hexagons, 8);
+  for (std::size_t v = 0; v < octa.vertices.size(); ++v)
+    EXPECT_EQ(octa.ringOffsets[v + 1] - octa.ringOffsets[v], 3u);
+  // The rings run counter-clockwise seen from outside: det(n_1, n_2, n_3) > 0 at every corner.
+  for (std::size_t v = 0; v < octa.vertices.size(); ++v) {
+    const std::uint32_t* r = octa.ring.data() + octa.ringOffsets[v];
+    EXPECT_GT(glm::dot(octa.faces[r[0]].normal,
+                       glm::cross(octa.faces[r[1]].normal, octa.faces[r[2]].normal)),
+              0.0);
+  }
+  // An irregular pentagon is not cyclic.
+  const detail::ConvexPolyhedron penta =
+      detail::buildConvexPolyhedron(Cage(test::pentagonalPrism()), "M");
+  for (const auto& face : penta.faces) EXPECT_EQ(face.cyclic, face.loop.size() == 4);
+}
+
+TEST(ConvexCage, NamesTheReflexEdgeOfTheLPrism) {
+  // The inner corner of the L is the vertical edge from vertex 3 (bottom) to 9 (top).
+  const std::string message = convexityError(test::lPrism());
+  EXPECT_THAT(message, HasSubstr("M: c.obj: the cage is not convex"));
+  EXPECT_THAT(message, HasSubstr("edge between vertices 3 and 9"));
+  EXPECT_THAT(message, HasSubstr("reflex"));
+  EXPECT_THAT(convexityError(test::pinchedBox(0.5)), HasSubstr("reflex"));
+  EXPECT_THAT(convexityError(test::star()), HasSubstr("reflex"));
+}
+
+TEST(ConvexCage, NamesAVertexThatIsNotACorner) {
+  // The top quad of a box split into four triangles around its centre (vertex 8).
+  PolygonSoup soup = test::convexBox(Vec3(0.0), Vec3(1.0));
+  PolygonSoup split;
+  split.positions = soup.positions;
+  split.positions.push_back(Vec3(0.5, 0.5, 1.0));
+  for (std::size_t f = 0; f < soup.polygonCount(); ++f) {
+    const auto face = soup.polygon(f);
+    bool top = true;
+    for (std::uint32_t v : face) top = top && soup.positions[v].z == 1.0;
+    if (!top) {
+      split.addPolygon(face);
+      continue;
+    }
+    for (std::size_t j = 0; j < 4; ++j) split.addPolygon({face[j], face[(j + 1) % 4], 8});
+  }
+  EXPECT_THAT(convexityError(split),
+              HasSubstr("vertex 8 is not a corner of the polyhedron: its faces lie in 1 plane"));
+  // A box cut 2 × 1 × 1: the midpoints of four edges lie on two planes only.
+  EXPECT_THAT(convexityError(makeBoxSurface(Vec3(0.0), Vec3(1.0), {2, 1, 1})),
+              HasSubstr("planes (remove it"));
+}
+
+TEST(ConvexCage, NamesANonPlanarFace) {
+  PolygonSoup soup = test::convexBox(Vec3(0.0), Vec3(1.0));
+  std::size_t lifted = 0;
+  while (soup.positions[lifted] != Vec3(1.0)) ++lifted;
+  soup.positions[lifted].z += 0.01;
+  const std::string message = convexityError(soup);
+  EXPECT_THAT(message, HasSubstr("is not planar"));
+  EXPECT_THAT(message, HasSubstr("not convex in some triangulation"));
+  EXPECT_THAT(message, testing::ContainsRegex("vertices ([0-9]+, )*" + std::to_string(lifted)));
+}
+
+// The tolerance is relative to the diagonal: the same convex cage passes at any scale and place.
+TEST(ConvexCage, JudgesRelativeToTheDiagonal) {
+  for (double scale : {1e-6, 1.0, 1e6}) {
+    PolygonSoup soup = test::truncatedOctahedron();
+    for (Vec3& p : soup.positions) p = p * scale + Vec3(1e3 * scale);
+    EXPECT_EQ(convexityError(soup), "") << scale;
+    PolygonSoup lPrism = test::lPrism();
+    for (Vec3& p : lPrism.positions) p = p * scale + Vec3(1e3 * scale);
+    EXPECT_THAT(convexityError(lPrism), HasSubstr("reflex")) << scale;
+  }
+}
+
+// The armadillo's cage (optional shared data) is far from convex: the message names one edge.
+TEST(ConvexCage, RejectsTheArmadilloCageNamingAReflexEdge) {
+  const auto path =
+      std::filesystem::path(SPACEWARP_SHARED_DATA_DIR) / "ju2005-armadillo" / "bounding_mesh.obj";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared data not found: " << path;
+  const std::string message = test::messageOf<InvalidInput>(
+      [&] { checkConvexCage(Cage::fromFile(path), "WachspressCoordinates"); });
+  EXPECT_THAT(message, HasSubstr("bounding_mesh.obj: the cage is not convex: the edge between "
+                                 "vertices "));
+  EXPECT_THAT(message, HasSubstr(") is reflex (turning inward by "));
+}
+
+}  // namespace
+}  // namespace spacewarp
