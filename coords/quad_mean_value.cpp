@@ -1,0 +1,583 @@
+#include <spacewarp/coords/quad_mean_value.h>
+
+// Numerics
+// ========
+// Mean-value coordinates of a closed surface S around x are w_i(x) = ∫ φ_i(σ) / |σ − x| dΩ over
+// the unit sphere of directions from x, σ the point of S seen in that direction and φ_i the
+// interpolant of S's faces (linear on triangles, bilinear on quads); the row is w / Σ w. Every
+// face F contributes weights W^F with Σ_i W^F_i (p_i − x) = m_F, the mean vector of F's
+// spherical projection, ½ Σ θ_e C_e / |C_e| over F's boundary edges only (edgeMeanVector in
+// coords/detail/mean_value_triangle.h). Summed over the closed cage the m_F cancel, so any
+// weights with that property give partition of unity and linear precision.
+//
+// Triangles: Ju et al.'s weights, the per-triangle term of MeanValueCoordinates
+// (coords/detail/mean_value_triangle.h): the fast double formula, or the careful long-double
+// one where its error estimate asks for it. An all-triangle cage is handed whole to a
+// MeanValueCoordinates, so its rows are those of MVC bit for bit.
+//
+// Quads (Thiery, Memari, Boubekeur 2018): σ is the bilinear patch and φ its bilinear basis.
+// The three equations Σ W_i v_i = m fix W up to the null vector N of (v_0 … v_3) (N_i the signed
+// cofactors; N ∝ φ(u, v) exactly when x = σ(u, v)); the fourth degree of freedom needs the
+// integral itself. The paper solves the three equations exactly and takes the fourth from a
+// sampled quadrature. Here the integral is taken over a tessellation of the patch that adapts
+// to x: with (û, v̂) the closest point of the patch to x (damped Gauss-Newton from the centre,
+// clamped to the unit square), the patch is cut at û and v̂ into 8 triangles fanned around
+// σ(û, v̂) through the 4 corners and the 4 edge points σ(û, 0), σ(1, v̂), σ(û, 1), σ(0, v̂);
+// each triangle gets the exact triangle weights of its corners, and a node at (u, v) passes
+// its weight to the quad's corners by φ(u, v). This
+//  - solves the three equations exactly (the triangles' boundary is the quad's), so it is the
+//    paper's construction with another quadrature for the null direction;
+//  - does not depend on a diagonal or on the starting vertex (the fan is the same set of
+//    triangles for every rotation of the quad);
+//  - tends to the bilinear interpolant φ(û, v̂) as x approaches the patch, the node σ(û, v̂)
+//    being the foot of x, so that the coordinates are continuous onto the face (where points
+//    within snapTolerance get φ at the inverse-bilinear parameters);
+//  - is robust near the patch and its plane, as every triangle is.
+// The weights differ from the exact integral of the bilinear basis by the linear interpolation
+// of φ over the 8 triangles (a few percent of a far quad's weights; the agreement with the
+// authors' code is given in the report of the work that added this file).
+//
+// Polygons with more than 4 vertices (planar): Langer, Belyaev and Seidel's spherical
+// mean-value construction. With m̂ = m / |m|, t_i the component of u_i = v_i / d_i orthogonal to
+// m̂ and α_i the signed angle about m̂ from t_i to t_{i+1},
+//     λ_i = (tan(α_{i−1} / 2) + tan(α_i / 2)) / |t_i|,   W_i = |m| λ_i / (d_i Σ_k λ_k (u_k · m̂)),
+// which solves Σ W_i v_i = m exactly (Floater's identity Σ λ_i t_i = 0 holds for any unit
+// vectors). On the face (within snapTolerance) the same formula on the in-plane vectors
+// p_i − x₀ gives the polygon's 2D mean-value coordinates. Non-planar polygons with more than 4
+// vertices are refused (InvalidInput naming the face): their interpolant is not defined.
+//
+// Outside the cage the weight sum W cancels; as in MeanValueCoordinates a point whose estimated
+// reproduction error ε Σ |w| d / (|W| diagonal) exceeds 1e-13 is recomputed with every triangle
+// by the careful path (long double; polygons stay in double), and points beyond 3000 diagonals
+// are refused.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <spacewarp/coords/detail/mean_value_triangle.h>
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/core/archive.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
+
+namespace spacewarp {
+
+namespace {
+
+using Real = long double;
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+// As MeanValueCoordinates' kTauRepro and kFarLimit (see mean_value.cpp).
+constexpr double kTauRepro = 1e-13;
+constexpr double kFarLimit = 3000.0;
+// Gauss-Newton steps of the closest-point search on a patch (quadratic convergence near the
+// patch, where the foot must be exact; a fixed count keeps it a continuous function of x).
+constexpr int kProjectionSteps = 12;
+
+// The cage's faces, edges and per-face boxes (for the snapping test).
+struct CageData {
+  std::vector<Vec3> p;
+  std::vector<std::uint32_t> offsets, indices;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;  // each once, first < second
+  std::vector<Vec3> normal;                                    // unit Newell normal per face
+  std::vector<BoundingBox> box;
+  double diagonal = 0.0;
+  double snapLength = 0.0;
+  Vec3 center{0.0};
+
+  std::span<const std::uint32_t> face(std::size_t f) const {
+    return {indices.data() + offsets[f], offsets[f + 1] - offsets[f]};
+  }
+};
+
+// Per-thread buffers of one point.
+struct Scratch {
+  std::vector<Vec3> v;  // p_i − x
+  std::vector<double> d;
+  std::vector<Real> acc;  // Σ over faces of the unnormalised weights
+  std::vector<double> lambda;
+};
+
+// The bilinear basis at (u, v) for corners 0, 1, 2, 3 (σ(0,0) = p_0, σ(1,0) = p_1, σ(1,1) = p_2).
+std::array<double, 4> bilinear(double u, double v) {
+  return {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+}
+
+template <class T>
+T combine(const std::array<double, 4>& phi, const std::array<T, 4>& q) {
+  return phi[0] * q[0] + phi[1] * q[1] + phi[2] * q[2] + phi[3] * q[3];
+}
+
+// The parameters of the point of the patch with corners x + q_i closest to x: damped
+// Gauss-Newton on |Σ φ_i q_i|² from the centre, clamped to the unit square after every step.
+void closestParameters(const std::array<Vec3, 4>& q, double& u, double& v) {
+  u = v = 0.5;
+  for (int step = 0; step < kProjectionSteps; ++step) {
+    const Vec3 r = combine(bilinear(u, v), q);
+    const Vec3 su = (1 - v) * (q[1] - q[0]) + v * (q[2] - q[3]);
+    const Vec3 sv = (1 - u) * (q[3] - q[0]) + u * (q[2] - q[1]);
+    const double damp = 1e-12 * (glm::dot(su, su) + glm::dot(sv, sv));
+    const double a = glm::dot(su, su) + damp, b = glm::dot(su, sv), c = glm::dot(sv, sv) + damp;
+    const double g1 = glm::dot(su, r), g2 = glm::dot(sv, r);
+    const double det = a * c - b * b;
+    if (!(det > 0.0)) break;
+    u = std::clamp(u - (c * g1 - b * g2) / det, 0.0, 1.0);
+    v = std::clamp(v - (a * g2 - b * g1) / det, 0.0, 1.0);
+  }
+  // A foot within 2⁻⁴⁰ of a side is put on it: the fan's triangles along that side would be
+  // slivers (their weights, proportional to their width, are dropped with them).
+  const auto snap = [](double t) { return t < 0x1p-40 ? 0.0 : t > 1.0 - 0x1p-40 ? 1.0 : t; };
+  u = snap(u);
+  v = snap(v);
+}
+
+// λ_i = (tan(α_{i−1}/2) + tan(α_i/2)) / |t_i|, α_i the angle about `axis` from t_i to t_{i+1}:
+// the mean-value coordinates of the origin in the plane normal to `axis` (unnormalised).
+// False if some t_i vanishes (the origin is a vertex).
+bool tangentMeanValue(std::span<const Vec3> t, const Vec3& axis, std::span<double> lambda) {
+  const std::size_t n = t.size();
+  double prev = 0.0;  // tan(α_{i−1} / 2), first for i = 0
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3& a = t[i];
+    const Vec3& b = t[(i + 1) % n];
+    const double la = glm::length(a), lb = glm::length(b);
+    if (!(la > 0.0 && lb > 0.0)) return false;
+    const double sine = glm::dot(axis, glm::cross(a, b)), cosine = glm::dot(a, b);
+    // sin α / (1 + cos α) = (1 − cos α) / sin α: the form whose denominator is not small.
+    const double half = cosine >= 0.0 ? sine / (la * lb + cosine) : (la * lb - cosine) / sine;
+    lambda[i] = half;  // tan(α_i / 2) for now
+    if (i + 1 == n) prev = half;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const double here = lambda[i];
+    lambda[i] = (prev + here) / glm::length(t[i]);
+    prev = here;
+  }
+  return true;
+}
+
+std::string pointText(const Vec3& x) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.17g, %.17g, %.17g)", x.x, x.y, x.z);
+  return text;
+}
+
+// ---- snapping ----
+
+// x's projection on the plane of polygon f, if x is within cd.snapLength of the face (its
+// plane, and inside it); returns false otherwise. For quads, the inverse-bilinear parameters.
+bool onFace(const CageData& cd, const Scratch& s, std::size_t f, std::span<double> row) {
+  const auto face = cd.face(f);
+  const std::size_t n = face.size();
+  if (n == 4) {
+    std::array<Vec3, 4> q;
+    for (int c = 0; c < 4; ++c) q[c] = s.v[face[c]];
+    double u, v;
+    closestParameters(q, u, v);
+    const std::array<double, 4> phi = bilinear(u, v);
+    if (!(glm::length(combine(phi, q)) <= cd.snapLength)) return false;
+    std::fill(row.begin(), row.end(), 0.0);
+    for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
+    return true;
+  }
+  const Vec3& nrm = cd.normal[f];
+  const double h = glm::dot(nrm, s.v[face[0]]);
+  if (!(std::fabs(h) <= cd.snapLength)) return false;
+  // The in-plane vectors from x₀ to the corners; x₀ is inside if they wind once around it.
+  std::vector<Vec3> t(n);
+  double turn = 0.0;
+  for (std::size_t i = 0; i < n; ++i) t[i] = s.v[face[i]] - h * nrm;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3& a = t[i];
+    const Vec3& b = t[(i + 1) % n];
+    turn += std::atan2(glm::dot(nrm, glm::cross(a, b)), glm::dot(a, b));
+  }
+  if (!(turn > std::numbers::pi)) return false;
+  std::vector<double> lambda(n);
+  if (!tangentMeanValue(t, nrm, lambda)) return false;  // at a vertex: snapped before
+  double sum = 0.0;
+  for (double l : lambda) sum += l;
+  std::fill(row.begin(), row.end(), 0.0);
+  for (std::size_t i = 0; i < n; ++i) row[face[i]] += lambda[i] / sum;
+  return true;
+}
+
+// Lagrange at a vertex, linear on an edge, the face's interpolant on a face: the nearest
+// within cd.snapLength, in that order of precedence. False if x is not that close to the cage.
+bool snapRow(const CageData& cd, const Vec3& x, const Scratch& s, std::span<double> row) {
+  const double tol = cd.snapLength;
+  std::size_t best = cd.p.size();
+  double bestDist = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < cd.p.size(); ++i) {
+    if (s.d[i] <= tol && s.d[i] < bestDist) {
+      best = i;
+      bestDist = s.d[i];
+    }
+  }
+  if (best < cd.p.size()) {
+    std::fill(row.begin(), row.end(), 0.0);
+    row[best] = 1.0;
+    return true;
+  }
+  double bestT = 0.0;
+  best = cd.edges.size();
+  for (std::size_t e = 0; e < cd.edges.size(); ++e) {
+    const auto [a, b] = cd.edges[e];
+    const Vec3 edge = cd.p[b] - cd.p[a];
+    const double t = glm::dot(-s.v[a], edge) / glm::dot(edge, edge);
+    if (!(t > 0.0 && t < 1.0)) continue;
+    const double dist = glm::length(s.v[a] + t * edge);
+    if (dist <= tol && dist < bestDist) {
+      best = e;
+      bestDist = dist;
+      bestT = t;
+    }
+  }
+  if (best < cd.edges.size()) {
+    std::fill(row.begin(), row.end(), 0.0);
+    row[cd.edges[best].first] = 1.0 - bestT;
+    row[cd.edges[best].second] = bestT;
+    return true;
+  }
+  for (std::size_t f = 0; f + 1 < cd.offsets.size(); ++f) {
+    const BoundingBox& b = cd.box[f];
+    if (glm::length(glm::clamp(x, b.min, b.max) - x) > tol) continue;
+    if (onFace(cd, s, f, row)) return true;
+  }
+  return false;
+}
+
+// ---- the faces' weights ----
+
+// ---- the kernel of one point ----
+
+class PointKernel {
+ public:
+  PointKernel(const CageData& cd, const Vec3& x, Scratch& s, bool careful)
+      : cd_(cd), x_(x), s_(s), careful_(careful) {}
+
+  double kappa() const { return kappa_; }
+
+  // Adds every face; false if x turned out to lie on a face (row filled).
+  bool addFaces(std::span<double> row) {
+    for (std::size_t f = 0; f + 1 < cd_.offsets.size(); ++f) {
+      const auto face = cd_.face(f);
+      if (face.size() == 3) {
+        const std::array<Vec3, 3> v = {s_.v[face[0]], s_.v[face[1]], s_.v[face[2]]};
+        const std::array<double, 3> d = {s_.d[face[0]], s_.d[face[1]], s_.d[face[2]]};
+        std::array<double, 3> w;
+        if (!triangle(v, d, w)) {
+          // On the triangle: its barycentric coordinates are the careful path's face row.
+          std::fill(row.begin(), row.end(), 0.0);
+          triangleRow(v, face, row);
+          return false;
+        }
+        for (int c = 0; c < 3; ++c) add(face[c], w[c], d[c]);
+      } else if (face.size() == 4) {
+        if (!quad(face, row)) return false;
+      } else {
+        polygon(f, face);
+      }
+    }
+    return true;
+  }
+
+ private:
+  void add(std::uint32_t i, double w, double d) {
+    s_.acc[i] += w;
+    kappa_ += std::fabs(w) * d;
+  }
+
+  // The weights of the triangle x + v; false if x lies on it.
+  bool triangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
+                std::array<double, 3>& w) {
+    if (!careful_ && detail::fastMeanValueTriangle(v, d, w)) return true;
+    const std::array<Vec3, 3> corners = {x_ + v[0], x_ + v[1], x_ + v[2]};
+    const detail::CarefulTriangle r = detail::carefulMeanValueTriangle(corners, x_);
+    if (r.onFace) return false;
+    for (int c = 0; c < 3; ++c) w[c] = static_cast<double>(r.w[c]);
+    return true;
+  }
+
+  // Barycentric coordinates of x's projection on the triangle x + v, into row at `ids`.
+  static void triangleRow(const std::array<Vec3, 3>& v, std::span<const std::uint32_t> ids,
+                          std::span<double> row) {
+    const Vec3 n = glm::cross(v[1] - v[0], v[2] - v[0]);
+    std::array<double, 3> b;
+    double sum = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      b[c] = std::max(0.0, glm::dot(n, glm::cross(v[(c + 1) % 3], v[(c + 2) % 3])));
+      sum += b[c];
+    }
+    for (int c = 0; c < 3; ++c) row[ids[c]] += b[c] / sum;
+  }
+
+  // The quad's weights by the fan of 8 triangles around x's foot on the patch (see the top).
+  bool quad(std::span<const std::uint32_t> face, std::span<double> row) {
+    std::array<Vec3, 4> q;
+    for (int c = 0; c < 4; ++c) q[c] = s_.v[face[c]];
+    double uc, vc;
+    closestParameters(q, uc, vc);
+    // The boundary nodes counter-clockwise from corner 0, then the centre.
+    const std::array<std::array<double, 2>, 9> uv = {
+        {{0, 0}, {uc, 0}, {1, 0}, {1, vc}, {1, 1}, {uc, 1}, {0, 1}, {0, vc}, {uc, vc}}};
+    std::array<std::array<double, 4>, 9> phi;
+    std::array<Vec3, 9> v;
+    std::array<double, 9> d;
+    for (int k = 0; k < 9; ++k) {
+      phi[k] = bilinear(uv[k][0], uv[k][1]);
+      if (k % 2 == 0 && k < 8) {  // a corner: exactly its cage vertex
+        v[k] = q[k / 2];
+        d[k] = s_.d[face[k / 2]];
+      } else {
+        v[k] = combine(phi[k], q);
+        d[k] = glm::length(v[k]);
+      }
+    }
+    std::array<double, 4> w4 = {0, 0, 0, 0};
+    for (int k = 0; k < 8; ++k) {
+      const std::array<int, 3> tri = {k, (k + 1) % 8, 8};
+      // Triangles cut to nothing when the foot is on the boundary (zero area in (u, v)).
+      const double area = (uv[tri[1]][0] - uv[tri[0]][0]) * (uv[tri[2]][1] - uv[tri[0]][1]) -
+                          (uv[tri[1]][1] - uv[tri[0]][1]) * (uv[tri[2]][0] - uv[tri[0]][0]);
+      if (area == 0.0) continue;
+      const std::array<Vec3, 3> tv = {v[tri[0]], v[tri[1]], v[tri[2]]};
+      const std::array<double, 3> td = {d[tri[0]], d[tri[1]], d[tri[2]]};
+      std::array<double, 3> w;
+      if (!triangle(tv, td, w)) {
+        // x lies on this triangle of the fan (hence within rounding of the patch, as it
+        // passed the snapping test only when snapTolerance is 0): the interpolant at the foot.
+        std::fill(row.begin(), row.end(), 0.0);
+        for (int c = 0; c < 4; ++c) row[face[c]] += phi[8][c];
+        return false;
+      }
+      for (int c = 0; c < 3; ++c) {
+        for (int i = 0; i < 4; ++i) w4[i] += w[c] * phi[tri[c]][i];
+        kappa_ += std::fabs(w[c]) * td[c];
+      }
+    }
+    for (int i = 0; i < 4; ++i) s_.acc[face[i]] += w4[i];
+    return true;
+  }
+
+  // Langer et al.'s spherical mean-value weights of a planar polygon (see the top).
+  void polygon(std::size_t f, std::span<const std::uint32_t> face) {
+    const std::size_t n = face.size();
+    // Exactly in the plane outside the face every weight is 0 (the limit; m vanishes there).
+    if (glm::dot(cd_.normal[f], s_.v[face[0]]) == 0.0) return;
+    Vec3 m(0.0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::uint32_t a = face[i], b = face[(i + 1) % n];
+      double theta, rho;
+      m += 0.5 * detail::edgeMeanVector(s_.v[a], s_.v[b], s_.d[a], s_.d[b], theta, rho);
+    }
+    const double length = glm::length(m);
+    if (!(length > 0.0)) return;
+    const Vec3 axis = m / length;
+    std::vector<Vec3> t(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3 u = s_.v[face[i]] / s_.d[face[i]];
+      t[i] = u - glm::dot(u, axis) * axis;
+    }
+    s_.lambda.resize(n);
+    if (!tangentMeanValue(t, axis, s_.lambda)) {
+      // m points at a vertex: all of m is that vertex's.
+      for (std::size_t i = 0; i < n; ++i) {
+        if (glm::length(t[i]) == 0.0) add(face[i], length / s_.d[face[i]], s_.d[face[i]]);
+      }
+      return;
+    }
+    double along = 0.0;
+    for (std::size_t i = 0; i < n; ++i)
+      along += s_.lambda[i] * glm::dot(s_.v[face[i]], axis) / s_.d[face[i]];
+    const double scale = length / along;
+    for (std::size_t i = 0; i < n; ++i)
+      add(face[i], scale * s_.lambda[i] / s_.d[face[i]], s_.d[face[i]]);
+  }
+
+  const CageData& cd_;
+  const Vec3& x_;
+  Scratch& s_;
+  bool careful_;
+  double kappa_ = 0.0;
+};
+
+// The row of x (finite, within kFarLimit diagonals).
+void computeRow(const CageData& cd, const Vec3& x, Scratch& s, std::span<double> row) {
+  const std::size_t nV = cd.p.size();
+  s.v.resize(nV);
+  s.d.resize(nV);
+  s.acc.resize(nV);
+  for (std::size_t i = 0; i < nV; ++i) {
+    s.v[i] = cd.p[i] - x;
+    s.d[i] = glm::length(s.v[i]);
+  }
+  if (snapRow(cd, x, s, row)) return;
+  for (const bool careful : {false, true}) {
+    std::fill(s.acc.begin(), s.acc.end(), Real{0});
+    PointKernel kernel(cd, x, s, careful);
+    if (!kernel.addFaces(row)) return;
+    Real sum = 0;
+    for (std::size_t i = 0; i < nV; ++i) sum += s.acc[i];
+    const double w = static_cast<double>(sum);
+    if (!careful && !(std::isfinite(w) && w != 0.0 &&
+                      kEps * kernel.kappa() <= kTauRepro * std::fabs(w) * cd.diagonal))
+      continue;
+    if (!(std::isfinite(w) && w != 0.0))
+      throw SolverError("QuadMeanValueCoordinates: the weight sum vanishes at " + pointText(x));
+    for (std::size_t i = 0; i < nV; ++i) row[i] = static_cast<double>(s.acc[i] / sum);
+    return;
+  }
+}
+
+void computeRange(const CageData& cd, const Vec3* points, std::size_t count, double* rows) {
+  static thread_local Scratch scratch;
+  const std::size_t nV = cd.p.size();
+  for (std::size_t i = 0; i < count; ++i) {
+    const double distance = glm::length(points[i] - cd.center) / cd.diagonal;
+    if (!(distance <= kFarLimit)) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "QuadMeanValueCoordinates: the point %s is %.3g cage diagonals from the cage; "
+                    "mean value weights lose their accuracy beyond %g diagonals",
+                    pointText(points[i]).c_str(), distance, kFarLimit);
+      throw InvalidInput(text);
+    }
+    computeRow(cd, points[i], scratch, std::span<double>(rows + i * nV, nV));
+  }
+}
+
+CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
+  CageData cd;
+  cd.p.assign(cage.vertices().begin(), cage.vertices().end());
+  cd.offsets.assign(cage.faceOffsets().begin(), cage.faceOffsets().end());
+  cd.indices.assign(cage.faceIndices().begin(), cage.faceIndices().end());
+  cd.diagonal = cage.diagonal();
+  cd.snapLength = options.snapTolerance * cage.diagonal();
+  const BoundingBox all = boundingBox(cage.vertices());
+  cd.center = 0.5 * (all.min + all.max);
+  std::map<std::pair<std::uint32_t, std::uint32_t>, bool> edges;
+  for (std::size_t f = 0; f < cage.faceCount(); ++f) {
+    const auto face = cage.face(f);
+    const std::size_t n = face.size();
+    Vec3 normal(0.0), centroid(0.0);
+    BoundingBox box;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3& a = cd.p[face[i]];
+      const Vec3& b = cd.p[face[(i + 1) % n]];
+      normal += glm::cross(a, b);  // Newell
+      centroid += a / static_cast<double>(n);
+      box.min = glm::min(box.min, a);
+      box.max = glm::max(box.max, a);
+      edges.try_emplace(std::minmax(face[i], face[(i + 1) % n]), true);
+    }
+    normal = glm::normalize(normal);
+    if (n > 4) {
+      double worst = 0.0;
+      for (std::size_t i = 0; i < n; ++i)
+        worst = std::max(worst, std::fabs(glm::dot(normal, cd.p[face[i]] - centroid)));
+      if (!(worst <= options.polygonPlanarity * cd.diagonal)) {
+        char text[300];
+        std::snprintf(text, sizeof text,
+                      "QuadMeanValueCoordinates: %s: face %zu (%zu vertices) is not planar (a "
+                      "vertex is %.3g cage diagonals off its plane, more than polygonPlanarity "
+                      "= %.3g); polygons of more than 4 vertices must be planar",
+                      cage.name().c_str(), f, n, worst / cd.diagonal, options.polygonPlanarity);
+        throw InvalidInput(text);
+      }
+    }
+    cd.normal.push_back(normal);
+    cd.box.push_back(box);
+  }
+  for (const auto& [edge, unused] : edges) cd.edges.push_back(edge);
+  return cd;
+}
+
+}  // namespace
+
+struct QuadMeanValueCoordinates::Impl {
+  std::shared_ptr<const Cage> cage;
+  QuadMeanValueOptions options;
+  std::shared_ptr<const MeanValueCoordinates> triangles;  // for an all-triangle cage
+  CageData data;                                          // otherwise
+};
+
+QuadMeanValueCoordinates::QuadMeanValueCoordinates(std::shared_ptr<const Cage> cage,
+                                                   const QuadMeanValueOptions& options) {
+  if (!cage) throw InvalidInput("QuadMeanValueCoordinates: the cage is null");
+  if (!(options.snapTolerance >= 0.0 && options.snapTolerance <= 1e-3)) {
+    throw InvalidInput("QuadMeanValueCoordinates: snapTolerance must be in [0, 1e-3], got " +
+                       std::to_string(options.snapTolerance));
+  }
+  if (!(options.polygonPlanarity >= 0.0 && options.polygonPlanarity <= 1e-2)) {
+    throw InvalidInput("QuadMeanValueCoordinates: polygonPlanarity must be in [0, 1e-2], got " +
+                       std::to_string(options.polygonPlanarity));
+  }
+  auto impl = std::make_unique<Impl>();
+  if (cage->maxFaceSize() == 3) {
+    MeanValueOptions mvc;
+    mvc.snapTolerance = options.snapTolerance;
+    impl->triangles = std::make_shared<const MeanValueCoordinates>(cage, mvc);
+  } else {
+    impl->data = buildCageData(*cage, options);
+  }
+  impl->cage = std::move(cage);
+  impl->options = options;
+  impl_ = std::move(impl);
+}
+
+QuadMeanValueCoordinates::~QuadMeanValueCoordinates() = default;
+
+std::size_t QuadMeanValueCoordinates::controlPointCount() const {
+  return impl_->cage->vertexCount();
+}
+
+std::span<const Vec3> QuadMeanValueCoordinates::restControlPoints() const {
+  return impl_->cage->vertices();
+}
+
+const Cage& QuadMeanValueCoordinates::cage() const { return *impl_->cage; }
+const QuadMeanValueOptions& QuadMeanValueCoordinates::options() const { return impl_->options; }
+
+void QuadMeanValueCoordinates::weights(const Vec3& x, std::span<double> row) const {
+  checkWeightsArguments(x, row.size());
+  if (impl_->triangles) return impl_->triangles->weights(x, row);
+  computeRange(impl_->data, &x, 1, row.data());
+}
+
+UnmappedPoints QuadMeanValueCoordinates::weightsRange(std::span<const Vec3> points,
+                                                      std::span<double> rows, std::size_t begin,
+                                                      std::size_t end) const {
+  const std::size_t n = columnCount();
+  if (impl_->triangles) {
+    impl_->triangles->weightsBatch(points.subspan(begin, end - begin),
+                                   rows.subspan(begin * n, (end - begin) * n));
+  } else {
+    computeRange(impl_->data, points.data() + begin, end - begin, rows.data() + begin * n);
+  }
+  return {};
+}
+
+void QuadMeanValueCoordinates::save(ArchiveWriter& out) const {
+  out.tag("quad-mean-value");
+  impl_->cage->save(out);
+  out.f64(impl_->options.snapTolerance);
+  out.f64(impl_->options.polygonPlanarity);
+}
+
+std::shared_ptr<const QuadMeanValueCoordinates> QuadMeanValueCoordinates::load(ArchiveReader& in) {
+  auto cage = std::make_shared<const Cage>(Cage::load(in));
+  QuadMeanValueOptions options;
+  options.snapTolerance = in.f64();
+  options.polygonPlanarity = in.f64();
+  return std::make_shared<const QuadMeanValueCoordinates>(std::move(cage), options);
+}
+
+}  // namespace spacewarp
