@@ -111,8 +111,9 @@ Vec3 edgeMeanVector(const Vec3& vj, const Vec3& vk, double dj, double dk, double
   return factor * c;
 }
 
-bool fastMeanValueTriangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
-                           std::array<double, 3>& w) {
+FastTriangle fastMeanValueTriangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
+                                   std::array<double, 3>& w) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
   constexpr double kEps = std::numeric_limits<double>::epsilon();
   std::array<Vec3, 3> c;
   std::array<double, 3> rho;
@@ -130,15 +131,17 @@ bool fastMeanValueTriangle(const std::array<Vec3, 3>& v, const std::array<double
     err += theta * (1.0 + edgeLength / (dMax * std::max(sine, kEps)));
   }
   const int s = d[0] <= d[1] ? (d[0] <= d[2] ? 0 : 2) : (d[1] <= d[2] ? 1 : 2);
-  const double det = glm::dot(glm::cross(v[1] - v[0], v[2] - v[0]), v[s]);
-  if (!(det != 0.0)) return false;
+  const Vec3 normal = glm::cross(v[1] - v[0], v[2] - v[0]);
+  const double det = glm::dot(normal, v[s]);
+  if (!(det != 0.0)) return {kInf, 0.0};
   double wMax = 0.0;
   for (int i = 0; i < 3; ++i) {
     w[i] = glm::dot(c[i], m) / det;
     wMax = std::max(wMax, std::fabs(w[i]));
   }
   const double wErr = 4.0 * kEps * err * std::max({rho[0], rho[1], rho[2]}) / std::fabs(det);
-  return std::isfinite(wMax) && wErr <= 1e-12 * wMax;
+  const double elevation = std::fabs(det) / (glm::length(normal) * d[s]);
+  return {std::isfinite(wMax) && wErr <= 1e-3 * wMax ? wErr : kInf, elevation};
 }
 
 }  // namespace spacewarp::detail

@@ -30,13 +30,23 @@ struct CarefulTriangle {
 /// The triangle must have a non-zero area.
 CarefulTriangle carefulMeanValueTriangle(const std::array<Vec3, 3>& p, const Vec3& x);
 
+/// What fastMeanValueTriangle() knows of its weights' accuracy.
+struct FastTriangle {
+  /// Estimated absolute error of the weights (mean_value.cpp's estimate: ≈ 4 ε Σ θ_i (1 + L_i /
+  /// (max d · sin θ_i)) · max |C_i| / |det|), to be compared with the point's weight sum as
+  /// MeanValueCoordinates does; infinity when the weights are unusable (x in the triangle's
+  /// plane, or the estimate above 1e-3 of the weights themselves).
+  double error = 0.0;
+  /// |h| / min d: the sine of x's elevation over the triangle's plane seen from its nearest
+  /// corner. Cramer's rule solves Σ w_i v_i = m to about ε / elevation relative to m.
+  double elevation = 0.0;
+};
+
 /// The fast (double) weights of a triangle for a point x, from v_k = p_k − x and d_k = |v_k|
 /// (the corners in outward order): w_i = (C_i · m) / det(v_0, v_1, v_2) with the mean vector
-/// m = ½ Σ θ_i C_i / |C_i|, the angles by half-chord arcsines and C_i = v_j × v_k from the
-/// nearer corner, as the fast path of mean_value.cpp. Returns false, leaving w unspecified,
-/// when the rounding error estimate of the weights exceeds 1e-12 of the largest one (x near
-/// the triangle's plane or the line of an edge): then the careful path must be used.
-bool fastMeanValueTriangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
-                           std::array<double, 3>& w);
+/// m = ½ Σ θ_i C_i / |C_i|, as the fast path of mean_value.cpp; the careful path must be used
+/// where the accuracy returned is not enough.
+FastTriangle fastMeanValueTriangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
+                                   std::array<double, 3>& w);
 
 }  // namespace spacewarp::detail
