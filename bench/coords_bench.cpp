@@ -1,5 +1,6 @@
 // Benchmarks of coords. Binding cost of mean-value and Green coordinates is reported per
-// (point × cage triangle) pair, on a procedural box cage (always) and on the Ju et al. armadillo
+// (point × cage triangle) pair, on procedural box cages (always; a twisted quad box for qmvc
+// against MVC and Green on its triangulation) and on the Ju et al. armadillo
 // (when the shared data is present: the model's 15k vertices and a 1M-point cloud inside its cage,
 // the latter both through Binding and through weightsBatch into an allocated matrix). Deforming the
 // 1M-point dense binding is measured against a baseline that reads the same weight bytes (a plain
@@ -10,6 +11,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -30,6 +32,7 @@
 #include <spacewarp/coords/cage.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/quad_mean_value.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/io/mesh_io.h>
@@ -101,6 +104,7 @@ struct Armadillo {
   std::shared_ptr<const Cage> cage;
   std::shared_ptr<const MeanValueCoordinates> mvc;
   std::shared_ptr<const GreenCoordinates> green;
+  std::shared_ptr<const QuadMeanValueCoordinates> qmvc;  // all triangles: MVC's rows
   std::vector<Vec3> model;
   std::vector<Vec3> cloud;
   std::vector<Vec3> posed;
@@ -114,6 +118,7 @@ Armadillo& armadillo() {
     a.cage = std::make_shared<const Cage>(Cage::fromFile(dir / "bounding_mesh.obj"));
     a.mvc = std::make_shared<const MeanValueCoordinates>(a.cage);
     a.green = std::make_shared<const GreenCoordinates>(a.cage);
+    a.qmvc = std::make_shared<const QuadMeanValueCoordinates>(a.cage);
     a.model = readSoup(dir / "armadilloman.obj").positions;
     a.cloud = pointsInside(*a.cage, kCloudPoints, 42);
     a.posed = a.cage->posedVerticesFromFile(dir / "deformed_fixed_1.obj");
@@ -142,6 +147,41 @@ void BM_MvcBindBox(benchmark::State& state) {
   reportPairs(state, points.size(), cage->triangleCount());
 }
 
+// Procedural quad cage: the box [−1, 1]³ with 7 × 7 quads per side (294 quads, 296 vertices),
+// its rings turned about z by up to 0.6 rad at the top so that the side quads are non-planar;
+// 4k points inside. The same cage is bound by qmvc on its quads and by MVC and Green on its
+// triangulation (588 triangles). "pair_time" is per (point × face the method sees: quad for
+// qmvc, triangle for MVC and Green); "quad_pair_time" is per (point × quad) for all three, so
+// qmvc's cost per quad compares directly with the cost of the quad's two triangles.
+enum class QuadCageMethod { qmvc, mvc, green };
+
+void BM_BindTwistedQuadBox(benchmark::State& state, QuadCageMethod method) {
+  static const auto cage = [] {
+    PolygonSoup soup = makeBoxSurface(Vec3(-1.0), Vec3(1.0), {7, 7, 7});
+    for (Vec3& p : soup.positions) {
+      const double angle = 0.3 * (p.z + 1.0);
+      p = Vec3(std::cos(angle) * p.x - std::sin(angle) * p.y,
+               std::sin(angle) * p.x + std::cos(angle) * p.y, p.z);
+    }
+    return std::make_shared<const Cage>(soup, "twisted box");
+  }();
+  static const std::vector<Vec3> points = pointsInside(*cage, 4'000, 11);
+  std::shared_ptr<const Coordinates> coordinates;
+  if (method == QuadCageMethod::qmvc)
+    coordinates = std::make_shared<QuadMeanValueCoordinates>(cage);
+  if (method == QuadCageMethod::mvc) coordinates = std::make_shared<MeanValueCoordinates>(cage);
+  if (method == QuadCageMethod::green) coordinates = std::make_shared<GreenCoordinates>(cage);
+  for (auto _ : state) {
+    Binding binding(coordinates, points);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, points.size(),
+              method == QuadCageMethod::qmvc ? cage->faceCount() : cage->triangleCount());
+  state.counters["quad_pair_time"] = benchmark::Counter(
+      static_cast<double>(points.size() * cage->faceCount()),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
 // Binding the armadillo model or the 1M-point cloud with the coordinates `method` picks.
 template <bool green, bool cloud>
 void BM_BindArmadillo(benchmark::State& state) {
@@ -154,6 +194,17 @@ void BM_BindArmadillo(benchmark::State& state) {
     benchmark::DoNotOptimize(binding.dense().data());
   }
   reportPairs(state, points.size(), a.cage->triangleCount());
+}
+
+// qmvc binding the armadillo model (its cage is all triangles, so this is MVC behind qmvc's
+// dispatch; CageModeler's QMVC takes 0.21 s for it).
+void BM_QmvcBindArmadilloModel(benchmark::State& state) {
+  Armadillo& a = armadillo();
+  for (auto _ : state) {
+    Binding binding(a.qmvc, a.model);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, a.model.size(), a.cage->faceCount());
 }
 
 // The same 1M points through weightsBatch into an already allocated matrix: the kernel alone,
@@ -242,6 +293,14 @@ void registerCoordsBenchmarks() {
   benchmark::RegisterBenchmark("BM_MvcBindBox", BM_MvcBindBox)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
+  for (const auto& [name, method] :
+       {std::pair{"qmvc", QuadCageMethod::qmvc}, std::pair{"mvc", QuadCageMethod::mvc},
+        std::pair{"green", QuadCageMethod::green}}) {
+    benchmark::RegisterBenchmark((std::string("BM_BindTwistedQuadBox/") + name).c_str(),
+                                 BM_BindTwistedQuadBox, method)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  }
   const auto dir = armadilloDir();
   const bool haveData = std::filesystem::exists(dir / "bounding_mesh.obj") &&
                         std::filesystem::exists(dir / "armadilloman.obj") &&
@@ -254,6 +313,9 @@ void registerCoordsBenchmarks() {
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
         ->Iterations(3);
+    benchmark::RegisterBenchmark("BM_QmvcBindArmadilloModel", BM_QmvcBindArmadilloModel)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
     benchmark::RegisterBenchmark("BM_GreenBindArmadilloModel", BM_BindArmadillo<true, false>)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
