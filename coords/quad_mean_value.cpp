@@ -445,11 +445,23 @@ class PointKernel {
     const std::size_t n = face.size();
     // Exactly in the plane outside the face every weight is 0 (the limit; m vanishes there).
     if (glm::dot(cd_.normal[f], s_.v[face[0]]) == 0.0) return;
+    // The mean vector; in long double on the careful pass (outside the cage, where its terms
+    // cancel ever more with the distance).
     Vec3 m(0.0);
+    std::array<Real, 3> mLong = {0, 0, 0};
     for (std::size_t i = 0; i < n; ++i) {
       const std::uint32_t a = face[i], b = face[(i + 1) % n];
-      double theta, rho;
-      m += 0.5 * detail::edgeMeanVector(s_.v[a], s_.v[b], s_.d[a], s_.d[b], theta, rho);
+      if (fastLimit_ > 0.0) {
+        double theta, rho;
+        m += 0.5 * detail::edgeMeanVector(s_.v[a], s_.v[b], s_.d[a], s_.d[b], theta, rho);
+      } else {
+        const auto share = detail::carefulEdgeMeanVector(cd_.p[a], cd_.p[b], x_);
+        for (int c = 0; c < 3; ++c) mLong[c] += share[c] / 2;
+      }
+    }
+    if (!(fastLimit_ > 0.0)) {
+      m = Vec3(static_cast<double>(mLong[0]), static_cast<double>(mLong[1]),
+               static_cast<double>(mLong[2]));
     }
     const double length = glm::length(m);
     if (!(length > 0.0)) return;

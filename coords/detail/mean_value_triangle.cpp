@@ -97,6 +97,16 @@ CarefulTriangle carefulMeanValueTriangle(const std::array<Vec3, 3>& corners, con
   return r;
 }
 
+std::array<long double, 3> carefulEdgeMeanVector(const Vec3& pj, const Vec3& pk, const Vec3& x) {
+  const V3 a{pj.x, pj.y, pj.z}, b{pk.x, pk.y, pk.z}, o{x.x, x.y, x.z};
+  const V3 vj = a - o, vk = b - o;
+  const Real dj = std::sqrt(dot(vj, vj)), dk = std::sqrt(dot(vk, vk));
+  const V3 c = cross(dj <= dk ? vj : vk, b - a);  // = v_j × v_k
+  const Real rho = std::sqrt(dot(c, c)), g = dot(vj, vk);
+  const Real factor = rho > 0 ? std::atan2(rho, g) / rho : (g > 0 ? 1 / g : Real{0});
+  return {factor * c.x, factor * c.y, factor * c.z};
+}
+
 Vec3 edgeMeanVector(const Vec3& vj, const Vec3& vk, double dj, double dk, double& theta,
                     double& rho) {
   const Vec3 uj = vj / dj, uk = vk / dk;

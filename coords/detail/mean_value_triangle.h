@@ -19,6 +19,10 @@ namespace spacewarp::detail {
 Vec3 edgeMeanVector(const Vec3& vj, const Vec3& vk, double dj, double dk, double& theta,
                     double& rho);
 
+/// The same share in long double from the corners p_j, p_k and x (world units), θ by atan2: for
+/// the careful path of a polygon's mean vector.
+std::array<long double, 3> carefulEdgeMeanVector(const Vec3& pj, const Vec3& pk, const Vec3& x);
+
 /// The unnormalised weights of one triangle's corners, by the careful path.
 struct CarefulTriangle {
   std::array<long double, 3> w{};  ///< weights of the corners, in the triangle's order
