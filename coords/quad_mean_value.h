@@ -34,6 +34,14 @@ struct QuadMeanValueOptions {
 /// 1 and reproduces x. On an all-triangle cage they are the triangle mean-value coordinates.
 /// Every method is const and thread-safe; rows are bit-identical whether they come from
 /// weights() or weightsBatch(), for any number of threads.
+///
+/// Accuracy: partition of unity and linear precision to ~1e-14 (cage diagonals) inside, on and
+/// near the cage and a few diagonals out (~2e-12 at 100 diagonals with quads, ~1e-11 with
+/// polygons; points beyond 3000 diagonals are refused, as by MeanValueCoordinates). A quad's
+/// share along the one direction its mean vector leaves free is a quadrature of the bilinear
+/// integral (see quad_mean_value.cpp): within ~6e-3 (max |Δw|) of the exact integral at points
+/// inside the test cages, closer than the authors' reference code. Cost: about 40 triangle terms
+/// per quad, so binding a quad cage costs ~80 times MVC on its triangulation per quad.
 class QuadMeanValueCoordinates final : public Coordinates {
  public:
   /// Shares `cage`. Throws InvalidInput if `cage` is null, an option is out of range, or a face
