@@ -51,8 +51,8 @@
 //
 // Outside the cage the weight sum W cancels; as in MeanValueCoordinates a point whose estimated
 // reproduction error ε Σ |w| d / (|W| diagonal) exceeds 1e-13 is recomputed with every triangle
-// by the careful path (long double; polygons stay in double), and points beyond 3000 diagonals
-// are refused.
+// by the careful path (long double; polygons are always computed in long double), and points
+// beyond 3000 diagonals are refused.
 
 #include <algorithm>
 #include <array>
@@ -123,8 +123,10 @@ struct Scratch {
   std::vector<GridNode> grid;
   std::vector<Vec3> v;  // p_i − x
   std::vector<double> d;
-  std::vector<Real> acc;  // Σ over faces of the unnormalised weights
-  std::vector<double> lambda;
+  std::vector<Real> acc;                              // Σ over faces of the unnormalised weights
+  std::vector<Real> lambda;                           // a polygon's, and its terms:
+  std::vector<glm::vec<3, Real>> polygonV, polygonT;  // p_i − x and the tangent vectors
+  std::vector<Real> polygonD;
 };
 
 // The bilinear basis at (u, v) for corners 0, 1, 2, 3 (σ(0,0) = p_0, σ(1,0) = p_1, σ(1,1) = p_2).
@@ -163,22 +165,24 @@ void closestParameters(const std::array<Vec3, 4>& q, double& u, double& v) {
 // λ_i = (tan(α_{i−1}/2) + tan(α_i/2)) / |t_i|, α_i the angle about `axis` from t_i to t_{i+1}:
 // the mean-value coordinates of the origin in the plane normal to `axis` (unnormalised).
 // False if some t_i vanishes (the origin is a vertex).
-bool tangentMeanValue(std::span<const Vec3> t, const Vec3& axis, std::span<double> lambda) {
+template <class T>
+bool tangentMeanValue(std::span<const glm::vec<3, T>> t, const glm::vec<3, T>& axis,
+                      std::span<T> lambda) {
   const std::size_t n = t.size();
-  double prev = 0.0;  // tan(α_{i−1} / 2), first for i = 0
+  T prev = 0;  // tan(α_{i−1} / 2), first for i = 0
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec3& a = t[i];
-    const Vec3& b = t[(i + 1) % n];
-    const double la = glm::length(a), lb = glm::length(b);
-    if (!(la > 0.0 && lb > 0.0)) return false;
-    const double sine = glm::dot(axis, glm::cross(a, b)), cosine = glm::dot(a, b);
+    const auto& a = t[i];
+    const auto& b = t[(i + 1) % n];
+    const T la = glm::length(a), lb = glm::length(b);
+    if (!(la > 0 && lb > 0)) return false;
+    const T sine = glm::dot(axis, glm::cross(a, b)), cosine = glm::dot(a, b);
     // sin α / (1 + cos α) = (1 − cos α) / sin α: the form whose denominator is not small.
-    const double half = cosine >= 0.0 ? sine / (la * lb + cosine) : (la * lb - cosine) / sine;
+    const T half = cosine >= 0 ? sine / (la * lb + cosine) : (la * lb - cosine) / sine;
     lambda[i] = half;  // tan(α_i / 2) for now
     if (i + 1 == n) prev = half;
   }
   for (std::size_t i = 0; i < n; ++i) {
-    const double here = lambda[i];
+    const T here = lambda[i];
     lambda[i] = (prev + here) / glm::length(t[i]);
     prev = here;
   }
@@ -223,7 +227,7 @@ bool onFace(const CageData& cd, const Scratch& s, std::size_t f, std::span<doubl
   }
   if (!(turn > std::numbers::pi)) return false;
   std::vector<double> lambda(n);
-  if (!tangentMeanValue(t, nrm, lambda)) return false;  // at a vertex: snapped before
+  if (!tangentMeanValue<double>(t, nrm, lambda)) return false;  // at a vertex: snapped before
   double sum = 0.0;
   for (double l : lambda) sum += l;
   std::fill(row.begin(), row.end(), 0.0);
@@ -440,51 +444,54 @@ class PointKernel {
     return true;
   }
 
-  // Langer et al.'s spherical mean-value weights of a planar polygon (see the top).
+  // Langer et al.'s spherical mean-value weights of a planar polygon (see the top), in long
+  // double: near the polygon's edges the tangent directions of their ends are nearly opposite
+  // and the half-angle tangents lose ε / distance (in double, reproduction erred by 1e-9 at 1e-9
+  // diagonals from an edge; 4e-16 in long double), and outside the cage the mean vector's terms
+  // cancel ever more with the distance. Polygons are few (caps), so this costs little.
   void polygon(std::size_t f, std::span<const std::uint32_t> face) {
+    using V = glm::vec<3, Real>;
     const std::size_t n = face.size();
     // Exactly in the plane outside the face every weight is 0 (the limit; m vanishes there).
     if (glm::dot(cd_.normal[f], s_.v[face[0]]) == 0.0) return;
-    // The mean vector; in long double on the careful pass (outside the cage, where its terms
-    // cancel ever more with the distance).
-    Vec3 m(0.0);
-    std::array<Real, 3> mLong = {0, 0, 0};
+    const V x(x_);
+    auto& v = s_.polygonV;
+    auto& d = s_.polygonD;
+    auto& t = s_.polygonT;
+    auto& lambda = s_.lambda;
+    v.resize(n);
+    d.resize(n);
+    t.resize(n);
+    lambda.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      const std::uint32_t a = face[i], b = face[(i + 1) % n];
-      if (fastLimit_ > 0.0) {
-        double theta, rho;
-        m += 0.5 * detail::edgeMeanVector(s_.v[a], s_.v[b], s_.d[a], s_.d[b], theta, rho);
-      } else {
-        const auto share = detail::carefulEdgeMeanVector(cd_.p[a], cd_.p[b], x_);
-        for (int c = 0; c < 3; ++c) mLong[c] += share[c] / 2;
-      }
+      v[i] = V(cd_.p[face[i]]) - x;
+      d[i] = glm::length(v[i]);
     }
-    if (!(fastLimit_ > 0.0)) {
-      m = Vec3(static_cast<double>(mLong[0]), static_cast<double>(mLong[1]),
-               static_cast<double>(mLong[2]));
-    }
-    const double length = glm::length(m);
-    if (!(length > 0.0)) return;
-    const Vec3 axis = m / length;
-    std::vector<Vec3> t(n);
+    V m(0);
     for (std::size_t i = 0; i < n; ++i) {
-      const Vec3 u = s_.v[face[i]] / s_.d[face[i]];
+      const auto share =
+          detail::carefulEdgeMeanVector(cd_.p[face[i]], cd_.p[face[(i + 1) % n]], x_);
+      m += V(share[0], share[1], share[2]) / Real{2};
+    }
+    const Real length = glm::length(m);
+    if (!(length > 0)) return;
+    const V axis = m / length;
+    for (std::size_t i = 0; i < n; ++i) {
+      const V u = v[i] / d[i];
       t[i] = u - glm::dot(u, axis) * axis;
     }
-    s_.lambda.resize(n);
-    if (!tangentMeanValue(t, axis, s_.lambda)) {
+    if (!tangentMeanValue<Real>(t, axis, lambda)) {
       // m points at a vertex: all of m is that vertex's.
       for (std::size_t i = 0; i < n; ++i) {
-        if (glm::length(t[i]) == 0.0) add(face[i], length / s_.d[face[i]], s_.d[face[i]]);
+        if (glm::length(t[i]) == 0) add(face[i], static_cast<double>(length / d[i]), s_.d[face[i]]);
       }
       return;
     }
-    double along = 0.0;
+    Real along = 0;
+    for (std::size_t i = 0; i < n; ++i) along += lambda[i] * glm::dot(v[i], axis) / d[i];
+    const Real scale = length / along;
     for (std::size_t i = 0; i < n; ++i)
-      along += s_.lambda[i] * glm::dot(s_.v[face[i]], axis) / s_.d[face[i]];
-    const double scale = length / along;
-    for (std::size_t i = 0; i < n; ++i)
-      add(face[i], scale * s_.lambda[i] / s_.d[face[i]], s_.d[face[i]]);
+      add(face[i], static_cast<double>(scale * lambda[i] / d[i]), s_.d[face[i]]);
   }
 
   const CageData& cd_;

@@ -151,8 +151,8 @@ Vec3 patchNormal(const Cage& cage, std::span<const std::uint32_t> q, double u, d
                                    patchPoint(cage, q, u, v + h) - patchPoint(cage, q, u, v - h)));
 }
 
-// Interior samples, points outside up to 3 diagonals away, and points 1e-6 and 1e-10
-// diagonals off every face (both sides).
+// Interior samples, points outside up to 3 diagonals away, points 1e-6 and 1e-10 diagonals off
+// every face (both sides), and points 1e-5 to 1e-12 diagonals from every edge.
 std::vector<Vec3> testPoints(const Cage& cage, std::mt19937_64& rng) {
   std::vector<Vec3> points = interiorSamples(cage, 150, 7);
   std::normal_distribution<double> normal;
@@ -179,6 +179,14 @@ std::vector<Vec3> testPoints(const Cage& cage, std::mt19937_64& rng) {
     }
     for (const double off : {1e-6, -1e-6, 1e-10, -1e-10})
       points.push_back(onFace + off * cage.diagonal() * n);
+    // Near the face's edges, in random directions.
+    for (std::size_t k = 0; k < face.size(); ++k) {
+      const Vec3 onEdge =
+          0.7 * cage.vertices()[face[k]] + 0.3 * cage.vertices()[face[(k + 1) % face.size()]];
+      const Vec3 dir = glm::normalize(Vec3(normal(rng), normal(rng), normal(rng)));
+      for (const double off : {1e-5, 1e-9, 1e-12})
+        points.push_back(onEdge + off * cage.diagonal() * dir);
+    }
   }
   return points;
 }
