@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -34,6 +35,7 @@
 #include <spacewarp/coords/green.h>
 #include <spacewarp/coords/mean_value.h>
 #include <spacewarp/coords/quad_green.h>
+#include <spacewarp/coords/quad_mean_value.h>
 #include <spacewarp/coords/wachspress.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/detail/simd.h>
@@ -106,6 +108,7 @@ struct Armadillo {
   std::shared_ptr<const Cage> cage;
   std::shared_ptr<const MeanValueCoordinates> mvc;
   std::shared_ptr<const GreenCoordinates> green;
+  std::shared_ptr<const QuadMeanValueCoordinates> qmvc;  // all triangles: MVC's rows
   std::vector<Vec3> model;
   std::vector<Vec3> cloud;
   std::vector<Vec3> posed;
@@ -119,6 +122,7 @@ Armadillo& armadillo() {
     a.cage = std::make_shared<const Cage>(Cage::fromFile(dir / "bounding_mesh.obj"));
     a.mvc = std::make_shared<const MeanValueCoordinates>(a.cage);
     a.green = std::make_shared<const GreenCoordinates>(a.cage);
+    a.qmvc = std::make_shared<const QuadMeanValueCoordinates>(a.cage);
     a.model = readSoup(dir / "armadilloman.obj").positions;
     a.cloud = pointsInside(*a.cage, kCloudPoints, 42);
     a.posed = a.cage->posedVerticesFromFile(dir / "deformed_fixed_1.obj");
@@ -147,26 +151,51 @@ void BM_MvcBindBox(benchmark::State& state) {
   reportPairs(state, points.size(), cage->triangleCount());
 }
 
-// Green coordinates of a quad cage: QGC on the box with 6 x 6 quads per side (216 quads, 218
-// vertices), and triangle Green on the same cage triangulated (432 triangles), 2000 points inside;
-// pair_time is per (point x face) of each: quads for QGC, triangles for Green.
-template <bool quads>
-void BM_GreenBindQuadBox(benchmark::State& state) {
-  const auto cage =
-      std::make_shared<const Cage>(makeBoxSurface(Vec3(-1.0), Vec3(1.0), {6, 6, 6}), "box");
-  PolygonSoup triangulated;
-  triangulated.positions.assign(cage->vertices().begin(), cage->vertices().end());
-  for (const Triangle& t : cage->triangles()) triangulated.addPolygon({t.x, t.y, t.z});
-  const auto triangles = std::make_shared<const Cage>(triangulated, "box triangulated");
-  const std::shared_ptr<const Coordinates> coordinates =
-      quads ? std::shared_ptr<const Coordinates>(std::make_shared<QuadGreenCoordinates>(cage))
-            : std::make_shared<GreenCoordinates>(triangles);
-  const std::vector<Vec3> points = makeRandomPoints(Vec3(-0.99), Vec3(0.99), 2000, 7).positions;
+// Procedural quad cage: the box [−1, 1]³ with 7 × 7 quads per side (294 quads, 296 vertices),
+// its rings turned about z by up to 0.6 rad at the top so that the side quads are non-planar;
+// 4k points inside. The same cage is bound by qmvc and qgc on its quads and by MVC and Green on
+// its triangulation (588 triangles). "pair_time" is per (point × face the method sees: quad for
+// qmvc and qgc, triangle for MVC and Green); "quad_pair_time" is per (point × quad) for all, so
+// a quad method's cost per quad compares directly with the cost of the quad's two triangles.
+enum class QuadCageMethod { qmvc, qgc, mvc, green };
+
+void BM_BindTwistedQuadBox(benchmark::State& state, QuadCageMethod method) {
+  static const auto cage = [] {
+    PolygonSoup soup = makeBoxSurface(Vec3(-1.0), Vec3(1.0), {7, 7, 7});
+    for (Vec3& p : soup.positions) {
+      const double angle = 0.3 * (p.z + 1.0);
+      p = Vec3(std::cos(angle) * p.x - std::sin(angle) * p.y,
+               std::sin(angle) * p.x + std::cos(angle) * p.y, p.z);
+    }
+    return std::make_shared<const Cage>(soup, "twisted box");
+  }();
+  static const std::vector<Vec3> points = pointsInside(*cage, 4'000, 11);
+  std::shared_ptr<const Coordinates> coordinates;
+  if (method == QuadCageMethod::qmvc)
+    coordinates = std::make_shared<QuadMeanValueCoordinates>(cage);
+  if (method == QuadCageMethod::qgc) coordinates = std::make_shared<QuadGreenCoordinates>(cage);
+  if (method == QuadCageMethod::mvc) coordinates = std::make_shared<MeanValueCoordinates>(cage);
+  if (method == QuadCageMethod::green) coordinates = std::make_shared<GreenCoordinates>(cage);
   for (auto _ : state) {
     Binding binding(coordinates, points);
     benchmark::DoNotOptimize(binding.dense().data());
   }
-  reportPairs(state, points.size(), quads ? cage->faceCount() : triangles->faceCount());
+  const bool quads = method == QuadCageMethod::qmvc || method == QuadCageMethod::qgc;
+  reportPairs(state, points.size(), quads ? cage->faceCount() : cage->triangleCount());
+  state.counters["quad_pair_time"] = benchmark::Counter(
+      static_cast<double>(points.size() * cage->faceCount()),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+
+// qmvc binding the armadillo model (its cage is all triangles, so this is MVC behind qmvc's
+// dispatch; CageModeler's QMVC takes 0.21 s for it).
+void BM_QmvcBindArmadilloModel(benchmark::State& state) {
+  Armadillo& a = armadillo();
+  for (auto _ : state) {
+    Binding binding(a.qmvc, a.model);
+    benchmark::DoNotOptimize(binding.dense().data());
+  }
+  reportPairs(state, a.model.size(), a.cage->faceCount());
 }
 
 // QGC binding the armadillo model: its cage is all triangles, so this is triangle Green through
@@ -296,12 +325,14 @@ void registerCoordsBenchmarks() {
   benchmark::RegisterBenchmark("BM_MvcBindBox", BM_MvcBindBox)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
-  benchmark::RegisterBenchmark("BM_QgcBindQuadBox", BM_GreenBindQuadBox<true>)
-      ->Unit(benchmark::kMillisecond)
-      ->UseRealTime();
-  benchmark::RegisterBenchmark("BM_GreenBindQuadBoxTriangulated", BM_GreenBindQuadBox<false>)
-      ->Unit(benchmark::kMillisecond)
-      ->UseRealTime();
+  for (const auto& [name, method] :
+       {std::pair{"qmvc", QuadCageMethod::qmvc}, std::pair{"qgc", QuadCageMethod::qgc},
+        std::pair{"mvc", QuadCageMethod::mvc}, std::pair{"green", QuadCageMethod::green}}) {
+    benchmark::RegisterBenchmark((std::string("BM_BindTwistedQuadBox/") + name).c_str(),
+                                 BM_BindTwistedQuadBox, method)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  }
   benchmark::RegisterBenchmark("BM_MvcBindSphereHull", BM_BindSphereHull<MeanValueCoordinates>)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
@@ -326,6 +357,9 @@ void registerCoordsBenchmarks() {
         ->UseRealTime()
         ->Iterations(3);
     benchmark::RegisterBenchmark("BM_GreenBindArmadilloModel", BM_BindArmadillo<true, false>)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+    benchmark::RegisterBenchmark("BM_QmvcBindArmadilloModel", BM_QmvcBindArmadilloModel)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
     benchmark::RegisterBenchmark("BM_QgcBindArmadilloModel", BM_QgcBindArmadilloModel)

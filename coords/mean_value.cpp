@@ -75,6 +75,7 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/coords/detail/mean_value_triangle.h>
 #include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/aligned_buffer.h>
 #include <spacewarp/core/detail/simd.h>
@@ -397,96 +398,19 @@ void fastPassBaseline(const CageData& cd, Scratch<4>& s) { fastPass(cd, s); }
 SPACEWARP_SIMD_TARGET_V3 void fastPassV3(const CageData& cd, Scratch<4>& s) { fastPass(cd, s); }
 SPACEWARP_SIMD_TARGET_V4 void fastPassV4(const CageData& cd, Scratch<8>& s) { fastPass(cd, s); }
 
-// ---- careful path (long double) ----
+// ---- careful path (long double, coords/detail/mean_value_triangle.h) ----
 
 using Real = long double;
-struct V3 {
-  Real x, y, z;
-};
-inline V3 operator-(const V3& a, const V3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-inline V3 operator*(Real s, const V3& a) { return {s * a.x, s * a.y, s * a.z}; }
-inline V3& operator+=(V3& a, const V3& b) {
-  a.x += b.x;
-  a.y += b.y;
-  a.z += b.z;
-  return a;
-}
-inline Real dot(const V3& a, const V3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline V3 cross(const V3& a, const V3& b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
-
-struct CarefulTriangle {
-  std::array<Real, 3> w{};  // unnormalised weights of the corners
-  bool onFace = false;      // x lies on the triangle (h = 0 with x₀ inside)
-};
+using detail::CarefulTriangle;
 
 // The weights of triangle t for point x in the triangle's plane frame (see the top of the file).
 CarefulTriangle carefulTriangle(const CageData& cd, const Vec3& x, std::size_t t) {
-  CarefulTriangle r;
-  V3 p[3], v[3];
-  Real d[3];
+  std::array<Vec3, 3> p;
   for (int c = 0; c < 3; ++c) {
     const std::uint32_t i = cd.tv[3 * t + c];
-    p[c] = {cd.px[i], cd.py[i], cd.pz[i]};
-    v[c] = p[c] - V3{x.x, x.y, x.z};
-    d[c] = std::sqrt(dot(v[c], v[c]));
+    p[c] = Vec3(cd.px[i], cd.py[i], cd.pz[i]);
   }
-  const V3 big = cross(p[1] - p[0], p[2] - p[0]);
-  const Real area2 = std::sqrt(dot(big, big));
-  const V3 n = (1 / area2) * big;
-  const int nearest = d[0] <= d[1] ? (d[0] <= d[2] ? 0 : 2) : (d[1] <= d[2] ? 1 : 2);
-  const Real h = dot(n, v[nearest]);
-  const Real h2 = h * h;
-
-  // The planar-angle identity Σψ = 2πK needs x₀ off T's corners; it is only needed near the
-  // plane, |h| < ½ min d, where every |q_k| > 0.8 d_k. Elsewhere n · m = ½ Σ θ t directly.
-  const bool planeCandidate = std::fabs(h) < std::min({d[0], d[1], d[2]}) / 2;
-  V3 edge[3], mIn{0, 0, 0};
-  Real sigma[3], sumPsi = 0, sumBeta = 0, sumDirect = 0;
-  for (int c = 0; c < 3; ++c) {
-    const int j = (c + 1) % 3, k = (c + 2) % 3;
-    edge[c] = p[k] - p[j];
-    const V3 cr = cross(d[j] <= d[k] ? v[j] : v[k], edge[c]);  // = v_j × v_k
-    const Real rho = std::sqrt(dot(cr, cr));
-    const Real sig = dot(n, cr);
-    const Real g3 = dot(v[j], v[k]);  // γ + h²
-    const Real theta = std::atan2(rho, g3);
-    const Real thetaOverRho =
-        rho > 0 ? theta / rho : (g3 > 0 ? 1 / g3 : std::numeric_limits<Real>::infinity());
-    mIn += thetaOverRho * cross(n, edge[c]);
-    sigma[c] = sig;
-    sumDirect += rho > 0 ? theta * sig / rho : Real{0};
-    if (!planeCandidate) continue;
-    const Real absSig = std::fabs(sig);
-    const Real g2 = g3 - h2;  // γ = q_j · q_k
-    const Real len2 = dot(edge[c], edge[c]);
-    const Real psi = std::atan2(sig, g2);
-    Real beta;
-    if (absSig <= std::fabs(h) * std::sqrt(len2)) {
-      beta = (rho > 0 ? theta * sig / rho : Real{0}) - psi;
-    } else {
-      const Real sum = rho + absSig;
-      const Real xx = g2 * len2 / sum - absSig;
-      const Real yy = g3 * g2 + rho * absSig;
-      beta = sig / rho * std::atan2(h2 * xx, yy) -
-             std::copysign(std::fabs(psi), sig) * h2 * len2 / (rho * sum);
-    }
-    sumPsi += psi;
-    sumBeta += beta;
-  }
-  const Real turnsReal = sumPsi / (2 * std::numbers::pi_v<Real>);
-  const Real turns = std::round(turnsReal);
-  const bool nearPlane = planeCandidate && std::fabs(turnsReal - turns) < Real{0.01};
-  if (h == 0) {
-    r.onFace = nearPlane && turns != 0;
-    return r;  // w = 0: every term carries the factor h
-  }
-  mIn = (h / 2) * mIn;
-  const Real mn = nearPlane ? sumBeta / 2 + std::numbers::pi_v<Real> * turns : sumDirect / 2;
-  const Real sum = mn / h;
-  for (int c = 0; c < 3; ++c) r.w[c] = (sum * sigma[c] - dot(n, cross(mIn, edge[c]))) / area2;
-  return r;
+  return detail::carefulMeanValueTriangle(p, x);
 }
 
 // The barycentric weights of x's projection on triangle t.

@@ -22,6 +22,11 @@ struct QuadMeanValueOptions {
   /// there (Lagrange at vertices, linear along edges, the face's own interpolant on faces).
   /// Must be finite and in [0, 1e-3].
   double snapTolerance = 1e-14;
+  /// Faces of more than 4 vertices must be planar: every vertex at most this far (relative to
+  /// Cage::diagonal()) from the plane through the face's centroid normal to its Newell normal.
+  /// The default admits the rounding of coordinates written with ~10 significant digits. Must
+  /// be finite and in [0, 1e-2].
+  double polygonPlanarity = 1e-9;
 };
 
 /// Mean-value coordinates of a closed, outward-oriented polygon cage. One weight per cage
@@ -29,10 +34,19 @@ struct QuadMeanValueOptions {
 /// 1 and reproduces x. On an all-triangle cage they are the triangle mean-value coordinates.
 /// Every method is const and thread-safe; rows are bit-identical whether they come from
 /// weights() or weightsBatch(), for any number of threads.
+///
+/// Accuracy: partition of unity and linear precision to ~1e-14 (cage diagonals) inside, on and
+/// near the cage and a few diagonals out (~2e-12 at 100 diagonals with quads, ~1e-11 with
+/// polygons; points beyond 3000 diagonals are refused, as by MeanValueCoordinates). A quad's
+/// share along the one direction its mean vector leaves free is a quadrature of the bilinear
+/// integral (see quad_mean_value.cpp): within ~6e-3 (max |Δw|) of the exact integral at points
+/// inside the test cages, closer than the authors' reference code. Cost: about 40 triangle terms
+/// per quad, so binding a quad cage costs ~80 times MVC on its triangulation per quad.
 class QuadMeanValueCoordinates final : public Coordinates {
  public:
   /// Shares `cage`. Throws InvalidInput if `cage` is null, an option is out of range, or a face
-  /// the method cannot take (named) is found.
+  /// of more than 4 vertices is not planar (see polygonPlanarity; the message names the face).
+  /// Quads may be non-planar.
   explicit QuadMeanValueCoordinates(std::shared_ptr<const Cage> cage,
                                     const QuadMeanValueOptions& options = {});
   ~QuadMeanValueCoordinates() override;
@@ -49,7 +63,8 @@ class QuadMeanValueCoordinates final : public Coordinates {
   const Cage& cage() const;
   const QuadMeanValueOptions& options() const;
 
-  /// Archive (core/archive.h): tag "quad-mean-value", the cage and the options.
+  /// Archive (core/archive.h): tag "quad-mean-value", the cage and the options
+  /// (snapTolerance, polygonPlanarity).
   void save(ArchiveWriter& out) const override;
   static std::shared_ptr<const QuadMeanValueCoordinates> load(ArchiveReader& in);
 

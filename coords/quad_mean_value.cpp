@@ -1,0 +1,688 @@
+#include <spacewarp/coords/quad_mean_value.h>
+
+// Numerics
+// ========
+// Mean-value coordinates of a closed surface S around x are w_i(x) = ∫ φ_i(σ) / |σ − x| dΩ over
+// the unit sphere of directions from x, σ the point of S seen in that direction and φ_i the
+// interpolant of S's faces (linear on triangles, bilinear on quads); the row is w / Σ w. Every
+// face F contributes weights W^F with Σ_i W^F_i (p_i − x) = m_F, the mean vector of F's
+// spherical projection, ½ Σ θ_e C_e / |C_e| over F's boundary edges only (edgeMeanVector in
+// coords/detail/mean_value_triangle.h). Summed over the closed cage the m_F cancel, so any
+// weights with that property give partition of unity and linear precision.
+//
+// Triangles: Ju et al.'s weights, the per-triangle term of MeanValueCoordinates
+// (coords/detail/mean_value_triangle.h): the fast double formula, or the careful long-double
+// one where its error estimate asks for it. An all-triangle cage is handed whole to a
+// MeanValueCoordinates, so its rows are those of MVC bit for bit.
+//
+// Quads (Thiery, Memari, Boubekeur 2018): σ is the bilinear patch and φ its bilinear basis.
+// The three equations Σ W_i v_i = m fix W up to the null vector N of (v_0 … v_3) (N_i the signed
+// cofactors; N ∝ φ(u, v) exactly when x = σ(u, v)); the fourth degree of freedom needs the
+// integral itself. The paper solves the three equations exactly and takes the fourth from a
+// sampled quadrature. Here the integral is taken over tessellations of the patch that adapt to
+// x: with (û, v̂) the closest point of the patch to x (damped Gauss-Newton from the centre,
+// clamped to the unit square), the parameter square is cut at û and v̂ into four rectangles,
+// each into k × k cells, each cell into two triangles by its diagonal towards the foot (level
+// k = 1: 8 triangles fanned around σ(û, v̂)). Every triangle gets the exact triangle weights of
+// its corners, and a node at (u, v) passes its weight to the quad's corners by φ(u, v). Levels
+// 1 and 2 are extrapolated, W = (4 W₂ − W₁) / 3 (the error of each falls like 1 / k²). This
+//  - solves the three equations exactly for every level (the triangles' boundary is the
+//    quad's), so it is the paper's construction with another quadrature for the null
+//    direction, and keeps partition of unity and linear precision exact;
+//  - does not depend on a diagonal or on the starting vertex (the tessellations are the same
+//    sets of triangles for every rotation of the quad);
+//  - tends to the bilinear interpolant φ(û, v̂) as x approaches the patch, the node σ(û, v̂)
+//    being the foot of x in both levels, so that the coordinates are continuous onto the face
+//    (where points within snapTolerance get φ at the inverse-bilinear parameters);
+//  - is robust near the patch and its plane, as every triangle is (the careful path where x is
+//    near a triangle's plane).
+// Its remaining error is that of the quadrature: measured against a 64 × 64 tessellation, max
+// |Δw| 1e-3 to 6e-3 at points inside six quad cages (see kCoarse). It costs 40 triangle terms
+// per quad.
+//
+// Polygons with more than 4 vertices (planar): Langer, Belyaev and Seidel's spherical
+// mean-value construction. With m̂ = m / |m|, t_i the component of u_i = v_i / d_i orthogonal to
+// m̂ and α_i the signed angle about m̂ from t_i to t_{i+1},
+//     λ_i = (tan(α_{i−1} / 2) + tan(α_i / 2)) / |t_i|,   W_i = |m| λ_i / (d_i Σ_k λ_k (u_k · m̂)),
+// which solves Σ W_i v_i = m exactly (Floater's identity Σ λ_i t_i = 0 holds for any unit
+// vectors). On the face (within snapTolerance) the same formula on the in-plane vectors
+// p_i − x₀ gives the polygon's 2D mean-value coordinates. Non-planar polygons with more than 4
+// vertices are refused (InvalidInput naming the face): their interpolant is not defined.
+//
+// Outside the cage the weight sum W cancels; as in MeanValueCoordinates a point whose estimated
+// reproduction error ε Σ |w| d / (|W| diagonal) exceeds 1e-13 is recomputed with every triangle
+// by the careful path (long double; polygons are always computed in long double), and points
+// beyond 3000 diagonals are refused.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <spacewarp/coords/detail/mean_value_triangle.h>
+#include <spacewarp/coords/mean_value.h>
+#include <spacewarp/core/archive.h>
+#include <spacewarp/core/errors.h>
+#include <spacewarp/core/geometry.h>
+
+namespace spacewarp {
+
+namespace {
+
+using Real = long double;
+constexpr double kEps = std::numeric_limits<double>::epsilon();
+// As MeanValueCoordinates' kTauW, kTauRepro and kFarLimit (see mean_value.cpp).
+constexpr double kTauW = 1e-13;
+constexpr double kTauRepro = 1e-13;
+constexpr double kFarLimit = 3000.0;
+// Gauss-Newton steps of the closest-point search on a patch (quadratic convergence near the
+// patch, where the foot must be exact; a fixed count keeps it a continuous function of x).
+constexpr int kProjectionSteps = 12;
+// A triangle of a quad's tessellation takes the careful path when x's elevation over its plane
+// is below this (the fast weights then solve their equations to ~1e-13 of m_T).
+constexpr double kMinElevation = 1e-3;
+// The two tessellation levels of a quad, extrapolated as (4 W₂ − W₁) / 3 (their error falls
+// like 1 / k²). Measured against a 64 × 64 tessellation (≈ the exact integral) at 1000 points
+// inside each of 6 quad cages: max |Δw| 1e-3 to 6e-3, where level 2 alone gives 4e-3 to 3e-2,
+// level 1 alone 2e-2 to 0.12, and the authors' sampled quadrature 4e-3 to 1.5e-2.
+constexpr int kCoarse = 1, kFine = 2;
+
+// The cage's faces, edges and per-face boxes (for the snapping test).
+struct CageData {
+  std::vector<Vec3> p;
+  std::vector<std::uint32_t> offsets, indices;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;  // each once, first < second
+  std::vector<Vec3> normal;                                    // unit Newell normal per face
+  std::vector<BoundingBox> box;
+  double diagonal = 0.0;
+  double snapLength = 0.0;
+  Vec3 center{0.0};
+
+  std::span<const std::uint32_t> face(std::size_t f) const {
+    return {indices.data() + offsets[f], offsets[f + 1] - offsets[f]};
+  }
+};
+
+// A node of a quad's tessellation: parameters, basis, position − x, distance, weight.
+struct GridNode {
+  double u = 0.0, t = 0.0;
+  std::array<double, 4> phi{};
+  Vec3 v{0.0};
+  double d = 0.0;
+  double w = 0.0;
+};
+
+// Per-thread buffers of one point.
+struct Scratch {
+  std::vector<GridNode> grid;
+  std::vector<Vec3> v;  // p_i − x
+  std::vector<double> d;
+  std::vector<Real> acc;                              // Σ over faces of the unnormalised weights
+  std::vector<Real> lambda;                           // a polygon's, and its terms:
+  std::vector<glm::vec<3, Real>> polygonV, polygonT;  // p_i − x and the tangent vectors
+  std::vector<Real> polygonD;
+};
+
+// The bilinear basis at (u, v) for corners 0, 1, 2, 3 (σ(0,0) = p_0, σ(1,0) = p_1, σ(1,1) = p_2).
+std::array<double, 4> bilinear(double u, double v) {
+  return {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+}
+
+template <class T>
+T combine(const std::array<double, 4>& phi, const std::array<T, 4>& q) {
+  return phi[0] * q[0] + phi[1] * q[1] + phi[2] * q[2] + phi[3] * q[3];
+}
+
+// The parameters of the point of the patch with corners x + q_i closest to x: damped
+// Gauss-Newton on |Σ φ_i q_i|² from the centre, clamped to the unit square after every step.
+void closestParameters(const std::array<Vec3, 4>& q, double& u, double& v) {
+  u = v = 0.5;
+  for (int step = 0; step < kProjectionSteps; ++step) {
+    const Vec3 r = combine(bilinear(u, v), q);
+    const Vec3 su = (1 - v) * (q[1] - q[0]) + v * (q[2] - q[3]);
+    const Vec3 sv = (1 - u) * (q[3] - q[0]) + u * (q[2] - q[1]);
+    const double damp = 1e-12 * (glm::dot(su, su) + glm::dot(sv, sv));
+    const double a = glm::dot(su, su) + damp, b = glm::dot(su, sv), c = glm::dot(sv, sv) + damp;
+    const double g1 = glm::dot(su, r), g2 = glm::dot(sv, r);
+    const double det = a * c - b * b;
+    if (!(det > 0.0)) break;
+    u = std::clamp(u - (c * g1 - b * g2) / det, 0.0, 1.0);
+    v = std::clamp(v - (a * g2 - b * g1) / det, 0.0, 1.0);
+  }
+  // A foot within 2⁻⁴⁰ of a side is put on it: the fan's triangles along that side would be
+  // slivers (their weights, proportional to their width, are dropped with them).
+  const auto snap = [](double t) { return t < 0x1p-40 ? 0.0 : t > 1.0 - 0x1p-40 ? 1.0 : t; };
+  u = snap(u);
+  v = snap(v);
+}
+
+// λ_i = (tan(α_{i−1}/2) + tan(α_i/2)) / |t_i|, α_i the angle about `axis` from t_i to t_{i+1}:
+// the mean-value coordinates of the origin in the plane normal to `axis` (unnormalised).
+// False if some t_i vanishes (the origin is a vertex).
+template <class T>
+bool tangentMeanValue(std::span<const glm::vec<3, T>> t, const glm::vec<3, T>& axis,
+                      std::span<T> lambda) {
+  const std::size_t n = t.size();
+  T prev = 0;  // tan(α_{i−1} / 2), first for i = 0
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& a = t[i];
+    const auto& b = t[(i + 1) % n];
+    const T la = glm::length(a), lb = glm::length(b);
+    if (!(la > 0 && lb > 0)) return false;
+    const T sine = glm::dot(axis, glm::cross(a, b)), cosine = glm::dot(a, b);
+    // sin α / (1 + cos α) = (1 − cos α) / sin α: the form whose denominator is not small.
+    const T half = cosine >= 0 ? sine / (la * lb + cosine) : (la * lb - cosine) / sine;
+    lambda[i] = half;  // tan(α_i / 2) for now
+    if (i + 1 == n) prev = half;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const T here = lambda[i];
+    lambda[i] = (prev + here) / glm::length(t[i]);
+    prev = here;
+  }
+  return true;
+}
+
+std::string pointText(const Vec3& x) {
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.17g, %.17g, %.17g)", x.x, x.y, x.z);
+  return text;
+}
+
+// ---- snapping ----
+
+// x's projection on the plane of polygon f, if x is within cd.snapLength of the face (its
+// plane, and inside it); returns false otherwise. For quads, the inverse-bilinear parameters.
+bool onFace(const CageData& cd, const Scratch& s, std::size_t f, std::span<double> row) {
+  const auto face = cd.face(f);
+  const std::size_t n = face.size();
+  if (n == 4) {
+    std::array<Vec3, 4> q;
+    for (int c = 0; c < 4; ++c) q[c] = s.v[face[c]];
+    double u, v;
+    closestParameters(q, u, v);
+    const std::array<double, 4> phi = bilinear(u, v);
+    if (!(glm::length(combine(phi, q)) <= cd.snapLength)) return false;
+    std::fill(row.begin(), row.end(), 0.0);
+    for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
+    return true;
+  }
+  const Vec3& nrm = cd.normal[f];
+  const double h = glm::dot(nrm, s.v[face[0]]);
+  if (!(std::fabs(h) <= cd.snapLength)) return false;
+  // The in-plane vectors from x₀ to the corners; x₀ is inside if they wind once around it.
+  std::vector<Vec3> t(n);
+  double turn = 0.0;
+  for (std::size_t i = 0; i < n; ++i) t[i] = s.v[face[i]] - h * nrm;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3& a = t[i];
+    const Vec3& b = t[(i + 1) % n];
+    turn += std::atan2(glm::dot(nrm, glm::cross(a, b)), glm::dot(a, b));
+  }
+  if (!(turn > std::numbers::pi)) return false;
+  std::vector<double> lambda(n);
+  if (!tangentMeanValue<double>(t, nrm, lambda)) return false;  // at a vertex: snapped before
+  double sum = 0.0;
+  for (double l : lambda) sum += l;
+  std::fill(row.begin(), row.end(), 0.0);
+  for (std::size_t i = 0; i < n; ++i) row[face[i]] += lambda[i] / sum;
+  return true;
+}
+
+// Lagrange at a vertex, linear on an edge, the face's interpolant on a face: the nearest
+// within cd.snapLength, in that order of precedence. False if x is not that close to the cage.
+bool snapRow(const CageData& cd, const Vec3& x, const Scratch& s, std::span<double> row) {
+  const double tol = cd.snapLength;
+  std::size_t best = cd.p.size();
+  double bestDist = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < cd.p.size(); ++i) {
+    if (s.d[i] <= tol && s.d[i] < bestDist) {
+      best = i;
+      bestDist = s.d[i];
+    }
+  }
+  if (best < cd.p.size()) {
+    std::fill(row.begin(), row.end(), 0.0);
+    row[best] = 1.0;
+    return true;
+  }
+  double bestT = 0.0;
+  best = cd.edges.size();
+  for (std::size_t e = 0; e < cd.edges.size(); ++e) {
+    const auto [a, b] = cd.edges[e];
+    const Vec3 edge = cd.p[b] - cd.p[a];
+    const double t = glm::dot(-s.v[a], edge) / glm::dot(edge, edge);
+    if (!(t > 0.0 && t < 1.0)) continue;
+    const double dist = glm::length(s.v[a] + t * edge);
+    if (dist <= tol && dist < bestDist) {
+      best = e;
+      bestDist = dist;
+      bestT = t;
+    }
+  }
+  if (best < cd.edges.size()) {
+    std::fill(row.begin(), row.end(), 0.0);
+    row[cd.edges[best].first] = 1.0 - bestT;
+    row[cd.edges[best].second] = bestT;
+    return true;
+  }
+  for (std::size_t f = 0; f + 1 < cd.offsets.size(); ++f) {
+    const BoundingBox& b = cd.box[f];
+    if (glm::length(glm::clamp(x, b.min, b.max) - x) > tol) continue;
+    if (onFace(cd, s, f, row)) return true;
+  }
+  return false;
+}
+
+// ---- the faces' weights ----
+
+// ---- the kernel of one point ----
+
+class PointKernel {
+ public:
+  // Triangles whose fast weights have an estimated error above `fastLimit` (world-independent:
+  // weights are in units of 1 / length) take the careful path.
+  PointKernel(const CageData& cd, const Vec3& x, Scratch& s, double fastLimit)
+      : cd_(cd), x_(x), s_(s), fastLimit_(fastLimit) {}
+
+  double kappa() const { return kappa_; }
+  double error() const { return error_; }               // Σ of the fast triangles' error estimates
+  std::size_t triangles() const { return triangles_; }  // triangle terms evaluated
+
+  // Adds every face; false if x turned out to lie on a face (row filled).
+  bool addFaces(std::span<double> row) {
+    for (std::size_t f = 0; f + 1 < cd_.offsets.size(); ++f) {
+      const auto face = cd_.face(f);
+      if (face.size() == 3) {
+        const std::array<Vec3, 3> v = {s_.v[face[0]], s_.v[face[1]], s_.v[face[2]]};
+        const std::array<double, 3> d = {s_.d[face[0]], s_.d[face[1]], s_.d[face[2]]};
+        std::array<double, 3> w;
+        if (!triangle(v, d, w)) {
+          // On the triangle: its barycentric coordinates are the careful path's face row.
+          std::fill(row.begin(), row.end(), 0.0);
+          triangleRow(v, face, row);
+          return false;
+        }
+        for (int c = 0; c < 3; ++c) add(face[c], w[c], d[c]);
+      } else if (face.size() == 4) {
+        if (!quad(face, row)) return false;
+      } else {
+        polygon(f, face);
+      }
+    }
+    return true;
+  }
+
+ private:
+  void add(std::uint32_t i, double w, double d) {
+    s_.acc[i] += w;
+    kappa_ += std::fabs(w) * d;
+  }
+
+  // The weights of the triangle x + v; false if x lies on it.
+  // The triangles of a quad's tessellation (`part`) only approximate an integral, so their
+  // weights need not be accurate to MVC's standard: only Σ w_i v_i = m_T, which Cramer's rule
+  // keeps to ε / elevation (and the shared boundary of the tessellation turns into linear
+  // precision). They take the fast path unless x is near their plane.
+  bool triangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
+                std::array<double, 3>& w, bool part = false) {
+    const detail::FastTriangle fast = detail::fastMeanValueTriangle(v, d, w);
+    if (part) {
+      if (fastLimit_ > 0.0 && std::isfinite(fast.error) && fast.elevation >= kMinElevation)
+        return true;
+    } else {
+      ++triangles_;
+      if (fast.error <= fastLimit_) {
+        error_ += fast.error;
+        return true;
+      }
+    }
+    const std::array<Vec3, 3> corners = {x_ + v[0], x_ + v[1], x_ + v[2]};
+    const detail::CarefulTriangle r = detail::carefulMeanValueTriangle(corners, x_);
+    if (r.onFace) return false;
+    for (int c = 0; c < 3; ++c) w[c] = static_cast<double>(r.w[c]);
+    return true;
+  }
+
+  // Barycentric coordinates of x's projection on the triangle x + v, into row at `ids`.
+  static void triangleRow(const std::array<Vec3, 3>& v, std::span<const std::uint32_t> ids,
+                          std::span<double> row) {
+    const Vec3 n = glm::cross(v[1] - v[0], v[2] - v[0]);
+    std::array<double, 3> b;
+    double sum = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      b[c] = std::max(0.0, glm::dot(n, glm::cross(v[(c + 1) % 3], v[(c + 2) % 3])));
+      sum += b[c];
+    }
+    for (int c = 0; c < 3; ++c) row[ids[c]] += b[c] / sum;
+  }
+
+  // The quad's weights (see the top): the tessellations of levels 1 and 2 around x's foot,
+  // extrapolated.
+  bool quad(std::span<const std::uint32_t> face, std::span<double> row) {
+    std::array<Vec3, 4> q;
+    for (int c = 0; c < 4; ++c) q[c] = s_.v[face[c]];
+    double uc, vc;
+    closestParameters(q, uc, vc);
+    std::array<double, 4> coarse, fine;
+    if (!tessellation(face, q, uc, vc, kCoarse, coarse, row)) return false;
+    if (!tessellation(face, q, uc, vc, kFine, fine, row)) return false;
+    constexpr double r = static_cast<double>(kFine * kFine) / (kCoarse * kCoarse);
+    for (int i = 0; i < 4; ++i) s_.acc[face[i]] += (r * fine[i] - coarse[i]) / (r - 1.0);
+    return true;
+  }
+
+  // The weights of the quad's corners from the exact triangle weights of the tessellation of
+  // level k: the unit square cut at u = û and v = v̂, each of the four parts into k × k cells,
+  // each cell into two triangles by its diagonal through the corner nearest the foot (level 1:
+  // the 8 triangles fanned around the foot). False if x lies on a triangle (row filled).
+  bool tessellation(std::span<const std::uint32_t> face, const std::array<Vec3, 4>& q, double uc,
+                    double vc, int k, std::array<double, 4>& w4, std::span<double> row) {
+    const int n = 2 * k + 1;  // grid lines per direction
+    auto& grid = s_.grid;
+    grid.resize(static_cast<std::size_t>(n * n));
+    const auto line = [k](double foot, int a) {
+      return a <= k ? foot * a / k : foot + (1.0 - foot) * (a - k) / k;
+    };
+    for (int b = 0; b < n; ++b) {
+      for (int a = 0; a < n; ++a) {
+        GridNode& g = grid[static_cast<std::size_t>(b * n + a)];
+        g.u = line(uc, a);
+        g.t = line(vc, b);
+        g.phi = bilinear(g.u, g.t);
+        const bool corner = (a == 0 || a == n - 1) && (b == 0 || b == n - 1);
+        const int c = b == 0 ? (a == 0 ? 0 : 1) : (a == 0 ? 3 : 2);
+        g.v = corner ? q[c] : combine(g.phi, q);
+        g.d = corner ? s_.d[face[c]] : glm::length(g.v);
+        g.w = 0.0;
+      }
+    }
+    const auto at = [&](int a, int b) -> GridNode& {
+      return grid[static_cast<std::size_t>(b * n + a)];
+    };
+    for (int b = 0; b + 1 < n; ++b) {
+      for (int a = 0; a + 1 < n; ++a) {
+        GridNode* c00 = &at(a, b);
+        GridNode* c10 = &at(a + 1, b);
+        GridNode* c11 = &at(a + 1, b + 1);
+        GridNode* c01 = &at(a, b + 1);
+        if (c10->u == c00->u || c01->t == c00->t) continue;  // a cell cut to nothing
+        std::array<std::array<GridNode*, 3>, 2> tris;
+        if ((a < k) == (b < k)) {  // the foot is towards c00 or c11
+          tris = {{{c00, c10, c11}, {c00, c11, c01}}};
+        } else {
+          tris = {{{c00, c10, c01}, {c10, c11, c01}}};
+        }
+        for (const auto& tri : tris) {
+          const std::array<Vec3, 3> tv = {tri[0]->v, tri[1]->v, tri[2]->v};
+          const std::array<double, 3> td = {tri[0]->d, tri[1]->d, tri[2]->d};
+          std::array<double, 3> w;
+          if (!triangle(tv, td, w, true)) {
+            // x lies on this triangle (so within rounding of the patch, as it passed the
+            // snapping test only when snapTolerance is 0): the interpolant at the foot.
+            std::fill(row.begin(), row.end(), 0.0);
+            const std::array<double, 4> phi = bilinear(uc, vc);
+            for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
+            return false;
+          }
+          for (int c = 0; c < 3; ++c) {
+            tri[c]->w += w[c];
+            kappa_ += std::fabs(w[c]) * td[c];
+          }
+        }
+      }
+    }
+    w4 = {0, 0, 0, 0};
+    for (const GridNode& g : grid)
+      for (int i = 0; i < 4; ++i) w4[i] += g.w * g.phi[i];
+    return true;
+  }
+
+  // Langer et al.'s spherical mean-value weights of a planar polygon (see the top), in long
+  // double: near the polygon's edges the tangent directions of their ends are nearly opposite
+  // and the half-angle tangents lose ε / distance (in double, reproduction erred by 1e-9 at 1e-9
+  // diagonals from an edge; 4e-16 in long double), and outside the cage the mean vector's terms
+  // cancel ever more with the distance. Polygons are few (caps), so this costs little.
+  void polygon(std::size_t f, std::span<const std::uint32_t> face) {
+    using V = glm::vec<3, Real>;
+    const std::size_t n = face.size();
+    // Exactly in the plane outside the face every weight is 0 (the limit; m vanishes there).
+    if (glm::dot(cd_.normal[f], s_.v[face[0]]) == 0.0) return;
+    const V x(x_);
+    auto& v = s_.polygonV;
+    auto& d = s_.polygonD;
+    auto& t = s_.polygonT;
+    auto& lambda = s_.lambda;
+    v.resize(n);
+    d.resize(n);
+    t.resize(n);
+    lambda.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      v[i] = V(cd_.p[face[i]]) - x;
+      d[i] = glm::length(v[i]);
+    }
+    V m(0);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto share =
+          detail::carefulEdgeMeanVector(cd_.p[face[i]], cd_.p[face[(i + 1) % n]], x_);
+      m += V(share[0], share[1], share[2]) / Real{2};
+    }
+    const Real length = glm::length(m);
+    if (!(length > 0)) return;
+    const V axis = m / length;
+    for (std::size_t i = 0; i < n; ++i) {
+      const V u = v[i] / d[i];
+      t[i] = u - glm::dot(u, axis) * axis;
+    }
+    if (!tangentMeanValue<Real>(t, axis, lambda)) {
+      // m points at a vertex: all of m is that vertex's.
+      for (std::size_t i = 0; i < n; ++i) {
+        if (glm::length(t[i]) == 0) add(face[i], static_cast<double>(length / d[i]), s_.d[face[i]]);
+      }
+      return;
+    }
+    Real along = 0;
+    for (std::size_t i = 0; i < n; ++i) along += lambda[i] * glm::dot(v[i], axis) / d[i];
+    const Real scale = length / along;
+    for (std::size_t i = 0; i < n; ++i)
+      add(face[i], static_cast<double>(scale * lambda[i] / d[i]), s_.d[face[i]]);
+  }
+
+  const CageData& cd_;
+  const Vec3& x_;
+  Scratch& s_;
+  double fastLimit_;
+  double kappa_ = 0.0, error_ = 0.0;
+  std::size_t triangles_ = 0;
+};
+
+// The row of x (finite, within kFarLimit diagonals).
+void computeRow(const CageData& cd, const Vec3& x, Scratch& s, std::span<double> row) {
+  const std::size_t nV = cd.p.size();
+  s.v.resize(nV);
+  s.d.resize(nV);
+  s.acc.resize(nV);
+  for (std::size_t i = 0; i < nV; ++i) {
+    s.v[i] = cd.p[i] - x;
+    s.d[i] = glm::length(s.v[i]);
+  }
+  if (snapRow(cd, x, s, row)) return;
+  // Pass 1 takes every usable fast triangle; if their summed error estimate exceeds kTauW |W|,
+  // pass 2 recomputes those above an equal share of that budget by the careful path; pass 3,
+  // for points whose reproduction estimate ε Σ |w| d / (|W| diagonal) exceeds kTauRepro
+  // (outside, where W cancels), takes the careful path everywhere.
+  double limit = std::numeric_limits<double>::infinity();
+  for (int pass = 1;; ++pass) {
+    std::fill(s.acc.begin(), s.acc.end(), Real{0});
+    PointKernel kernel(cd, x, s, limit);
+    if (!kernel.addFaces(row)) return;
+    Real sum = 0;
+    for (std::size_t i = 0; i < nV; ++i) sum += s.acc[i];
+    const double w = static_cast<double>(sum);
+    const bool finite = std::isfinite(w) && w != 0.0;
+    if (pass == 1 && !(finite && kernel.error() <= kTauW * std::fabs(w))) {
+      limit = finite ? kTauW * std::fabs(w) / static_cast<double>(kernel.triangles()) : 0.0;
+      continue;
+    }
+    if (limit > 0.0 &&
+        !(finite && kEps * kernel.kappa() <= kTauRepro * std::fabs(w) * cd.diagonal)) {
+      limit = 0.0;
+      continue;
+    }
+    if (!finite)
+      throw SolverError("QuadMeanValueCoordinates: the weight sum vanishes at " + pointText(x));
+    for (std::size_t i = 0; i < nV; ++i) row[i] = static_cast<double>(s.acc[i] / sum);
+    return;
+  }
+}
+
+void computeRange(const CageData& cd, const Vec3* points, std::size_t count, double* rows) {
+  static thread_local Scratch scratch;
+  const std::size_t nV = cd.p.size();
+  for (std::size_t i = 0; i < count; ++i) {
+    const double distance = glm::length(points[i] - cd.center) / cd.diagonal;
+    if (!(distance <= kFarLimit)) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "QuadMeanValueCoordinates: the point %s is %.3g cage diagonals from the cage; "
+                    "mean value weights lose their accuracy beyond %g diagonals",
+                    pointText(points[i]).c_str(), distance, kFarLimit);
+      throw InvalidInput(text);
+    }
+    computeRow(cd, points[i], scratch, std::span<double>(rows + i * nV, nV));
+  }
+}
+
+CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
+  CageData cd;
+  cd.p.assign(cage.vertices().begin(), cage.vertices().end());
+  cd.offsets.assign(cage.faceOffsets().begin(), cage.faceOffsets().end());
+  cd.indices.assign(cage.faceIndices().begin(), cage.faceIndices().end());
+  cd.diagonal = cage.diagonal();
+  cd.snapLength = options.snapTolerance * cage.diagonal();
+  const BoundingBox all = boundingBox(cage.vertices());
+  cd.center = 0.5 * (all.min + all.max);
+  std::map<std::pair<std::uint32_t, std::uint32_t>, bool> edges;
+  for (std::size_t f = 0; f < cage.faceCount(); ++f) {
+    const auto face = cage.face(f);
+    const std::size_t n = face.size();
+    Vec3 normal(0.0), centroid(0.0);
+    BoundingBox box;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3& a = cd.p[face[i]];
+      const Vec3& b = cd.p[face[(i + 1) % n]];
+      normal += glm::cross(a, b);  // Newell
+      centroid += a / static_cast<double>(n);
+      box.min = glm::min(box.min, a);
+      box.max = glm::max(box.max, a);
+      edges.try_emplace(std::minmax(face[i], face[(i + 1) % n]), true);
+    }
+    normal = glm::normalize(normal);
+    if (n > 4) {
+      double worst = 0.0;
+      for (std::size_t i = 0; i < n; ++i)
+        worst = std::max(worst, std::fabs(glm::dot(normal, cd.p[face[i]] - centroid)));
+      if (!(worst <= options.polygonPlanarity * cd.diagonal)) {
+        char text[300];
+        std::snprintf(text, sizeof text,
+                      "QuadMeanValueCoordinates: %s: face %zu (%zu vertices) is not planar (a "
+                      "vertex is %.3g cage diagonals off its plane, more than polygonPlanarity "
+                      "= %.3g); polygons of more than 4 vertices must be planar",
+                      cage.name().c_str(), f, n, worst / cd.diagonal, options.polygonPlanarity);
+        throw InvalidInput(text);
+      }
+    }
+    cd.normal.push_back(normal);
+    cd.box.push_back(box);
+  }
+  for (const auto& [edge, unused] : edges) cd.edges.push_back(edge);
+  return cd;
+}
+
+}  // namespace
+
+struct QuadMeanValueCoordinates::Impl {
+  std::shared_ptr<const Cage> cage;
+  QuadMeanValueOptions options;
+  std::shared_ptr<const MeanValueCoordinates> triangles;  // for an all-triangle cage
+  CageData data;                                          // otherwise
+};
+
+QuadMeanValueCoordinates::QuadMeanValueCoordinates(std::shared_ptr<const Cage> cage,
+                                                   const QuadMeanValueOptions& options) {
+  if (!cage) throw InvalidInput("QuadMeanValueCoordinates: the cage is null");
+  if (!(options.snapTolerance >= 0.0 && options.snapTolerance <= 1e-3)) {
+    throw InvalidInput("QuadMeanValueCoordinates: snapTolerance must be in [0, 1e-3], got " +
+                       std::to_string(options.snapTolerance));
+  }
+  if (!(options.polygonPlanarity >= 0.0 && options.polygonPlanarity <= 1e-2)) {
+    throw InvalidInput("QuadMeanValueCoordinates: polygonPlanarity must be in [0, 1e-2], got " +
+                       std::to_string(options.polygonPlanarity));
+  }
+  auto impl = std::make_unique<Impl>();
+  if (cage->maxFaceSize() == 3) {
+    MeanValueOptions mvc;
+    mvc.snapTolerance = options.snapTolerance;
+    impl->triangles = std::make_shared<const MeanValueCoordinates>(cage, mvc);
+  } else {
+    impl->data = buildCageData(*cage, options);
+  }
+  impl->cage = std::move(cage);
+  impl->options = options;
+  impl_ = std::move(impl);
+}
+
+QuadMeanValueCoordinates::~QuadMeanValueCoordinates() = default;
+
+std::size_t QuadMeanValueCoordinates::controlPointCount() const {
+  return impl_->cage->vertexCount();
+}
+
+std::span<const Vec3> QuadMeanValueCoordinates::restControlPoints() const {
+  return impl_->cage->vertices();
+}
+
+const Cage& QuadMeanValueCoordinates::cage() const { return *impl_->cage; }
+const QuadMeanValueOptions& QuadMeanValueCoordinates::options() const { return impl_->options; }
+
+void QuadMeanValueCoordinates::weights(const Vec3& x, std::span<double> row) const {
+  checkWeightsArguments(x, row.size());
+  if (impl_->triangles) return impl_->triangles->weights(x, row);
+  computeRange(impl_->data, &x, 1, row.data());
+}
+
+UnmappedPoints QuadMeanValueCoordinates::weightsRange(std::span<const Vec3> points,
+                                                      std::span<double> rows, std::size_t begin,
+                                                      std::size_t end) const {
+  const std::size_t n = columnCount();
+  if (impl_->triangles) {
+    impl_->triangles->weightsBatch(points.subspan(begin, end - begin),
+                                   rows.subspan(begin * n, (end - begin) * n));
+  } else {
+    computeRange(impl_->data, points.data() + begin, end - begin, rows.data() + begin * n);
+  }
+  return {};
+}
+
+void QuadMeanValueCoordinates::save(ArchiveWriter& out) const {
+  out.tag("quad-mean-value");
+  impl_->cage->save(out);
+  out.f64(impl_->options.snapTolerance);
+  out.f64(impl_->options.polygonPlanarity);
+}
+
+std::shared_ptr<const QuadMeanValueCoordinates> QuadMeanValueCoordinates::load(ArchiveReader& in) {
+  auto cage = std::make_shared<const Cage>(Cage::load(in));
+  QuadMeanValueOptions options;
+  options.snapTolerance = in.f64();
+  options.polygonPlanarity = in.f64();
+  return std::make_shared<const QuadMeanValueCoordinates>(std::move(cage), options);
+}
+
+}  // namespace spacewarp
