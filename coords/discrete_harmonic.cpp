@@ -45,26 +45,6 @@ namespace {
 
 constexpr const char* kName = "DiscreteHarmonicCoordinates";
 
-// Refuses a polyhedron face that is not a triangle, naming it by its cage face (or the coplanar
-// cage faces merged into it) and its corners.
-void checkSimplicial(const detail::ConvexPolyhedron& poly, const Cage& cage) {
-  for (const detail::ConvexPolyhedron::Face& face : poly.faces) {
-    const std::size_t m = face.loop.size();
-    if (m == 3) continue;
-    const char* kinds[] = {"quad", "pentagon", "hexagon"};
-    const std::string kind = m <= 6 ? kinds[m - 4] : std::to_string(m) + "-gon";
-    const std::string corners = "(vertices " + detail::vertexList(face.loop) + ")";
-    const std::string what =
-        face.source.size() == 1
-            ? "face " + std::to_string(face.source[0]) + " " + corners + " is a planar " + kind
-            : "the coplanar faces " + detail::vertexList(face.source) + " merge into a planar " +
-                  kind + " " + corners;
-    throw InvalidInput(std::string(kName) + ": " + cage.name() + ": " + what +
-                       ": discrete harmonic coordinates need triangle faces (a simplicial "
-                       "polytope); use wachspress, which takes polygon faces");
-  }
-}
-
 void interiorRow(const void*, const detail::ConvexPolyhedron& poly, const Vec3& x,
                  std::span<const double> heights, std::span<double> row) {
   std::fill(row.begin(), row.end(), 0.0);
@@ -104,7 +84,7 @@ DiscreteHarmonicCoordinates::DiscreteHarmonicCoordinates(std::shared_ptr<const C
   detail::checkSnapTolerance(kName, options.snapTolerance);
   auto impl = std::make_unique<Impl>();
   impl->poly = detail::buildConvexPolyhedron(*cage, kName);
-  checkSimplicial(impl->poly, *cage);
+  detail::checkSimplicial(impl->poly, *cage, kName);
   impl->snapLength = options.snapTolerance * cage->diagonal();
   impl->cage = std::move(cage);
   impl->options = options;

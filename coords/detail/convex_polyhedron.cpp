@@ -264,6 +264,24 @@ ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
   return Builder(cage, method).build();
 }
 
+void checkSimplicial(const ConvexPolyhedron& poly, const Cage& cage, const char* method) {
+  for (const ConvexPolyhedron::Face& face : poly.faces) {
+    const std::size_t m = face.loop.size();
+    if (m == 3) continue;
+    const char* kinds[] = {"quad", "pentagon", "hexagon"};
+    const std::string kind = m <= 6 ? kinds[m - 4] : std::to_string(m) + "-gon";
+    const std::string corners = "(vertices " + vertexList(face.loop) + ")";
+    const std::string what =
+        face.source.size() == 1
+            ? "face " + std::to_string(face.source[0]) + " " + corners + " is a planar " + kind
+            : "the coplanar faces " + vertexList(face.source) + " merge into a planar " + kind +
+                  " " + corners;
+    throw InvalidInput(std::string(method) + ": " + cage.name() + ": " + what +
+                       ": discrete harmonic coordinates need triangle faces (a simplicial "
+                       "polytope); use wachspress, which takes polygon faces");
+  }
+}
+
 // Product form of the 2D Wachspress coordinates (so that points on an edge line need no division
 // by 0): corner j gets N_j = C_j Π_{k ∉ {j−1, j}} A_k with A_k = area(y, v_k, v_{k+1}) and C_j =
 // area(v_{j−1}, v_j, v_{j+1}), divided by their sum. Lengths are scaled by the face's √area so that

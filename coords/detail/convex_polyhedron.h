@@ -44,6 +44,11 @@ struct ConvexPolyhedron {
 ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method);
 inline constexpr double kConvexTolerance = 1e-9;
 
+/// Throws InvalidInput, prefixed by `method` and the cage's name, unless every face of `poly`
+/// (built from `cage`) is a triangle, naming the first that is not: a cage face that is a polygon,
+/// or the coplanar cage faces that merge into one, with its corners.
+void checkSimplicial(const ConvexPolyhedron& poly, const Cage& cage, const char* method);
+
 /// The 2D Wachspress coordinates (normalised, one per corner of `face`, into `out`) of y, a point
 /// of the face's plane (barycentric on a triangle). Meant for y on the face; false if their sum
 /// vanishes at y (which happens only outside the polygon, where they are continued).

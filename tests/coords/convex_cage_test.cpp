@@ -131,5 +131,24 @@ TEST(ConvexCage, RejectsTheArmadilloCageNamingAReflexEdge) {
   EXPECT_THAT(message, HasSubstr(") is reflex (turning inward by "));
 }
 
+// Discrete harmonic coordinates' check: convex, and every polytope face a triangle.
+TEST(ConvexCage, SimplicialCheckNamesThePolygonFace) {
+  auto error = [](const PolygonSoup& soup) {
+    return test::messageOf<InvalidInput>(
+        [&] { checkSimplicialConvexCage(Cage(soup, "c.obj"), "M"); });
+  };
+  for (const PolygonSoup& soup : {test::tetrahedron(), test::octahedron(), test::icosphere(2),
+                                  test::randomSphereHull(30, 5)}) {
+    EXPECT_EQ(error(soup), "");
+  }
+  const PolygonSoup box = test::convexBox(Vec3(0.0), Vec3(1.0));
+  EXPECT_THAT(error(box), HasSubstr("M: c.obj: face 0 (vertices "));
+  EXPECT_THAT(error(box), HasSubstr(") is a planar quad: discrete harmonic coordinates need"));
+  EXPECT_THAT(error(test::triangulated(box)),
+              HasSubstr("M: c.obj: the coplanar faces 0, 1 merge into a planar quad"));
+  EXPECT_THAT(error(test::hexagonalPrism()), HasSubstr("is a planar hexagon"));
+  EXPECT_THAT(error(test::pinchedBox(0.5)), HasSubstr("reflex"));  // convexity first
+}
+
 }  // namespace
 }  // namespace spacewarp
