@@ -8,4 +8,8 @@ void checkConvexCage(const Cage& cage, const char* method) {
   (void)detail::buildConvexPolyhedron(cage, method);
 }
 
+void checkSimplicialConvexCage(const Cage& cage, const char* method) {
+  detail::checkSimplicial(detail::buildConvexPolyhedron(cage, method), cage, method);
+}
+
 }  // namespace spacewarp

@@ -1,6 +1,7 @@
 #pragma once
 // What the coordinates of convex cages (Wachspress, discrete harmonic) share: the policy for
-// points outside the cage, and the convexity check.
+// points outside the cage, and the convexity checks (any faces for Wachspress, triangles for
+// discrete harmonic).
 
 #include <spacewarp/coords/cage.h>
 
@@ -21,5 +22,10 @@ enum class ConvexOutsidePolicy {
 /// diagonal, see coords/detail/convex_polyhedron.h). Adjacent coplanar faces count as one face.
 /// `method` names the coordinates in the message.
 void checkConvexCage(const Cage& cage, const char* method);
+
+/// What DiscreteHarmonicCoordinates require: checkConvexCage(), and every face of the polytope (a
+/// cage face, or adjacent coplanar cage faces counted as one) a triangle. Otherwise throws
+/// InvalidInput naming the cage, the face (or the coplanar faces that merge) and its vertices.
+void checkSimplicialConvexCage(const Cage& cage, const char* method);
 
 }  // namespace spacewarp

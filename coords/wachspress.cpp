@@ -88,8 +88,7 @@ struct WachspressCoordinates::Impl {
   double snapLength = 0.0;
 
   bool row(const Vec3& x, std::span<double> out) const {
-    return detail::convexRow(poly, x, snapLength, options.outside,
-                             detail::FaceCoordinates::Wachspress, interiorRow, &fans, out);
+    return detail::convexRow(poly, x, snapLength, options.outside, interiorRow, &fans, out);
   }
 };
 

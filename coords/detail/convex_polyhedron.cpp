@@ -19,12 +19,6 @@ std::uint64_t edgeKey(std::uint32_t from, std::uint32_t to) {
   return (std::uint64_t{from} << 32) | to;
 }
 
-std::string vertexList(std::span<const std::uint32_t> face) {
-  std::string text;
-  for (std::uint32_t v : face) text += (text.empty() ? "" : ", ") + std::to_string(v);
-  return text;
-}
-
 std::uint32_t findRoot(std::vector<std::uint32_t>& parent, std::uint32_t f) {
   while (parent[f] != f) f = parent[f] = parent[parent[f]];
   return f;
@@ -58,19 +52,6 @@ Plane polygonPlane(std::span<const Vec3> p, std::span<const std::uint32_t> face,
     }
   }
   return plane;
-}
-
-// Whether the corners lie on one circle (then 2D discrete harmonic = 2D Wachspress coordinates).
-bool onOneCircle(std::span<const Vec3> p, const std::vector<std::uint32_t>& loop, double tol) {
-  if (loop.size() == 3) return true;
-  const Vec3 a = p[loop[0]], u = p[loop[1]] - a, w = p[loop[2]] - a;
-  const Vec3 n = glm::cross(u, w);
-  const Vec3 centre = a + (glm::dot(u, u) * glm::cross(w, n) + glm::dot(w, w) * glm::cross(n, u)) /
-                              (2.0 * glm::dot(n, n));
-  const double radius = glm::length(a - centre);
-  return std::all_of(loop.begin(), loop.end(), [&](std::uint32_t v) {
-    return std::fabs(glm::length(p[v] - centre) - radius) <= tol;
-  });
 }
 
 // Signed area of (y, a, b) in the plane of normal n.
@@ -214,7 +195,6 @@ class Builder {
                  c = p_[face.loop[(j + 1) % m]];
       face.cornerArea.push_back(area(face.normal, c - b, a - b));
     }
-    face.cyclic = onOneCircle(p_, face.loop, tol_);
   }
 
   // The polyhedron's faces around vertex v, counter-clockwise from outside: after cage face
@@ -284,17 +264,30 @@ ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
   return Builder(cage, method).build();
 }
 
-// Product form of the 2D coordinates (so that points on an edge line need no division by 0):
-// corner j gets N_j = c_j Π_{k ∉ {j−1, j}} A_k with A_k = area(y, v_k, v_{k+1}) and
-//   Wachspress:          c_j = area(v_{j−1}, v_j, v_{j+1}),
-//   discrete harmonic:   c_j = r²_{j+1} A_{j−1} − r²_j B_j + r²_{j−1} A_j,  B_j = area(y, v_{j−1},
-//                        v_{j+1}), r_k = |v_k − y|
-// (Floater's three-point family, p = 0 and p = 2), divided by their sum. Both coincide on a
-// polygon whose corners lie on a circle, where the Wachspress form is used: its sum does not
-// vanish on the rectangle's lines where the discrete harmonic form's does (removably). Lengths are
-// scaled by the face's √area so that the products of m − 2 areas stay representable.
+void checkSimplicial(const ConvexPolyhedron& poly, const Cage& cage, const char* method) {
+  for (const ConvexPolyhedron::Face& face : poly.faces) {
+    const std::size_t m = face.loop.size();
+    if (m == 3) continue;
+    const char* kinds[] = {"quad", "pentagon", "hexagon"};
+    const std::string kind = m <= 6 ? kinds[m - 4] : std::to_string(m) + "-gon";
+    const std::string corners = "(vertices " + vertexList(face.loop) + ")";
+    const std::string what =
+        face.source.size() == 1
+            ? "face " + std::to_string(face.source[0]) + " " + corners + " is a planar " + kind
+            : "the coplanar faces " + vertexList(face.source) + " merge into a planar " + kind +
+                  " " + corners;
+    throw InvalidInput(std::string(method) + ": " + cage.name() + ": " + what +
+                       ": discrete harmonic coordinates need triangle faces (a simplicial "
+                       "polytope); use wachspress, which takes polygon faces");
+  }
+}
+
+// Product form of the 2D Wachspress coordinates (so that points on an edge line need no division
+// by 0): corner j gets N_j = C_j Π_{k ∉ {j−1, j}} A_k with A_k = area(y, v_k, v_{k+1}) and C_j =
+// area(v_{j−1}, v_j, v_{j+1}), divided by their sum. Lengths are scaled by the face's √area so that
+// the products of m − 2 areas stay representable.
 bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
-                     const Vec3& y, FaceCoordinates kind, std::span<double> out) {
+                     const Vec3& y, std::span<double> out) {
   const std::size_t m = face.loop.size();
   const double scale = 1.0 / std::sqrt(face.area);
   thread_local std::vector<Vec3> q;
@@ -313,7 +306,6 @@ bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> v
   for (std::size_t j = 0; j < m; ++j) a[j] = area(face.normal, q[j], q[(j + 1) % m]);
   prefix[0] = 1.0;
   for (std::size_t j = 0; j < m; ++j) prefix[j + 1] = prefix[j] * a[j];
-  const bool harmonic = kind == FaceCoordinates::DiscreteHarmonic && !face.cyclic;
   double sum = 0.0, suffix = 1.0;  // suffix = Π_{k > j} A_k
   for (std::size_t j = m; j-- > 0;) {
     double others;  // Π over k ∉ {j−1, j}
@@ -323,69 +315,12 @@ bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> v
     } else {
       others = prefix[j - 1] * suffix;
     }
-    const std::size_t prev = (j + m - 1) % m, next = (j + 1) % m;
-    double c = face.cornerArea[j] * scale * scale;
-    if (harmonic) {
-      const double b = area(face.normal, q[prev], q[next]);
-      c = glm::dot(q[next], q[next]) * a[prev] - glm::dot(q[j], q[j]) * b +
-          glm::dot(q[prev], q[prev]) * a[j];
-    }
-    out[j] = c * others;
+    out[j] = face.cornerArea[j] * scale * scale * others;
     sum += out[j];
     suffix *= a[j];
   }
   if (!(std::isfinite(sum) && sum != 0.0)) return false;
   for (std::size_t j = 0; j < m; ++j) out[j] /= sum;
-  return true;
-}
-
-// The product form differentiated term by term (∇A_k = ½ s n × (q_{k+1} − q_k), ∇|q_k|² =
-// −2 s q_k with s the scale), directly in O(m³): gradients are not the hot path.
-bool faceCoordinateGradients(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
-                             const Vec3& y, FaceCoordinates kind, std::span<Vec3> out) {
-  const std::size_t m = face.loop.size();
-  const double scale = 1.0 / std::sqrt(face.area);
-  const Vec3 n = face.normal;
-  std::vector<Vec3> q(m), da(m);
-  std::vector<double> a(m), value(m);
-  for (std::size_t j = 0; j < m; ++j) {
-    q[j] = (vertices[face.loop[j]] - y) * scale;
-    if (q[j] == Vec3(0.0)) return false;
-  }
-  for (std::size_t k = 0; k < m; ++k) {
-    a[k] = area(n, q[k], q[(k + 1) % m]);
-    da[k] = 0.5 * scale * glm::cross(n, q[(k + 1) % m] - q[k]);
-  }
-  const bool harmonic = kind == FaceCoordinates::DiscreteHarmonic && !face.cyclic;
-  double sum = 0.0;
-  Vec3 dsum(0.0);
-  for (std::size_t j = 0; j < m; ++j) {
-    const std::size_t prev = (j + m - 1) % m, next = (j + 1) % m;
-    double others = 1.0;
-    Vec3 dothers(0.0);
-    for (std::size_t k = 0; k < m; ++k) {
-      if (k == prev || k == j) continue;
-      dothers = dothers * a[k] + others * da[k];
-      others *= a[k];
-    }
-    double c = face.cornerArea[j] * scale * scale;
-    Vec3 dc(0.0);
-    if (harmonic) {
-      const double b = area(n, q[prev], q[next]);
-      const Vec3 db = 0.5 * scale * glm::cross(n, q[next] - q[prev]);
-      const double rn = glm::dot(q[next], q[next]), rj = glm::dot(q[j], q[j]),
-                   rp = glm::dot(q[prev], q[prev]);
-      c = rn * a[prev] - rj * b + rp * a[j];
-      dc = -2.0 * scale * (a[prev] * q[next] - b * q[j] + a[j] * q[prev]) + rn * da[prev] -
-           rj * db + rp * da[j];
-    }
-    value[j] = c * others;
-    out[j] = dc * others + c * dothers;
-    sum += value[j];
-    dsum += out[j];
-  }
-  if (!(std::isfinite(sum) && sum != 0.0)) return false;
-  for (std::size_t j = 0; j < m; ++j) out[j] = (out[j] - (value[j] / sum) * dsum) / sum;
   return true;
 }
 
@@ -418,8 +353,8 @@ SurfacePoint nearestSurfacePoint(const ConvexPolyhedron& poly, const Vec3& x) {
 }
 
 bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
-               ConvexOutsidePolicy policy, FaceCoordinates kind, InteriorRow interior,
-               const void* data, std::span<double> row) {
+               ConvexOutsidePolicy policy, InteriorRow interior, const void* data,
+               std::span<double> row) {
   thread_local std::vector<double> heights;
   heights.resize(poly.faces.size());
   double lowest = std::numeric_limits<double>::infinity();
@@ -436,11 +371,17 @@ bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
   const ConvexPolyhedron::Face& face = poly.faces[s.face];
   thread_local std::vector<double> local;
   local.resize(face.loop.size());
-  if (!faceCoordinates(face, poly.vertices, s.point, kind, local))
+  if (!faceCoordinates(face, poly.vertices, s.point, local))
     throw SolverError("convex cage coordinates: no surface coordinates at " + pointText(s.point));
   std::fill(row.begin(), row.end(), 0.0);
   for (std::size_t j = 0; j < face.loop.size(); ++j) row[face.loop[j]] = local[j];
   return true;
+}
+
+std::string vertexList(std::span<const std::uint32_t> vertices) {
+  std::string text;
+  for (std::uint32_t v : vertices) text += (text.empty() ? "" : ", ") + std::to_string(v);
+  return text;
 }
 
 std::string pointText(const Vec3& x) {

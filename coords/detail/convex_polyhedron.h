@@ -2,8 +2,10 @@
 // The convex polyhedron behind a convex cage, shared by the Wachspress and discrete harmonic
 // coordinates: the cage's adjacent coplanar faces merged into one planar face each (a
 // triangulated box becomes six quads), the face planes, the faces around every vertex, the 2D
-// coordinates of a face, the nearest surface point, and the row logic both coordinates follow
-// (interior closed form, surface coordinates within the snap distance, the outside policy).
+// Wachspress coordinates of a face, the nearest surface point, and the row logic both coordinates
+// follow (interior closed form, surface coordinates within the snap distance, the outside policy).
+// Discrete harmonic coordinates take simplicial polyhedra only, whose faces are triangles, where
+// the 2D coordinates of every kind are the barycentric ones.
 
 #include <cstddef>
 #include <cstdint>
@@ -16,9 +18,6 @@
 
 namespace spacewarp::detail {
 
-/// Which 2D coordinates a face of the polyhedron gets.
-enum class FaceCoordinates { Wachspress, DiscreteHarmonic };
-
 struct ConvexPolyhedron {
   struct Face {
     Vec3 normal{0.0};                   ///< unit, outward
@@ -26,7 +25,6 @@ struct ConvexPolyhedron {
     std::vector<std::uint32_t> loop;    ///< the corners, counter-clockwise seen from outside
     std::vector<double> cornerArea;     ///< per corner j: area(v_{j−1}, v_j, v_{j+1}) > 0
     double area = 0.0;                  ///< world units²
-    bool cyclic = false;                ///< corners on one circle (triangles always)
     std::vector<std::uint32_t> source;  ///< the cage faces merged into it
   };
   std::vector<Vec3> vertices;  ///< the cage's vertices
@@ -46,16 +44,16 @@ struct ConvexPolyhedron {
 ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method);
 inline constexpr double kConvexTolerance = 1e-9;
 
-/// The 2D coordinates (normalised, one per corner of `face`, into `out`) of y, a point of the
-/// face's plane; y may lie outside the polygon (the rational functions are continued there). False
-/// if their sum vanishes at y (a pole of the continued coordinates, never inside the polygon).
-bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
-                     const Vec3& y, FaceCoordinates kind, std::span<double> out);
+/// Throws InvalidInput, prefixed by `method` and the cage's name, unless every face of `poly`
+/// (built from `cage`) is a triangle, naming the first that is not: a cage face that is a polygon,
+/// or the coplanar cage faces that merge into one, with its corners.
+void checkSimplicial(const ConvexPolyhedron& poly, const Cage& cage, const char* method);
 
-/// The gradients ∇φ_j (per world unit, in the face's plane, into `out`) of the coordinates that
-/// faceCoordinates() gives at y. False at a corner and where their sum vanishes.
-bool faceCoordinateGradients(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
-                             const Vec3& y, FaceCoordinates kind, std::span<Vec3> out);
+/// The 2D Wachspress coordinates (normalised, one per corner of `face`, into `out`) of y, a point
+/// of the face's plane (barycentric on a triangle). Meant for y on the face; false if their sum
+/// vanishes at y (which happens only outside the polygon, where they are continued).
+bool faceCoordinates(const ConvexPolyhedron::Face& face, std::span<const Vec3> vertices,
+                     const Vec3& y, std::span<double> out);
 
 /// The point of the polyhedron's surface nearest to x, its face and its distance (0 on it).
 struct SurfacePoint {
@@ -75,8 +73,11 @@ using InteriorRow = void (*)(const void* data, const ConvexPolyhedron& poly, con
 /// the surface or outside with NearestPoint. Returns false (row unspecified) for a point outside
 /// under Throw.
 bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
-               ConvexOutsidePolicy policy, FaceCoordinates kind, InteriorRow interior,
-               const void* data, std::span<double> row);
+               ConvexOutsidePolicy policy, InteriorRow interior, const void* data,
+               std::span<double> row);
+
+/// "a, b, c" (vertex or face indices), for messages.
+std::string vertexList(std::span<const std::uint32_t> vertices);
 
 /// "(x, y, z)" with every digit, for messages.
 std::string pointText(const Vec3& x);

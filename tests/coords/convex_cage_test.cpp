@@ -41,7 +41,6 @@ TEST(ConvexCage, MergesCoplanarFacesIntoOnePolygon) {
   for (const auto& face : box.faces) {
     EXPECT_EQ(face.loop.size(), 4u);
     EXPECT_NEAR(face.area, 1.0, 1e-15);
-    EXPECT_TRUE(face.cyclic);
   }
   const detail::ConvexPolyhedron octa =
       detail::buildConvexPolyhedron(Cage(test::truncatedOctahedron()), "M");
@@ -62,10 +61,6 @@ TEST(ConvexCage, MergesCoplanarFacesIntoOnePolygon) {
                        glm::cross(octa.faces[r[1]].normal, octa.faces[r[2]].normal)),
               0.0);
   }
-  // An irregular pentagon is not cyclic.
-  const detail::ConvexPolyhedron penta =
-      detail::buildConvexPolyhedron(Cage(test::pentagonalPrism()), "M");
-  for (const auto& face : penta.faces) EXPECT_EQ(face.cyclic, face.loop.size() == 4);
 }
 
 TEST(ConvexCage, NamesTheReflexEdgeOfTheLPrism) {
@@ -134,6 +129,25 @@ TEST(ConvexCage, RejectsTheArmadilloCageNamingAReflexEdge) {
   EXPECT_THAT(message, HasSubstr("bounding_mesh.obj: the cage is not convex: the edge between "
                                  "vertices "));
   EXPECT_THAT(message, HasSubstr(") is reflex (turning inward by "));
+}
+
+// Discrete harmonic coordinates' check: convex, and every polytope face a triangle.
+TEST(ConvexCage, SimplicialCheckNamesThePolygonFace) {
+  auto error = [](const PolygonSoup& soup) {
+    return test::messageOf<InvalidInput>(
+        [&] { checkSimplicialConvexCage(Cage(soup, "c.obj"), "M"); });
+  };
+  for (const PolygonSoup& soup : {test::tetrahedron(), test::octahedron(), test::icosphere(2),
+                                  test::randomSphereHull(30, 5)}) {
+    EXPECT_EQ(error(soup), "");
+  }
+  const PolygonSoup box = test::convexBox(Vec3(0.0), Vec3(1.0));
+  EXPECT_THAT(error(box), HasSubstr("M: c.obj: face 0 (vertices "));
+  EXPECT_THAT(error(box), HasSubstr(") is a planar quad: discrete harmonic coordinates need"));
+  EXPECT_THAT(error(test::triangulated(box)),
+              HasSubstr("M: c.obj: the coplanar faces 0, 1 merge into a planar quad"));
+  EXPECT_THAT(error(test::hexagonalPrism()), HasSubstr("is a planar hexagon"));
+  EXPECT_THAT(error(test::pinchedBox(0.5)), HasSubstr("reflex"));  // convexity first
 }
 
 }  // namespace

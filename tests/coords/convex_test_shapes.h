@@ -95,6 +95,12 @@ inline PolygonSoup prism(const std::vector<glm::dvec2>& base) {
   return convexHull(points);
 }
 
+/// The regular octahedron with corners ±e_x, ±e_y, ±e_z (in that order): eight triangles.
+inline PolygonSoup octahedron() {
+  return convexHull({Vec3(1, 0, 0), Vec3(-1, 0, 0), Vec3(0, 1, 0), Vec3(0, -1, 0), Vec3(0, 0, 1),
+                     Vec3(0, 0, -1)});
+}
+
 /// The prism over a regular hexagon of circumradius 1: two hexagons, six squares.
 inline PolygonSoup hexagonalPrism() {
   std::vector<glm::dvec2> base;
