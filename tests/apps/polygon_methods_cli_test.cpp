@@ -192,5 +192,25 @@ TEST_F(PolygonMethodsTest, OutsideAppliesToTheMethodsWithAnOutsidePolicyOnly) {
                                   "discrete-harmonic only, not to --method qmvc"));
 }
 
+// spacewarp info describes each new rig, with the outside policy of the convex ones.
+TEST_F(PolygonMethodsTest, InfoDescribesTheNewRigs) {
+  const std::pair<const char*, const char*> expected[] = {
+      {"qmvc", "mean-value coordinates of polygon and quad faces"},
+      {"qgc", "Green coordinates of triangle and quad faces"},
+      {"wachspress", "Wachspress coordinates of a convex cage"},
+      {"discrete-harmonic", "discrete harmonic coordinates of a convex cage"}};
+  for (const auto& [method, what] : expected) {
+    json rig = {{"method", method}, {"cage", "convex.obj"}, {"pose", "convex_pose.obj"}};
+    if (needsConvex(method)) rig["outside"] = "nearest";
+    const CliResult r = run("info " + write("rig.json", rig.dump()).string());
+    ASSERT_EQ(r.exitCode, 0) << method << ": " << r.err;
+    EXPECT_THAT(r.out, HasSubstr(std::string(method) + " (" + what + ")"));
+    EXPECT_THAT(r.out, HasSubstr("8 vertices"));
+    if (needsConvex(method)) {
+      EXPECT_THAT(r.out, HasSubstr("nearest")) << method;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace spacewarp
