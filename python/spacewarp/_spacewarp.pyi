@@ -360,7 +360,9 @@ class Binding:
 
 class Cage:
     """A closed, outward-oriented cage: vertices (V, 3) world units and polygons (an (F, k)
-    integer array, or a list of index lists for mixed sizes), triangulated for the methods.
+    integer array, or a list of index lists for mixed sizes). The polygons are kept (faces) for
+    QuadMeanValue, QuadGreen, Wachspress and DiscreteHarmonic, and triangulated (triangles) for
+    MeanValue, Green and Harmonic.
     Raises InvalidInput naming the element for an open, non-manifold or degenerate cage.
     """
 
@@ -1536,7 +1538,9 @@ def cage_coordinates(
     outside: Literal["raise", "nearest"] = "raise",
     progress: _Progress = None,
 ) -> Coordinates:
-    """The coordinates of a cage method by its CLI name (see cage_methods())."""
+    """The coordinates of a cage method by its CLI name (see cage_methods()). tets, precision and
+    cache: harmonic's; outside: harmonic's, wachspress's and discrete-harmonic's.
+    """
 
 
 def cage_from_bytes(data: bytes | bytearray | memoryview | NDArray[np.uint8]) -> Cage:

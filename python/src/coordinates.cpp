@@ -66,7 +66,9 @@ void bindCage(py::module_& m) {
   py::class_<Cage, std::shared_ptr<Cage>>(
       m, "Cage",
       R"(A closed, outward-oriented cage: vertices (V, 3) world units and polygons (an (F, k)
-integer array, or a list of index lists for mixed sizes), triangulated for the methods.
+integer array, or a list of index lists for mixed sizes). The polygons are kept (faces) for
+QuadMeanValue, QuadGreen, Wachspress and DiscreteHarmonic, and triangulated (triangles) for
+MeanValue, Green and Harmonic.
 Raises InvalidInput naming the element for an open, non-manifold or degenerate cage.)")
       .def(py::init(&makeCage), "vertices"_a, "faces"_a, py::kw_only(), "name"_a = "cage")
       .def_static(
@@ -447,7 +449,8 @@ tets, else solved and saved there. outside: "raise" or "nearest" for points outs
       },
       "method"_a, "cage"_a, py::kw_only(), "tets"_a = 0, "precision"_a = 0.0,
       "cache"_a = py::none(), "outside"_a = "raise", "progress"_a = py::none(),
-      "The coordinates of a cage method by its CLI name (see cage_methods()).");
+      "The coordinates of a cage method by its CLI name (see cage_methods()). tets, precision "
+      "and cache: harmonic's; outside: harmonic's, wachspress's and discrete-harmonic's.");
   m.def("cage_methods", &cageMethods,
         "The cage methods of this build, sorted: \"discrete-harmonic\", \"green\", \"harmonic\" "
         "(with TetGen), \"mvc\", \"qgc\", \"qmvc\", \"wachspress\".");
