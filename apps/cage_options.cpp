@@ -1,7 +1,9 @@
 #include "apps/cage_options.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 #ifdef SPACEWARP_HAVE_HARMONIC
 #include <spacewarp/coords/harmonic.h>
@@ -9,9 +11,35 @@
 
 namespace spacewarp::cli {
 
-// The help group of the harmonic method's options, also how checkCageMethodOptions finds them.
 namespace {
+
 const char* const kHarmonicGroup = "Options of --method harmonic";
+const char* const kOutsideGroup = "Options of --method harmonic, wachspress, discrete-harmonic";
+
+// The methods that read each option of addCageMethodOptions, by its name (edit regroups them).
+struct OptionUse {
+  const char* option;
+  const char* rigKey;  // what sets it in a rig
+  std::vector<std::string> methods;
+};
+const std::vector<OptionUse>& optionUses() {
+  static const std::vector<OptionUse> uses = {
+      {"--tets", "tets", {"harmonic"}},
+      {"--precision", "precision", {"harmonic"}},
+      {"--harmonic-cache", "cache", {"harmonic"}},
+      {"--outside", "outside", {"harmonic", "wachspress", "discrete-harmonic"}},
+  };
+  return uses;
+}
+
+// "a, b or c"
+std::string alternatives(const std::vector<std::string>& names) {
+  std::string text;
+  for (std::size_t k = 0; k < names.size(); ++k)
+    text += (k == 0 ? "" : k + 1 == names.size() ? " or " : ", ") + names[k];
+  return text;
+}
+
 }  // namespace
 
 void addCageMethodOptions(CLI::App* command, CageMethodOptions& options) {
@@ -46,28 +74,33 @@ void addCageMethodOptions(CLI::App* command, CageMethodOptions& options) {
                    "harmonic: solved-coordinate file, loaded if it matches the cage and --tets, "
                    "otherwise solved and written")
       ->group(kHarmonicGroup);
-  command
-      ->add_option("--outside", options.harmonicOutside,
-                   "harmonic: points outside the cage raise an error or take the coordinates of "
-                   "the nearest cage point")
-      ->check(CLI::IsMember({"raise", "nearest"}))
-      ->group(kHarmonicGroup);
-#else
-  (void)command;
-  (void)options;
 #endif
+  command
+      ->add_option("--outside", options.outside,
+                   "harmonic, wachspress, discrete-harmonic: points outside the cage raise an "
+                   "error or take the coordinates of the nearest cage point")
+      ->check(CLI::IsMember({"raise", "nearest"}))
+      ->group(kOutsideGroup);
 }
 
 void checkCageMethodOptions(const CLI::App& command, const std::string& method,
                             const std::string& flag) {
-  if (method == "harmonic") return;
-  for (const CLI::Option* option : command.get_options()) {
-    if (option->get_group() != kHarmonicGroup || option->count() == 0) continue;
+  std::vector<std::string> methods;  // compare's --methods is a comma-separated list
+  for (std::size_t begin = 0; begin <= method.size();) {
+    const std::size_t end = std::min(method.find(',', begin), method.size());
+    methods.push_back(method.substr(begin, end - begin));
+    begin = end + 1;
+  }
+  for (const OptionUse& use : optionUses()) {
+    const CLI::Option* option = command.get_option_no_throw(use.option);
+    if (option == nullptr || option->count() == 0) continue;
+    if (std::find_first_of(methods.begin(), methods.end(), use.methods.begin(),
+                           use.methods.end()) != methods.end())
+      continue;
     throw CLI::ValidationError(
-        option->get_name() + " applies to --method harmonic only" +
-        (method.empty()
-             ? " (with --rig, a harmonic rig's keys tets, precision, cache and outside set it)"
-             : ", not to " + flag + " " + method));
+        option->get_name() + " applies to --method " + alternatives(use.methods) + " only" +
+        (method.empty() ? " (with --rig, the rig's key " + std::string(use.rigKey) + " sets it)"
+                        : ", not to " + flag + " " + method));
   }
 }
 

@@ -13,8 +13,10 @@ namespace spacewarp::cli {
 void addCageMethodOptions(CLI::App* command, CageMethodOptions& options);
 
 /// Throws a usage error (exit 2) naming the first option of addCageMethodOptions given on
-/// `command` that `method` does not use; `method` "" stands for a rig, whose keys set them.
-/// `flag`: the option that named the method(s), for the message (compare passes --methods).
+/// `command` that `method` does not use (--outside: harmonic, wachspress, discrete-harmonic; the
+/// others: harmonic); `method` "" stands for a rig, whose keys set them, and a comma-separated
+/// list (compare's --methods) uses an option if any of its methods does. `flag`: the option that
+/// named the method(s), for the message.
 void checkCageMethodOptions(const CLI::App& command, const std::string& method,
                             const std::string& flag = "--method");
 

@@ -46,6 +46,9 @@ struct Method {
   // column count, known before they are made.
   std::function<double(const Cage&, const CageMethodOptions&)> memory;
   std::function<std::size_t(const Cage&)> columns;
+  // Throws InvalidInput, saying why, if the method cannot take the cage (a non-convex cage for
+  // wachspress); by default it takes any.
+  std::function<void(const Cage&)> applies = [](const Cage&) {};
 };
 
 // The lattice of the "ffd" method.
@@ -65,10 +68,8 @@ std::map<std::string, Method> methodTable() {
     method.memory = [name](const Cage& cage, const CageMethodOptions& options) {
       return cageCoordinatesMemory(name, cage, options);
     };
-    // Green coordinates have a column per face besides the vertices'.
-    method.columns = [name](const Cage& cage) {
-      return cage.vertexCount() + (name == "green" ? cage.triangleCount() : 0);
-    };
+    method.columns = [name](const Cage& cage) { return cageCoordinatesColumns(name, cage); };
+    method.applies = [name](const Cage& cage) { checkCageMethodApplies(name, cage); };
   }
   Method& rbf = table["rbf"];
   rbf.description = "triharmonic RBF coordinates, one handle per cage vertex";
@@ -351,6 +352,31 @@ std::vector<std::string> checkRequest(const CompareRequest& request,
   return methods;
 }
 
+/// The methods that run on `cage`: every one the request names, which must all take it (else
+/// InvalidInput, e.g. naming a reflex edge), or by default every method that takes it, with a
+/// note per method left out.
+std::vector<std::string> methodsForCage(const std::vector<std::string>& methods,
+                                        const CompareRequest& request,
+                                        const std::map<std::string, Method>& table,
+                                        const Cage& cage, const CliContext& context,
+                                        json& leftOut) {
+  if (!request.methods.empty()) {
+    for (const std::string& name : methods) table.at(name).applies(cage);
+    return methods;
+  }
+  std::vector<std::string> run;
+  for (const std::string& name : methods) {
+    try {
+      table.at(name).applies(cage);
+      run.push_back(name);
+    } catch (const InvalidInput& e) {
+      leftOut.push_back({{"name", name}, {"reason", e.what()}});
+      context.say("compare: leaving " + name + " out of the default methods: " + e.what());
+    }
+  }
+  return run;
+}
+
 /// The pixels of the slice inside the cage: the only places where every method is defined.
 struct InsidePixels {
   std::vector<Vec3> points;        ///< pixel centers, world units
@@ -574,10 +600,13 @@ json reportJson(const CompareRequest& request, const Cage& cage, const Slice& sl
 
 json runComparison(const CompareRequest& request, const CliContext& context) {
   const std::map<std::string, Method> table = methodTable();
-  const std::vector<std::string> methods = checkRequest(request, table);
+  const std::vector<std::string> requested = checkRequest(request, table);
   checkOutputFolder(request.output);  // before the work, and again before the write
 
   auto cage = std::make_shared<const Cage>(Cage::fromFile(request.cage));
+  json leftOut = json::array();
+  const std::vector<std::string> methods =
+      methodsForCage(requested, request, table, *cage, context, leftOut);
   if (request.control >= cage->vertexCount())
     throw InvalidInput(request.cage.string() + ": control " + std::to_string(request.control) +
                        " is out of range (the cage has " + std::to_string(cage->vertexCount()) +
@@ -601,8 +630,9 @@ json runComparison(const CompareRequest& request, const CliContext& context) {
   const std::vector<Image> images =
       methodImages(results, *cage, request, slice, inside.pixel, scale, textScale);
   const SideBySide strip = sideBySide(results, images, slice, scale, textScale);
-  const json report = reportJson(request, *cage, slice, inside.points.size(), scale, strip,
-                                 samples.size(), results);
+  json report = reportJson(request, *cage, slice, inside.points.size(), scale, strip,
+                           samples.size(), results);
+  report["leftOutMethods"] = leftOut;
 
   // Everything is computed: only now touch the output folder, replaced as a whole, so that a
   // failure or an interruption leaves the previous comparison complete.

@@ -21,7 +21,7 @@ std::vector<std::string> compareMethods();
 
 struct CompareRequest {
   std::filesystem::path cage;        ///< rest cage file
-  std::vector<std::string> methods;  ///< names from compareMethods(); empty = all of them
+  std::vector<std::string> methods;  ///< names from compareMethods(); empty = all that apply
   Vec3 planePoint{0.0};              ///< a point of the slice plane, world units
   Vec3 planeNormal{0.0, 0.0, 1.0};   ///< its normal (any length > 0)
   std::size_t control = 0;           ///< the cage vertex whose coordinate function is drawn
@@ -49,8 +49,13 @@ struct CompareRequest {
 /// that succeeded, and a warning line per failed method goes to stderr (even when quiet).
 /// Cancelled still stops everything, writing nothing.
 ///
-/// Throws InvalidInput for an unknown or repeated method, a control index out of range, or a
-/// plane that misses the cage, and whatever reading the cage throws; nothing is written then.
+/// Without request.methods, every method that takes the cage runs (checkCageMethodApplies():
+/// wachspress and discrete-harmonic need a convex cage, qgc triangle and quad faces); each one
+/// left out is a note (context.say) and an entry {"name", "reason"} of "leftOutMethods".
+///
+/// Throws InvalidInput for an unknown or repeated method, a method named in request.methods that
+/// cannot take the cage (naming e.g. the reflex edge), a control index out of range, or a plane
+/// that misses the cage, and whatever reading the cage throws; nothing is written then.
 nlohmann::json runComparison(const CompareRequest& request, const CliContext& context);
 
 }  // namespace spacewarp::cli

@@ -10,6 +10,8 @@
 #include <map>
 #include <numbers>
 
+#include <spacewarp/coords/cage.h>
+#include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/rig/cage_rig.h>
@@ -90,6 +92,12 @@ DemoControls writeControls(const fs::path& dir) {
   for (Vec3& p : pose.positions) p = sway(p);
   writeSoup(cage, dir / "cage.obj");
   writeSoup(pose, dir / "cage_pose.obj");
+  // The same box unpinched and undivided (every vertex a corner), for the methods that need a
+  // convex cage (wachspress, discrete-harmonic).
+  PolygonSoup convex = makeBoxSurface(kBarLo - 0.2, kBarHi + 0.2, {1, 1, 1});
+  writeSoup(convex, dir / "convex_cage.obj");
+  for (Vec3& p : convex.positions) p = sway(p);
+  writeSoup(convex, dir / "convex_cage_pose.obj");
 
   // A Bernstein lattice around the cage and handles at the cage's vertices, swayed alike.
   controls.boxLo = kBarLo - 0.25;
@@ -198,14 +206,24 @@ std::map<std::string, json> demoRigs(const DemoControls& controls) {
         {"handles",
          {{-0.3, 0, kBarLo.z}, {0.3, 0, kBarLo.z}, {0, -0.3, kBarHi.z}, {0, 0.3, kBarHi.z}}}};
   }
-  for (const std::string& method : cageMethods())
-    rigs[method] = {{"method", method}, {"cage", "cage.obj"}, {"pose", "cage_pose.obj"}};
-  // The volume's inverse is seeded from a coarse lattice that may reach past the cage; 100k
-  // tets are plenty for this cage (the default aims at detailed cages like the armadillo's).
-  if (rigs.count("harmonic")) {
-    rigs["harmonic"]["outside"] = "nearest";
-    rigs["harmonic"]["tets"] = 100000;
+  // Each cage method on the pinched cage, or on the convex box where it needs a convex cage.
+  const Cage pinched(controls.cage, "cage.obj");
+  for (const std::string& method : cageMethods()) {
+    bool takesPinched = true;
+    try {
+      checkCageMethodApplies(method, pinched);
+    } catch (const InvalidInput&) {
+      takesPinched = false;
+    }
+    const std::string prefix = takesPinched ? "cage" : "convex_cage";
+    rigs[method] = {{"method", method}, {"cage", prefix + ".obj"}, {"pose", prefix + "_pose.obj"}};
   }
+  // The volume's inverse is seeded from a coarse lattice that may reach past the cage: the
+  // methods defined inside only take the nearest cage point's coordinates there. 100k tets are
+  // plenty for this cage (the default aims at detailed cages like the armadillo's).
+  for (const char* method : {"harmonic", "wachspress", "discrete-harmonic"})
+    if (rigs.count(method)) rigs[method]["outside"] = "nearest";
+  if (rigs.count("harmonic")) rigs["harmonic"]["tets"] = 100000;
   // MLS weighted by distances inside the bar (which needs OpenVDB): handles on four lines along
   // the bar, inside it. The bar is convex, so this is close to "mls"; the fingers show the
   // difference (demoFingers).

@@ -221,8 +221,10 @@ SurfaceEditOptions editOptions(const EditArgs& args) {
   return o;
 }
 
+// `normalTerms`: set when the cage coordinates have columns besides the vertices' (Green's face
+// normals), which cage-arap keeps at rest.
 SurfaceEdit editWith(const EditArgs& args, const SurfaceMesh& mesh, const VertexConstraints& c,
-                     const CliContext& context) {
+                     const CliContext& context, bool& normalTerms) {
   const ProgressCallback progress = context.progress();
   SurfaceEditOptions options = editOptions(args);
   std::string controls;  // cage-arap: the coordinates of the cage or of the lattice
@@ -232,6 +234,7 @@ SurfaceEdit editWith(const EditArgs& args, const SurfaceMesh& mesh, const Vertex
       options.coordinates = namingFile(args.cage, [&] {
         return cageCoordinates(args.coordinates, cage, args.cageOptions, progress);
       });
+      normalTerms = options.coordinates->columnCount() > options.coordinates->controlPointCount();
       controls =
           args.coordinates + " coordinates of " + countedVertices(cage->vertexCount(), "cage ");
     } else {
@@ -335,23 +338,24 @@ void runEdit(const EditArgs& args, const CliContext& context) {
   const VertexConstraints constraints = readConstraints(args.handles, soup, mesh);
   warnAboutTheMesh(args.model, mesh, context);
 
-  const SurfaceEdit edited = editWith(args, mesh, constraints, context);
+  bool normalTerms = false;
+  const SurfaceEdit edited = editWith(args, mesh, constraints, context, normalTerms);
   applyEdit(soup, mesh, edited.positions);
-  if (args.method == "cage-arap" && args.lattice.empty() && args.coordinates == "green")
-    context.warn(
-        "--coordinates green: cage-arap moves Green's vertex terms only (the face "
-        "normals' terms stay at rest), so it does not reproduce rotations exactly; mvc "
-        "and harmonic do");
+  if (normalTerms)
+    context.warn("--coordinates " + args.coordinates +
+                 ": cage-arap moves the vertex terms only (the face normals' terms stay at "
+                 "rest), so it does not reproduce rotations exactly; mvc and harmonic do");
   writeSoupFile(soup, args.output, args.ascii, context);
   if (!args.latticeOut.empty()) writePosedLattice(args, edited.controlPoints);
   if (!args.cageOut.empty()) {
     writePosedCage(args, restCage, edited.controlPoints, context);
     // The edit keeps Green's face-normal columns at rest; a Green deform of the posed cage
     // recomputes them from it.
-    if (args.coordinates == "green")
-      context.warn("--cage-out " + args.cageOut +
-                   ": with --coordinates green, `deform --method green` of this pose does not "
-                   "reproduce the edit exactly (the edit keeps the face normals' terms at rest)");
+    if (normalTerms)
+      context.warn("--cage-out " + args.cageOut + ": with --coordinates " + args.coordinates +
+                   ", `deform --method " + args.coordinates +
+                   "` of this pose does not reproduce the edit exactly (the edit keeps the face "
+                   "normals' terms at rest)");
   }
   warnNotKept(args.model, soup, context);
 
@@ -478,10 +482,12 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
   const std::vector<CLI::Option*> harmonic =
       optionsAddedBy(cmd, [&] { addCageMethodOptions(cmd, args->cageOptions); });
   for (CLI::Option* option : harmonic)
-    option->group("Options of --method cage-arap --coordinates harmonic");
+    option->group(
+        "Options of --method cage-arap --coordinates harmonic (--outside: also wachspress, "
+        "discrete-harmonic)");
   CLI::Option* cageOption = cageOnly.front();
 
-  cmd->callback([args, asciiOption, iterative, harmonic, cageOnly, cageOption] {
+  cmd->callback([args, cmd, asciiOption, iterative, harmonic, cageOnly, cageOption] {
     if (fileKind(args->model) == FileKind::Volume)
       throw CLI::ValidationError(args->model + ": edit takes a surface mesh (.obj, .off, .ply)");
     checkConversion(args->model, args->output);
@@ -492,7 +498,7 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
       rejectGiven(iterative, "applies to --method arap and cage-arap only, not to " + method);
     if (args->method != "cage-arap") {
       rejectGiven(cageOnly, "applies to --method cage-arap only, not to " + method);
-      rejectGiven(harmonic, "applies to --method cage-arap --coordinates harmonic only");
+      rejectGiven(harmonic, "applies to --method cage-arap with --coordinates that take it only");
       return;
     }
     if (!args->lattice.empty()) {
@@ -502,7 +508,7 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
         if (option->count() > 0 &&
             (option->get_name() == "--coordinates" || option->get_name() == "--cage-out"))
           throw CLI::ValidationError(option->get_name() + " applies to --cage, not to --lattice");
-      rejectGiven(harmonic, "applies to --cage with --coordinates harmonic, not to --lattice");
+      rejectGiven(harmonic, "applies to --cage with --coordinates that take it, not to --lattice");
       if (!args->latticeOut.empty() && lowerExtension(args->latticeOut) != ".json")
         throw CLI::ValidationError("--lattice-out " + args->latticeOut +
                                    ": the posed lattice is an ffd rig, written as .json");
@@ -512,9 +518,7 @@ Command addEditCommand(CLI::App& app, const CliContext& context) {
       throw CLI::RequiredError("--cage (or --lattice; --method cage-arap needs its controls)");
     if (!args->latticeOut.empty())
       throw CLI::ValidationError("--lattice-out applies to --lattice, not to --cage");
-    if (args->coordinates != "harmonic")
-      rejectGiven(harmonic, "applies to --coordinates harmonic only, not to --coordinates " +
-                                args->coordinates);
+    checkCageMethodOptions(*cmd, args->coordinates, "--coordinates");
     if (!args->cageOut.empty()) {
       checkConversion(args->cage, args->cageOut);
       std::error_code error;

@@ -1,6 +1,7 @@
 #include "apps/rig_info.h"
 
 #include <cstdio>
+#include <map>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -19,6 +20,20 @@ using nlohmann::json;
 // A value as the rig gives it: strings bare, anything else as compact JSON.
 std::string text(const json& value) {
   return value.is_string() ? value.get<std::string>() : value.dump();
+}
+
+// What the coordinates of each cage method are, by rig method.
+const std::map<std::string, std::string>& cageCoordinateNames() {
+  static const std::map<std::string, std::string> names = {
+      {"mvc", "mean-value coordinates"},
+      {"green", "Green coordinates"},
+      {"harmonic", "harmonic coordinates"},
+      {"qmvc", "mean-value coordinates of polygon and quad faces"},
+      {"qgc", "Green coordinates of triangle and quad faces"},
+      {"wachspress", "Wachspress coordinates of a convex cage"},
+      {"discrete-harmonic", "discrete harmonic coordinates of a convex cage"},
+  };
+  return names;
 }
 
 // Reads the keys of one rig loosely, for display: what is missing or odd is shown, not judged.
@@ -42,7 +57,7 @@ class Describer {
       line("method", "affine");
       line("matrix", get("matrix"));
       line("does", "applies the row-major 4 x 4 matrix to every point: x' = M [x, 1]");
-    } else if (method == "mvc" || method == "green" || method == "harmonic") {
+    } else if (cageCoordinateNames().count(method)) {
       cage(method);
     } else if (method == "ffd") {
       ffd();
@@ -223,9 +238,7 @@ class Describer {
 
   // Cage rigs: the cage files are read (not solved) for their counts.
   void cage(const std::string& method) const {
-    const char* what = method == "mvc"     ? "mean-value coordinates"
-                       : method == "green" ? "Green coordinates"
-                                           : "harmonic coordinates";
+    const std::string& what = cageCoordinateNames().at(method);
     line("method", method + " (" + what + ")");
     std::size_t vertices = 0;
     for (const char* key : {"cage", "pose"}) {
@@ -239,10 +252,12 @@ class Describer {
                     groupDigits(soup.polygonCount()) + " faces)");
       if (std::string(key) == "cage") vertices = soup.size();
     }
-    std::string does = "moves every point with the cage: its " + std::string(what) +
+    std::string does = "moves every point with the cage: its " + what +
                        " relative to the rest cage's " + groupDigits(vertices) +
                        " vertices, applied to the posed vertices";
-    if (method == "green") does += " (and the faces' normals: shape-preserving)";
+    if (method == "green" || method == "qgc") does += " (and the faces' normals: shape-preserving)";
+    if (method == "wachspress" || method == "discrete-harmonic")
+      line("outside", get("outside", "raise"));
     if (method == "harmonic") {
       if (rig_.contains("precision"))
         line("precision", get("precision", "") + " (a target tet count, see --precision)");

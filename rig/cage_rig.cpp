@@ -8,11 +8,16 @@
 
 #include <tbb/global_control.h>
 
+#include <spacewarp/coords/convex_cage.h>
+#include <spacewarp/coords/discrete_harmonic.h>
 #include <spacewarp/coords/green.h>
 #ifdef SPACEWARP_HAVE_HARMONIC
 #include <spacewarp/coords/harmonic.h>
 #endif
 #include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/quad_green.h>
+#include <spacewarp/coords/quad_mean_value.h>
+#include <spacewarp/coords/wachspress.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rig/detail/harmonic_rig.h>
 
@@ -33,6 +38,43 @@ double cageKernelMemory(const Cage& cage) {
   return 200.0 * elements + 1024.0 * elements * threads;
 }
 
+// The --outside / "outside" option, for the methods that have the choice: nearest or not.
+bool outsideNearest(const CageMethodOptions& options) {
+  if (options.outside != "raise" && options.outside != "nearest")
+    throw InvalidInput("--outside must be 'raise' or 'nearest', not '" + options.outside + "'");
+  return options.outside == "nearest";
+}
+
+// Wachspress and discrete harmonic coordinates, whose options share the outside policy.
+template <class Coords, class Options>
+std::shared_ptr<const Coordinates> convexCoordinates(std::shared_ptr<const Cage> cage,
+                                                     const CageMethodOptions& options,
+                                                     const ProgressCallback&) {
+  Options own;
+  own.outside =
+      outsideNearest(options) ? ConvexOutsidePolicy::NearestPoint : ConvexOutsidePolicy::Throw;
+  return std::make_shared<Coords>(std::move(cage), own);
+}
+
+// Columns of the coordinates whose only controls are the cage vertices.
+std::size_t vertexColumns(const Cage& cage) { return cage.vertexCount(); }
+
+// QuadGreenCoordinates' columns: the vertices, one normal per triangle face, four per quad face.
+std::size_t quadGreenColumns(const Cage& cage) {
+  std::size_t columns = cage.vertexCount();
+  for (std::size_t f = 0; f < cage.faceCount(); ++f) columns += cage.face(f).size() == 3 ? 1 : 4;
+  return columns;
+}
+
+// Refuses the faces QuadGreenCoordinates cannot take (more than four vertices), naming the first.
+void checkTriQuadFaces(const Cage& cage) {
+  for (std::size_t f = 0; f < cage.faceCount(); ++f)
+    if (cage.face(f).size() > 4)
+      throw InvalidInput(cage.name() + ": qgc takes triangle and quad faces only, but face " +
+                         std::to_string(f) + " has " + std::to_string(cage.face(f).size()) +
+                         " vertices");
+}
+
 #ifdef SPACEWARP_HAVE_HARMONIC
 HarmonicOptions harmonicOptions(const CageMethodOptions& options) {
   HarmonicOptions harmonic;
@@ -41,12 +83,7 @@ HarmonicOptions harmonicOptions(const CageMethodOptions& options) {
   if (options.harmonicTets > 0) harmonic.targetTetCount = options.harmonicTets;
   if (options.harmonicPrecision != 0)
     harmonic.targetTetCount = harmonicPrecisionTets(options.harmonicPrecision);
-  if (options.harmonicOutside == "nearest") {
-    harmonic.outside = HarmonicOutsidePolicy::NearestPoint;
-  } else if (options.harmonicOutside != "raise") {
-    throw InvalidInput("--outside must be 'raise' or 'nearest', not '" + options.harmonicOutside +
-                       "'");
-  }
+  if (outsideNearest(options)) harmonic.outside = HarmonicOutsidePolicy::NearestPoint;
   return harmonic;
 }
 
@@ -88,21 +125,50 @@ std::shared_ptr<const Coordinates> harmonicCoordinates(std::shared_ptr<const Cag
 }
 #endif
 
+// A method: how to make its coordinates, their peak memory (cageCoordinatesMemory()), their
+// column count before they are made, and which cages it refuses (nothing: any cage).
 struct Factory {
   std::function<std::shared_ptr<const Coordinates>(
       std::shared_ptr<const Cage>, const CageMethodOptions&, const ProgressCallback&)>
       make;
   std::function<double(const Cage&, const CageMethodOptions&)> memory;
+  std::function<std::size_t(const Cage&)> columns = vertexColumns;
+  std::function<void(const Cage&)> check = [](const Cage&) {};
 };
 
+// A closed-form method without options.
+template <class Coords>
+std::shared_ptr<const Coordinates> plainCoordinates(std::shared_ptr<const Cage> cage,
+                                                    const CageMethodOptions&,
+                                                    const ProgressCallback&) {
+  return std::make_shared<Coords>(std::move(cage));
+}
+
+// Taken to be cageKernelMemory() for every closed-form method: the polygon and convex methods
+// precompute per vertex and face as mvc and green do (not yet measured separately).
+double closedFormMemory(const Cage& cage, const CageMethodOptions&) {
+  return cageKernelMemory(cage);
+}
+
 const std::map<std::string, Factory>& factories() {
+  const auto convex = [](const char* name) {
+    return [name](const Cage& cage) { checkConvexCage(cage, name); };
+  };
   static const std::map<std::string, Factory> table = {
-      {"mvc",
-       {[](auto cage, auto&, auto&) { return std::make_shared<MeanValueCoordinates>(cage); },
-        [](const Cage& cage, auto&) { return cageKernelMemory(cage); }}},
+      {"mvc", {plainCoordinates<MeanValueCoordinates>, closedFormMemory}},
       {"green",
-       {[](auto cage, auto&, auto&) { return std::make_shared<GreenCoordinates>(cage); },
-        [](const Cage& cage, auto&) { return cageKernelMemory(cage); }}},
+       {plainCoordinates<GreenCoordinates>, closedFormMemory,
+        [](const Cage& cage) { return cage.vertexCount() + cage.triangleCount(); }}},
+      {"qmvc", {plainCoordinates<QuadMeanValueCoordinates>, closedFormMemory}},
+      {"qgc",
+       {plainCoordinates<QuadGreenCoordinates>, closedFormMemory, quadGreenColumns,
+        checkTriQuadFaces}},
+      {"wachspress",
+       {convexCoordinates<WachspressCoordinates, WachspressOptions>, closedFormMemory,
+        vertexColumns, convex("wachspress")}},
+      {"discrete-harmonic",
+       {convexCoordinates<DiscreteHarmonicCoordinates, DiscreteHarmonicOptions>, closedFormMemory,
+        vertexColumns, convex("discrete-harmonic")}},
 #ifdef SPACEWARP_HAVE_HARMONIC
       {"harmonic",
        {harmonicCoordinates,
@@ -139,6 +205,14 @@ std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
   return factory(method).make(std::move(cage), options, progress);
 }
 
+void checkCageMethodApplies(const std::string& method, const Cage& cage) {
+  factory(method).check(cage);
+}
+
+std::size_t cageCoordinatesColumns(const std::string& method, const Cage& cage) {
+  return factory(method).columns(cage);
+}
+
 double cageCoordinatesMemory(const std::string& method, const Cage& cage,
                              const CageMethodOptions& options) {
   return factory(method).memory(cage, options);
@@ -165,17 +239,29 @@ namespace {
 Rig cageRigOf(const RigReader& reader, const std::string& method, const std::filesystem::path& cage,
               const std::filesystem::path& pose, const CageMethodOptions& options) {
   if (reader.checking()) {
-    Cage::fromFile(cage).posedVerticesFromFile(pose);
+    const Cage rest = Cage::fromFile(cage);
+    rest.posedVerticesFromFile(pose);
+    namingFile(cage.string(), [&] { checkCageMethodApplies(method, rest); });
     return {};
   }
   return cageRig(method, cage, pose, options);
+}
+
+// The "outside" key, where the method's key list allows it.
+void readOutside(RigReader& reader, CageMethodOptions& options) {
+  if (!reader.has("outside")) return;
+  options.outside = reader.string("outside");
+  if (options.outside != "raise" && options.outside != "nearest")
+    reader.fail("outside", "must be \"raise\" or \"nearest\"");
 }
 
 }  // namespace
 
 Rig cageRig(RigReader& reader, const std::string& method) {
   const std::filesystem::path cage = reader.path("cage"), pose = reader.path("pose");
-  return cageRigOf(reader, method, cage, pose, {});
+  CageMethodOptions options;
+  readOutside(reader, options);
+  return cageRigOf(reader, method, cage, pose, options);
 }
 
 Rig harmonicRig(RigReader& reader) {
@@ -198,11 +284,7 @@ Rig harmonicRig(RigReader& reader) {
     options.harmonicPrecision = precision;
   }
   if (reader.has("cache")) options.harmonicCache = reader.path("cache");
-  if (reader.has("outside")) {
-    options.harmonicOutside = reader.string("outside");
-    if (options.harmonicOutside != "raise" && options.harmonicOutside != "nearest")
-      reader.fail("outside", "must be \"raise\" or \"nearest\"");
-  }
+  readOutside(reader, options);
   return cageRigOf(reader, "harmonic", cage, pose, options);
 #else
   reader.fail("method",

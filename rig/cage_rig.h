@@ -1,6 +1,7 @@
 #pragma once
-// The cage-coordinate methods by name ("mvc", "green", "harmonic"), as rigs and the command
-// line use them. Adding a method is one line in cage_rig.cpp.
+// The cage-coordinate methods by name ("mvc", "green", "harmonic", "qmvc", "qgc", "wachspress",
+// "discrete-harmonic"), as rigs and the command line use them. Adding a method is one line in
+// cage_rig.cpp.
 
 #include <filesystem>
 #include <memory>
@@ -19,7 +20,8 @@ namespace spacewarp {
 std::vector<std::string> cageMethods();
 
 /// Options of the cage methods that have any (the command line's --tets, --precision,
-/// --harmonic-cache and --outside; a harmonic rig's keys tets, precision, cache and outside).
+/// --harmonic-cache and --outside; a harmonic rig's keys tets, precision, cache and outside, and
+/// the wachspress and discrete-harmonic rigs' key outside).
 struct CageMethodOptions {
   /// harmonic (--tets): the target tet count of the tetrahedralisation; 0 keeps the library's
   /// default (HarmonicOptions::targetTetCount, about 200k tets).
@@ -29,9 +31,10 @@ struct CageMethodOptions {
   /// otherwise the coordinates are solved and saved there. A file that is not a valid
   /// coordinate file (corrupt, truncated, another version) is an error. Empty: no cache.
   std::filesystem::path harmonicCache;
-  /// harmonic (--outside): what points outside the cage get: "raise" (an error counting them)
-  /// or "nearest" (the coordinates of the nearest point on the cage).
-  std::string harmonicOutside = "raise";
+  /// harmonic, wachspress and discrete-harmonic (--outside): what points outside the cage get:
+  /// "raise" (an error counting them) or "nearest" (the coordinates of the nearest point on the
+  /// cage; HarmonicOutsidePolicy, ConvexOutsidePolicy).
+  std::string outside = "raise";
   /// harmonic (--precision): a precision level, any number in [1, 7] (harmonicPrecisionTets(),
   /// coords/harmonic.h: 200000 · 4^(p − 5) tets); 0: none. Giving it with harmonicTets is an
   /// InvalidInput.
@@ -45,11 +48,22 @@ std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
                                                    const CageMethodOptions& options = {},
                                                    const ProgressCallback& progress = {});
 
+/// Throws InvalidInput (naming the cage and the face or reflex edge at fault) unless `method`
+/// can take `cage`: qgc needs triangle and quad faces, wachspress and discrete-harmonic a convex
+/// cage (checkConvexCage()); the others take any valid cage. Throws InvalidInput for an unknown
+/// method.
+void checkCageMethodApplies(const std::string& method, const Cage& cage);
+
+/// The columns of the coordinates of `method` for `cage` (their columnCount()), known before
+/// they are made: the cage's vertex count, plus one per triangle for green, one per triangle
+/// face and four per quad face for qgc. Throws InvalidInput for an unknown method.
+std::size_t cageCoordinatesColumns(const std::string& method, const Cage& cage);
+
 /// The peak memory (bytes) that making the coordinates of `method` for `cage` and evaluating
-/// them on every worker thread takes, weight rows aside: for mvc and green their precomputation
-/// and per-thread scratch (a few hundred bytes a cage vertex and triangle), for harmonic
-/// HarmonicCoordinates::memoryEstimate() (a solve, even when options.harmonicCache holds one).
-/// An upper bound within a small factor. Throws InvalidInput for an unknown method.
+/// them on every worker thread takes, weight rows aside: for the closed-form methods their
+/// precomputation and per-thread scratch (a few hundred bytes a cage vertex and triangle), for
+/// harmonic HarmonicCoordinates::memoryEstimate() (a solve, even when options.harmonicCache holds
+/// one). An upper bound within a small factor. Throws InvalidInput for an unknown method.
 double cageCoordinatesMemory(const std::string& method, const Cage& cage,
                              const CageMethodOptions& options = {});
 

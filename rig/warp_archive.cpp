@@ -1,7 +1,11 @@
 #include <spacewarp/rig/warp_archive.h>
 
+#include <spacewarp/coords/discrete_harmonic.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/quad_green.h>
+#include <spacewarp/coords/quad_mean_value.h>
+#include <spacewarp/coords/wachspress.h>
 #include <spacewarp/core/bend.h>
 #include <spacewarp/core/combinators.h>
 #include <spacewarp/core/coordinate_warp.h>
@@ -55,6 +59,10 @@ ArchiveLoaders makeLoaders() {
   // Coordinates, one line per tag.
   l.coordinates.emplace("mean-value", loader<Coordinates, MeanValueCoordinates>());
   l.coordinates.emplace("green", loader<Coordinates, GreenCoordinates>());
+  l.coordinates.emplace("quad-mean-value", loader<Coordinates, QuadMeanValueCoordinates>());
+  l.coordinates.emplace("quad-green", loader<Coordinates, QuadGreenCoordinates>());
+  l.coordinates.emplace("wachspress", loader<Coordinates, WachspressCoordinates>());
+  l.coordinates.emplace("discrete-harmonic", loader<Coordinates, DiscreteHarmonicCoordinates>());
 #ifdef SPACEWARP_HAVE_HARMONIC
   l.coordinates.emplace("harmonic", loader<Coordinates, HarmonicCoordinates>());
 #endif

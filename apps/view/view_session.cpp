@@ -29,7 +29,13 @@ double millisecondsSince(Clock::time_point start) {
 }
 
 bool isCageMethod(const std::string& method) {
-  return method == "mvc" || method == "green" || method == "harmonic";
+  const std::vector<std::string> methods = cageMethods();
+  return std::find(methods.begin(), methods.end(), method) != methods.end();
+}
+
+// The cage methods that take an "outside" key (CageMethodOptions::outside).
+bool hasOutsidePolicy(const std::string& method) {
+  return method == "harmonic" || method == "wachspress" || method == "discrete-harmonic";
 }
 
 nlohmann::json pointsJson(std::span<const Vec3> points) {
@@ -108,9 +114,10 @@ struct ViewSession::State {
       nlohmann::json out = {{"method", name}, {"cage", cagePath.string()}, {"pose", poseFile}};
       if (name == "harmonic") {
         if (cageOptions.harmonicTets > 0) out["tets"] = cageOptions.harmonicTets;
-        if (cageOptions.harmonicOutside != "raise") out["outside"] = cageOptions.harmonicOutside;
         if (!cageOptions.harmonicCache.empty()) out["cache"] = cageOptions.harmonicCache.string();
       }
+      if (hasOutsidePolicy(name) && cageOptions.outside != "raise")
+        out["outside"] = cageOptions.outside;
       return out;
     }
     nlohmann::json out;
@@ -242,7 +249,16 @@ void setCageControls(ViewSession::State& s, const std::filesystem::path& cagePat
     }
   }
   s.edges.assign(edges.begin(), edges.end());
-  s.methods = cageMethods();  // mvc, green and harmonic where built with TetGen
+  // The cage methods that take this cage (wachspress and discrete-harmonic need a convex one;
+  // harmonic is there where built with TetGen).
+  s.methods.clear();
+  for (const std::string& method : cageMethods()) {
+    try {
+      checkCageMethodApplies(method, *s.cage);
+      s.methods.push_back(method);
+    } catch (const InvalidInput&) {
+    }
+  }
   for (const char* m : {"ffd", "rbf", "idw", "mls"}) s.methods.push_back(m);
 }
 
@@ -299,7 +315,7 @@ ViewSession ViewSession::withRig(const std::filesystem::path& model,
     setCageControls(*s, s->rigDir / s->rig.at("cage").get<std::string>());
     s->pose = s->cage->posedVerticesFromFile(s->rigDir / s->rig.at("pose").get<std::string>());
     s->cageOptions.harmonicTets = s->rig.value("tets", options.harmonicTets);
-    s->cageOptions.harmonicOutside = s->rig.value("outside", std::string("raise"));
+    s->cageOptions.outside = s->rig.value("outside", std::string("raise"));
     if (s->rig.contains("cache"))
       s->cageOptions.harmonicCache = s->rigDir / s->rig.at("cache").get<std::string>();
   } else if (method == "ffd" && s->rig.contains("controlPoints")) {

@@ -61,12 +61,13 @@ enum class ControlKind { Cage, Lattice, Handles, None };
 /// The model, controls, methods and pose of one viewer.
 class ViewSession {
  public:
-  /// The model (OBJ/OFF/PLY soup or cloud) with a cage file: methods mvc, green, harmonic (with
-  /// TetGen), ffd, rbf, idw, mls; the pose starts at the rest cage. Throws IoError/InvalidInput
-  /// naming the file at fault.
+  /// The model (OBJ/OFF/PLY soup or cloud) with a cage file: methods: every cage method that
+  /// takes the cage (cageMethods() through checkCageMethodApplies(): wachspress and
+  /// discrete-harmonic need a convex cage, harmonic TetGen), ffd, rbf, idw, mls; the pose starts at
+  /// the rest cage. Throws IoError/InvalidInput naming the file at fault.
   static ViewSession withCage(const std::filesystem::path& model, const std::filesystem::path& cage,
                               const ViewSessionOptions& options = {});
-  /// The model with a rig file: a cage rig (mvc/green/harmonic) poses its cage, an ffd rig with
+  /// The model with a rig file: a cage rig (any of cageMethods()) poses its cage, an ffd rig with
   /// controlPoints its lattice, an rbf/idw/mls/graph rig its handles (the pose starts at the
   /// rig's targets); any other rig is shown deformed, with no controls.
   static ViewSession withRig(const std::filesystem::path& model, const std::filesystem::path& rig,
@@ -137,7 +138,7 @@ class ViewSession {
 
   // --- saving ---
   /// The rig JSON of the current method and pose; `poseFile` is the posed cage file it
-  /// references (cage methods mvc, green, harmonic), relative to the rig's folder.
+  /// references (the cage methods), relative to the rig's folder.
   nlohmann::json rigJson(const std::string& poseFile) const;
   /// Writes `<stem>_pose.obj` (the posed cage with its faces, or the posed points) into `dir`
   /// atomically; returns its path. NotAvailable without controls.

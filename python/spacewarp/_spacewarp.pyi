@@ -39,6 +39,7 @@ __all__ = [
     "Coordinates",
     "DeformationGraph",
     "DeformationGraphWarp",
+    "DiscreteHarmonic",
     "Geometry",
     "GraphSolveReport",
     "Green",
@@ -56,6 +57,8 @@ __all__ = [
     "Mls",
     "MlsAffine",
     "OutOfMemory",
+    "QuadGreen",
+    "QuadMeanValue",
     "Rbf",
     "RbfWarp",
     "Shepard",
@@ -68,6 +71,7 @@ __all__ = [
     "Viewer",
     "VolumeBrickPlan",
     "VolumeBrickResult",
+    "Wachspress",
     "Warp",
     "Wire",
     "Wires",
@@ -356,7 +360,9 @@ class Binding:
 
 class Cage:
     """A closed, outward-oriented cage: vertices (V, 3) world units and polygons (an (F, k)
-    integer array, or a list of index lists for mixed sizes), triangulated for the methods.
+    integer array, or a list of index lists for mixed sizes). The polygons are kept (faces) for
+    QuadMeanValue, QuadGreen, Wachspress and DiscreteHarmonic, and triangulated (triangles) for
+    MeanValue, Green and Harmonic.
     Raises InvalidInput naming the element for an open, non-manifold or degenerate cage.
     """
 
@@ -377,6 +383,28 @@ class Cage:
     @property
     def triangle_source(self) -> NDArray[np.uint32]:
         """(T,) the input polygon each triangle was cut from."""
+
+    @property
+    def face_count(self) -> int:
+        """Faces (input polygons), F."""
+
+    @property
+    def faces(self) -> list[NDArray[np.uint32]]:
+        """The F faces as the polygons they were given as, outward (counter-clockwise seen from
+        outside, first vertex kept): a list of (k,) uint32 vertex-index arrays.
+        """
+
+    @property
+    def face_offsets(self) -> NDArray[np.uint32]:
+        """(F + 1,) uint32: face f is face_indices[face_offsets[f]:face_offsets[f + 1]]."""
+
+    @property
+    def face_indices(self) -> NDArray[np.uint32]:
+        """uint32 vertex indices of every face in turn (see face_offsets)."""
+
+    @property
+    def max_face_size(self) -> int:
+        """The most vertices of a face: 3 for a triangle cage, 4 with quads."""
 
     @property
     def diagonal(self) -> float:
@@ -630,6 +658,26 @@ class DeformationGraph:
 
 class DeformationGraphWarp(Warp):
     """A posed deformation graph (DeformationGraph.warp())."""
+
+
+class DiscreteHarmonic(Coordinates):
+    """Discrete harmonic coordinates of a convex Cage (CLI "discrete-harmonic"; as CGAL 6.2):
+    (n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge for a cage
+    that is not convex. outside: "raise" or "nearest", as Wachspress. snap_tolerance: relative to the
+    cage diagonal.
+    """
+
+    def __init__(
+        self,
+        cage: Cage,
+        *,
+        snap_tolerance: float = 1e-14,
+        outside: Literal["raise", "nearest"] = "raise",
+    ) -> None: ...
+
+    @property
+    def cage(self) -> Cage:
+        """The Cage (a copy)."""
 
 
 class Geometry:
@@ -1047,6 +1095,36 @@ class MlsAffine(Coordinates):
     def __init__(self, handles: _Points, *, alpha: float = 1.0) -> None: ...
 
 
+class QuadGreen(Coordinates):
+    """Green coordinates of a cage of triangles and quads (CLI "qgc"; Thiery and Boubekeur
+    2022): (n, V + T + 4 Q) weights for T triangle and Q quad faces: the vertex columns, then one
+    normal column per triangle face and four per quad face, in face order (column_names). Raises
+    InvalidInput naming a face of more than 4 vertices. surface_tolerance: relative to the cage
+    diagonal, in [0, 1e-3].
+    """
+
+    def __init__(self, cage: Cage, *, surface_tolerance: float = 1e-14) -> None: ...
+
+    @property
+    def cage(self) -> Cage:
+        """The Cage (a copy)."""
+
+
+class QuadMeanValue(Coordinates):
+    """Mean-value coordinates of a polygon Cage, quads included (CLI "qmvc"): Langer et al. 2006
+    for polygons, Thiery et al. 2018 for quads (bilinear patches, planar or not); no face is
+    triangulated. (n, V) weights that sum to 1 and reproduce the point, everywhere in space; equal
+    to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
+    [0, 1e-3].
+    """
+
+    def __init__(self, cage: Cage, *, snap_tolerance: float = 1e-14) -> None: ...
+
+    @property
+    def cage(self) -> Cage:
+        """The Cage (a copy)."""
+
+
 class Rbf(Coordinates):
     """RBF handle coordinates (Botsch and Kobbelt 2005, the fit folded in): handles `centers`
     (k, 3), `fixed` (f, 3) held in place; kernel and options as RbfWarp. warp(posed) is the RbfWarp
@@ -1350,6 +1428,26 @@ class VolumeBrickResult:
     def __setstate__(self, arg0: tuple[Any, ...]) -> None: ...
 
 
+class Wachspress(Coordinates):
+    """Wachspress coordinates of a convex Cage (CLI "wachspress"; Warren et al. 2007, as CGAL
+    6.2): (n, V) weights, positive inside. Raises InvalidInput naming a reflex edge for a cage that
+    is not convex. outside: "raise" (points outside are an InvalidInput) or "nearest" (the
+    coordinates of the nearest cage point). snap_tolerance: relative to the cage diagonal.
+    """
+
+    def __init__(
+        self,
+        cage: Cage,
+        *,
+        snap_tolerance: float = 1e-14,
+        outside: Literal["raise", "nearest"] = "raise",
+    ) -> None: ...
+
+    @property
+    def cage(self) -> Cage:
+        """The Cage (a copy)."""
+
+
 class Wire:
     """One wire of spacewarp.Wires: the reference curve `rest` (n, 3) and the
     deformed curve `deformed` (n, 3), n >= 2, world units, point k of each at parameter k;
@@ -1440,7 +1538,9 @@ def cage_coordinates(
     outside: Literal["raise", "nearest"] = "raise",
     progress: _Progress = None,
 ) -> Coordinates:
-    """The coordinates of a cage method by its CLI name (see cage_methods())."""
+    """The coordinates of a cage method by its CLI name (see cage_methods()). tets, precision and
+    cache: harmonic's; outside: harmonic's, wachspress's and discrete-harmonic's.
+    """
 
 
 def cage_from_bytes(data: bytes | bytearray | memoryview | NDArray[np.uint8]) -> Cage:
@@ -1450,7 +1550,9 @@ def cage_from_bytes(data: bytes | bytearray | memoryview | NDArray[np.uint8]) ->
 
 
 def cage_methods() -> list[str]:
-    """The cage methods of this build ("green", "harmonic", "mvc")."""
+    """The cage methods of this build, sorted: "discrete-harmonic", "green", "harmonic" (with
+    TetGen), "mvc", "qgc", "qmvc", "wachspress".
+    """
 
 
 def coordinate_properties(

@@ -10,10 +10,14 @@
 #include <tbb/parallel_for.h>
 
 #include <spacewarp/coords/cage.h>
+#include <spacewarp/coords/discrete_harmonic.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/coords/harmonic.h>
 #include <spacewarp/coords/mean_value.h>
 #include <spacewarp/coords/properties.h>
+#include <spacewarp/coords/quad_green.h>
+#include <spacewarp/coords/quad_mean_value.h>
+#include <spacewarp/coords/wachspress.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/errors.h>
@@ -62,7 +66,9 @@ void bindCage(py::module_& m) {
   py::class_<Cage, std::shared_ptr<Cage>>(
       m, "Cage",
       R"(A closed, outward-oriented cage: vertices (V, 3) world units and polygons (an (F, k)
-integer array, or a list of index lists for mixed sizes), triangulated for the methods.
+integer array, or a list of index lists for mixed sizes). The polygons are kept (faces) for
+QuadMeanValue, QuadGreen, Wachspress and DiscreteHarmonic, and triangulated (triangles) for
+MeanValue, Green and Harmonic.
 Raises InvalidInput naming the element for an open, non-manifold or degenerate cage.)")
       .def(py::init(&makeCage), "vertices"_a, "faces"_a, py::kw_only(), "name"_a = "cage")
       .def_static(
@@ -90,6 +96,36 @@ Raises InvalidInput naming the element for an open, non-manifold or degenerate c
                                               c.triangleSource().data());
           },
           "(T,) the input polygon each triangle was cut from.")
+      .def_property_readonly("face_count", &Cage::faceCount, "Faces (input polygons), F.")
+      .def_property_readonly(
+          "faces",
+          [](const Cage& c) {
+            py::list faces;
+            for (std::size_t f = 0; f < c.faceCount(); ++f) {
+              const auto face = c.face(f);
+              faces.append(
+                  py::array_t<std::uint32_t>(static_cast<py::ssize_t>(face.size()), face.data()));
+            }
+            return faces;
+          },
+          "The F faces as the polygons they were given as, outward (counter-clockwise seen from "
+          "outside, first vertex kept): a list of (k,) uint32 vertex-index arrays.")
+      .def_property_readonly(
+          "face_offsets",
+          [](const Cage& c) {
+            return py::array_t<std::uint32_t>(static_cast<py::ssize_t>(c.faceOffsets().size()),
+                                              c.faceOffsets().data());
+          },
+          "(F + 1,) uint32: face f is face_indices[face_offsets[f]:face_offsets[f + 1]].")
+      .def_property_readonly(
+          "face_indices",
+          [](const Cage& c) {
+            return py::array_t<std::uint32_t>(static_cast<py::ssize_t>(c.faceIndices().size()),
+                                              c.faceIndices().data());
+          },
+          "uint32 vertex indices of every face in turn (see face_offsets).")
+      .def_property_readonly("max_face_size", &Cage::maxFaceSize,
+                             "The most vertices of a face: 3 for a triangle cage, 4 with quads.")
       .def_property_readonly("diagonal", &Cage::diagonal, "Bounding-box diagonal, world units.")
       .def_property_readonly("volume", &Cage::volume, "Enclosed volume, world units^3.")
       .def_property_readonly("reoriented_count", &Cage::reorientedCount,
@@ -279,6 +315,21 @@ double precisionArgument(const py::object& precision) {
   }
 }
 
+// The `outside` argument of the convex-cage coordinates, as the CLI's --outside.
+ConvexOutsidePolicy convexOutside(const std::string& outside) {
+  if (outside == "raise") return ConvexOutsidePolicy::Throw;
+  if (outside == "nearest") return ConvexOutsidePolicy::NearestPoint;
+  throw InvalidInput("outside must be \"raise\" or \"nearest\", not \"" + outside + "\"");
+}
+
+// `T` made with the GIL released (construction precomputes per face, or checks convexity).
+template <class T, class Options>
+std::shared_ptr<T> madeWithoutGil(std::shared_ptr<Cage> cage, const Options& options) {
+  std::shared_ptr<T> made;
+  withoutGil([&] { made = std::make_shared<T>(std::move(cage), options); });
+  return made;
+}
+
 std::shared_ptr<Coordinates> byName(const std::string& method, std::shared_ptr<Cage> cage,
                                     const CageMethodOptions& options, const py::object& progress) {
   std::shared_ptr<const Coordinates> c;
@@ -308,6 +359,64 @@ void bindCageCoordinates(py::module_& m) {
            "cage"_a, py::kw_only(), "surface_tolerance"_a = 1e-14)
       .def_property_readonly(
           "cage", [](const GreenCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
+  py::class_<QuadMeanValueCoordinates, Coordinates, std::shared_ptr<QuadMeanValueCoordinates>>(
+      m, "QuadMeanValue",
+      R"(Mean-value coordinates of a polygon Cage, quads included (CLI "qmvc"): Langer et al. 2006
+for polygons, Thiery et al. 2018 for quads (bilinear patches, planar or not); no face is
+triangulated. (n, V) weights that sum to 1 and reproduce the point, everywhere in space; equal
+to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
+[0, 1e-3].)")
+      .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance) {
+             return madeWithoutGil<QuadMeanValueCoordinates>(std::move(cage),
+                                                             QuadMeanValueOptions{snapTolerance});
+           }),
+           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14)
+      .def_property_readonly(
+          "cage", [](const QuadMeanValueCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
+  py::class_<QuadGreenCoordinates, Coordinates, std::shared_ptr<QuadGreenCoordinates>>(
+      m, "QuadGreen",
+      R"(Green coordinates of a cage of triangles and quads (CLI "qgc"; Thiery and Boubekeur
+2022): (n, V + T + 4 Q) weights for T triangle and Q quad faces: the vertex columns, then one
+normal column per triangle face and four per quad face, in face order (column_names). Raises
+InvalidInput naming a face of more than 4 vertices. surface_tolerance: relative to the cage
+diagonal, in [0, 1e-3].)")
+      .def(py::init([](std::shared_ptr<Cage> cage, double surfaceTolerance) {
+             return madeWithoutGil<QuadGreenCoordinates>(std::move(cage),
+                                                         QuadGreenOptions{surfaceTolerance});
+           }),
+           "cage"_a, py::kw_only(), "surface_tolerance"_a = 1e-14)
+      .def_property_readonly(
+          "cage", [](const QuadGreenCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
+  py::class_<WachspressCoordinates, Coordinates, std::shared_ptr<WachspressCoordinates>>(
+      m, "Wachspress",
+      R"(Wachspress coordinates of a convex Cage (CLI "wachspress"; Warren et al. 2007, as CGAL
+6.2): (n, V) weights, positive inside. Raises InvalidInput naming a reflex edge for a cage that
+is not convex. outside: "raise" (points outside are an InvalidInput) or "nearest" (the
+coordinates of the nearest cage point). snap_tolerance: relative to the cage diagonal.)")
+      .def(py::init(
+               [](std::shared_ptr<Cage> cage, double snapTolerance, const std::string& outside) {
+                 return madeWithoutGil<WachspressCoordinates>(
+                     std::move(cage), WachspressOptions{snapTolerance, convexOutside(outside)});
+               }),
+           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "outside"_a = "raise")
+      .def_property_readonly(
+          "cage", [](const WachspressCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
+  py::class_<DiscreteHarmonicCoordinates, Coordinates,
+             std::shared_ptr<DiscreteHarmonicCoordinates>>(
+      m, "DiscreteHarmonic",
+      R"(Discrete harmonic coordinates of a convex Cage (CLI "discrete-harmonic"; as CGAL 6.2):
+(n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge for a cage
+that is not convex. outside: "raise" or "nearest", as Wachspress. snap_tolerance: relative to the
+cage diagonal.)")
+      .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance,
+                       const std::string& outside) {
+             return madeWithoutGil<DiscreteHarmonicCoordinates>(
+                 std::move(cage), DiscreteHarmonicOptions{snapTolerance, convexOutside(outside)});
+           }),
+           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "outside"_a = "raise")
+      .def_property_readonly(
+          "cage", [](const DiscreteHarmonicCoordinates& c) { return c.cage(); },
+          "The Cage (a copy).");
   py::class_<HarmonicCoordinates, Coordinates, std::shared_ptr<HarmonicCoordinates>>(
       m, "Harmonic",
       R"(Harmonic coordinates (Joshi et al. 2007) of a Cage: a Laplace solve on a TetGen mesh of
@@ -340,9 +449,11 @@ tets, else solved and saved there. outside: "raise" or "nearest" for points outs
       },
       "method"_a, "cage"_a, py::kw_only(), "tets"_a = 0, "precision"_a = 0.0,
       "cache"_a = py::none(), "outside"_a = "raise", "progress"_a = py::none(),
-      "The coordinates of a cage method by its CLI name (see cage_methods()).");
+      "The coordinates of a cage method by its CLI name (see cage_methods()). tets, precision "
+      "and cache: harmonic's; outside: harmonic's, wachspress's and discrete-harmonic's.");
   m.def("cage_methods", &cageMethods,
-        "The cage methods of this build (\"green\", \"harmonic\", \"mvc\").");
+        "The cage methods of this build, sorted: \"discrete-harmonic\", \"green\", \"harmonic\" "
+        "(with TetGen), \"mvc\", \"qgc\", \"qmvc\", \"wachspress\".");
 }
 
 LatticeBasis basisFromName(const std::string& name) {

@@ -8,7 +8,6 @@
 #include <mutex>
 #include <optional>
 
-#include <spacewarp/coords/green.h>
 #include <spacewarp/core/coordinates.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/geometry.h>
@@ -753,8 +752,9 @@ GeometryPtr editGeometry(const PolygonSoup& geometry, py::handle handles, const 
                          "targets (max residual " +
                          shortNumber(r->maxResidual) +
                          "): the cage cannot carry them there rigidly");
-    if (options.method == SurfaceEditMethod::CageArap &&
-        dynamic_cast<const GreenCoordinates*>(coordinates.get()) != nullptr)
+    // Green's face-normal columns (triangle or quad Green) are not cage vertices.
+    if (options.method == SurfaceEditMethod::CageArap && coordinates &&
+        coordinates->columnCount() > coordinates->controlPointCount())
       warnings.push_back(
           "cage-arap with Green coordinates moves their vertex terms only (the face normals' "
           "terms stay at rest), so it does not reproduce rotations exactly; MeanValue and "

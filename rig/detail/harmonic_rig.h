@@ -1,5 +1,6 @@
 #pragma once
-// The cage rig methods: "mvc", "green" and "harmonic" (built in cage_rig.cpp).
+// The cage rig methods: "mvc", "green", "harmonic", "qmvc", "qgc", "wachspress" and
+// "discrete-harmonic" (built in cage_rig.cpp).
 
 #include <spacewarp/rig/detail/rig_reader.h>
 #include <spacewarp/rig/rig.h>
@@ -12,8 +13,11 @@ namespace spacewarp::detail {
 /// spacewarp was built without TetGen.
 Rig harmonicRig(RigReader& reader);
 
-/// The "mvc" and "green" rigs: keys "cage" and "pose" (paths). When the reader is checking,
-/// the cage and the pose are read and checked but no coordinates are built (an empty Rig).
+/// The closed-form cage rigs ("mvc", "green", "qmvc", "qgc", "wachspress",
+/// "discrete-harmonic"): keys "cage" and "pose" (paths), and for wachspress and
+/// discrete-harmonic "outside" ("raise" or "nearest"; rig.cpp's key lists say which method may
+/// have it). When the reader is checking, the cage and the pose are read and checked but no
+/// coordinates are built (an empty Rig).
 Rig cageRig(RigReader& reader, const std::string& method);
 
 }  // namespace spacewarp::detail

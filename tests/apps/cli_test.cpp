@@ -217,9 +217,9 @@ TEST_F(CliTest, DemoWritesEveryResult) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const PolygonSoup bar = readSoup(dir_ / "demo" / "bar.obj");
   const PolygonSoup cloud = readSoup(dir_ / "demo" / "cloud.ply");
-  for (const std::string method :
-       {"twist", "bend", "taper", "mvc", "green", "ffd", "rbf", "mls", "graph", "wires", "idw",
-        "kelvinlet", "skinning-lbs", "skinning-dqs"}) {
+  for (const std::string method : {"twist", "bend", "taper", "mvc", "green", "qmvc", "qgc",
+                                   "wachspress", "discrete-harmonic", "ffd", "rbf", "mls", "graph",
+                                   "wires", "idw", "kelvinlet", "skinning-lbs", "skinning-dqs"}) {
     const PolygonSoup deformedBar = readSoup(dir_ / "demo" / ("bar_" + method + ".obj"));
     const PolygonSoup deformedCloud = readSoup(dir_ / "demo" / ("cloud_" + method + ".ply"));
     EXPECT_EQ(deformedBar.size(), bar.size()) << method;
@@ -232,6 +232,12 @@ TEST_F(CliTest, DemoWritesEveryResult) {
     if (fs::exists(dir_ / "demo" / "bar.vdb")) {
       EXPECT_GT(fs::file_size(dir_ / "demo" / ("bar_" + method + ".vdb")), 0u) << method;
     }
+  }
+  // The convex-cage methods run on the unpinched box, the others on the pinched cage.
+  for (const std::string method : {"wachspress", "discrete-harmonic", "qmvc", "qgc"}) {
+    const nlohmann::json rig = nlohmann::json::parse(slurp(dir_ / "demo" / (method + ".json")));
+    const bool convex = method == "wachspress" || method == "discrete-harmonic";
+    EXPECT_EQ(rig["cage"], convex ? "convex_cage.obj" : "cage.obj") << method;
   }
   // Builds with OpenVDB also run MLS with distances inside the bar, and on the fingers.
   if (fs::exists(dir_ / "demo" / "bar.vdb")) {

@@ -6,14 +6,18 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <span>
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -98,6 +102,44 @@ class CliFixture : public ::testing::Test {
  private:
   std::string prefix_;
 };
+
+/// The matrix in a .npy file (float64, C order) that `spacewarp weights` writes; fails the
+/// calling test on a malformed header.
+struct Npy {
+  std::size_t rows = 0, columns = 0;
+  std::vector<double> values;
+};
+
+inline Npy readNpy(const std::filesystem::path& path) {
+  const std::string bytes = test::slurp(path);
+  Npy npy;
+  EXPECT_GE(bytes.size(), 10u);
+  if (bytes.size() < 10) return npy;
+  EXPECT_EQ(bytes.compare(0, 8, std::string("\x93NUMPY\x01\x00", 8)), 0);
+  const std::size_t headerLength =
+      static_cast<unsigned char>(bytes[8]) | static_cast<unsigned char>(bytes[9]) << 8;
+  EXPECT_EQ((10 + headerLength) % 64, 0u) << "the data must start 64-byte aligned";
+  const std::string header = bytes.substr(10, headerLength);
+  const std::string prefix = "{'descr': '<f8', 'fortran_order': False, 'shape': (";
+  EXPECT_EQ(header.compare(0, prefix.size(), prefix), 0) << header;
+  EXPECT_EQ(header.back(), '\n');
+  unsigned long rows = 0, columns = 0;
+  int end = 0;
+  const int read = std::sscanf(header.c_str() + std::min(prefix.size(), header.size()),
+                               "%lu, %lu), }%n", &rows, &columns, &end);
+  EXPECT_EQ(read, 2) << header;
+  if (read != 2) return npy;
+  EXPECT_EQ(header.find_first_not_of(' ', prefix.size() + end), header.size() - 1)
+      << "only spaces pad the header: " << header;
+  npy.rows = rows;
+  npy.columns = columns;
+  const std::size_t data = 10 + headerLength;
+  EXPECT_EQ(bytes.size() - data, npy.rows * npy.columns * sizeof(double));
+  npy.values.resize(npy.rows * npy.columns);
+  std::memcpy(npy.values.data(), bytes.data() + data,
+              std::min(bytes.size() - data, npy.values.size() * sizeof(double)));
+  return npy;
+}
 
 /// Points as a JSON array of [x, y, z] with full double precision, for writing rigs.
 inline std::string jsonPoints(std::span<const Vec3> points) {

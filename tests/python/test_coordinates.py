@@ -248,7 +248,8 @@ def test_bspline_lattice_ends():
 
 
 def test_cage_coordinates_by_name(cage, points):
-    assert set(spacewarp.cage_methods()) == {"mvc", "green", "harmonic"}
+    assert set(spacewarp.cage_methods()) == {"mvc", "green", "harmonic", "qmvc", "qgc",
+                                             "wachspress", "discrete-harmonic"}
     by_name = spacewarp.cage_coordinates("mvc", cage)
     assert np.array_equal(by_name.weights(points), spacewarp.MeanValue(cage).weights(points))
     assert np.array_equal(spacewarp.cage_coordinates("green", cage).weights(points),

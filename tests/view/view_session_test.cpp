@@ -254,6 +254,37 @@ std::vector<RigCase> rigCases() {
 INSTANTIATE_TEST_SUITE_P(Kinds, ViewSessionRigTest, ::testing::ValuesIn(rigCases()),
                          [](const auto& info) { return info.param.name; });
 
+// The cage methods offered are those that take the cage: the convex-cage methods only on a
+// convex cage, each giving the positions of the rig it saves.
+TEST_F(ViewSessionTest, CageMethodsAreThoseThatTakeTheCage) {
+  const auto has = [](const ViewSession& session, const std::string& method) {
+    return std::ranges::count(session.methods(), method) > 0;
+  };
+  PolygonSoup pinched = readSoup(dir_ / "cage.obj");  // its middle ring at z = 0
+  for (Vec3& p : pinched.positions)
+    if (p.z == 0.0) p.x *= 0.8, p.y *= 0.8;
+  writeSoup(pinched, dir_ / "cage.obj");
+  ViewSession concave = cageSession();
+  for (const char* method : {"mvc", "green", "qmvc", "qgc"}) EXPECT_TRUE(has(concave, method));
+  EXPECT_FALSE(has(concave, "wachspress"));
+  EXPECT_FALSE(has(concave, "discrete-harmonic"));
+  EXPECT_THROW(concave.setMethod("wachspress"), InvalidInput);
+
+  writeSoup(makeBoxSurface(Vec3(-1, -1, -1.5), Vec3(1, 1, 1.5), glm::ivec3(1, 1, 1)),
+            dir_ / "cage.obj");
+  ViewSession convex = cageSession();
+  const std::vector<Vec3> pose = sway(convex.restControls());
+  for (const char* method : {"wachspress", "discrete-harmonic", "qmvc", "qgc"}) {
+    SCOPED_TRACE(method);
+    ASSERT_TRUE(has(convex, method));
+    convex.setMethod(method);
+    convex.setPose(pose);
+    EXPECT_LT(relativeGap(convex.positions(), deformedByRig(convex.writeRig(dir_).back()),
+                          model_.positions),
+              1e-12);
+  }
+}
+
 // The Armadillo of Ju et al. (2005) in its cage, posed by one of the paper's posed cages.
 TEST(ViewSessionArmadillo, PosedCageGivesTheSavedRigsPositions) {
   const auto dir = std::filesystem::path(SPACEWARP_SHARED_DATA_DIR) / "ju2005-armadillo";
