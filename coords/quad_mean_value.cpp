@@ -65,9 +65,11 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/coords/detail/bilinear_quadrature.h>
 #include <spacewarp/coords/detail/mean_value_triangle.h>
 #include <spacewarp/coords/mean_value.h>
 #include <spacewarp/core/archive.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/geometry.h>
 
@@ -75,23 +77,16 @@ namespace spacewarp {
 
 namespace {
 
+using namespace detail::patch;
 using Real = long double;
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 // As MeanValueCoordinates' kTauW, kTauRepro and kFarLimit (see mean_value.cpp).
 constexpr double kTauW = 1e-13;
 constexpr double kTauRepro = 1e-13;
 constexpr double kFarLimit = 3000.0;
-// Gauss-Newton steps of the closest-point search on a patch (quadratic convergence near the
-// patch, where the foot must be exact; a fixed count keeps it a continuous function of x).
-constexpr int kProjectionSteps = 12;
 // A triangle of a quad's tessellation takes the careful path when x's elevation over its plane
 // is below this (the fast weights then solve their equations to ~1e-13 of m_T).
 constexpr double kMinElevation = 1e-3;
-// The two tessellation levels of a quad, extrapolated as (4 W₂ − W₁) / 3 (their error falls
-// like 1 / k²). Measured against a 64 × 64 tessellation (≈ the exact integral) at 1000 points
-// inside each of 6 quad cages: max |Δw| 1e-3 to 6e-3, where level 2 alone gives 4e-3 to 3e-2,
-// level 1 alone 2e-2 to 0.12, and the authors' sampled quadrature 4e-3 to 1.5e-2.
-constexpr int kCoarse = 1, kFine = 2;
 
 // The cage's faces, edges and per-face boxes (for the snapping test).
 struct CageData {
@@ -99,9 +94,11 @@ struct CageData {
   std::vector<std::uint32_t> offsets, indices;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;  // each once, first < second
   std::vector<Vec3> normal;                                    // unit Newell normal per face
+  std::vector<Patch> patch;  // per face (quads only; others default)
   std::vector<BoundingBox> box;
   double diagonal = 0.0;
   double snapLength = 0.0;
+  double touchRadius = 0.0;  // integrateAdaptive's contact radius (world units)
   Vec3 center{0.0};
 
   std::span<const std::uint32_t> face(std::size_t f) const {
@@ -109,18 +106,8 @@ struct CageData {
   }
 };
 
-// A node of a quad's tessellation: parameters, basis, position − x, distance, weight.
-struct GridNode {
-  double u = 0.0, t = 0.0;
-  std::array<double, 4> phi{};
-  Vec3 v{0.0};
-  double d = 0.0;
-  double w = 0.0;
-};
-
 // Per-thread buffers of one point.
 struct Scratch {
-  std::vector<GridNode> grid;
   std::vector<Vec3> v;  // p_i − x
   std::vector<double> d;
   std::vector<Real> acc;                              // Σ over faces of the unnormalised weights
@@ -128,39 +115,6 @@ struct Scratch {
   std::vector<glm::vec<3, Real>> polygonV, polygonT;  // p_i − x and the tangent vectors
   std::vector<Real> polygonD;
 };
-
-// The bilinear basis at (u, v) for corners 0, 1, 2, 3 (σ(0,0) = p_0, σ(1,0) = p_1, σ(1,1) = p_2).
-std::array<double, 4> bilinear(double u, double v) {
-  return {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
-}
-
-template <class T>
-T combine(const std::array<double, 4>& phi, const std::array<T, 4>& q) {
-  return phi[0] * q[0] + phi[1] * q[1] + phi[2] * q[2] + phi[3] * q[3];
-}
-
-// The parameters of the point of the patch with corners x + q_i closest to x: damped
-// Gauss-Newton on |Σ φ_i q_i|² from the centre, clamped to the unit square after every step.
-void closestParameters(const std::array<Vec3, 4>& q, double& u, double& v) {
-  u = v = 0.5;
-  for (int step = 0; step < kProjectionSteps; ++step) {
-    const Vec3 r = combine(bilinear(u, v), q);
-    const Vec3 su = (1 - v) * (q[1] - q[0]) + v * (q[2] - q[3]);
-    const Vec3 sv = (1 - u) * (q[3] - q[0]) + u * (q[2] - q[1]);
-    const double damp = 1e-12 * (glm::dot(su, su) + glm::dot(sv, sv));
-    const double a = glm::dot(su, su) + damp, b = glm::dot(su, sv), c = glm::dot(sv, sv) + damp;
-    const double g1 = glm::dot(su, r), g2 = glm::dot(sv, r);
-    const double det = a * c - b * b;
-    if (!(det > 0.0)) break;
-    u = std::clamp(u - (c * g1 - b * g2) / det, 0.0, 1.0);
-    v = std::clamp(v - (a * g2 - b * g1) / det, 0.0, 1.0);
-  }
-  // A foot within 2⁻⁴⁰ of a side is put on it: the fan's triangles along that side would be
-  // slivers (their weights, proportional to their width, are dropped with them).
-  const auto snap = [](double t) { return t < 0x1p-40 ? 0.0 : t > 1.0 - 0x1p-40 ? 1.0 : t; };
-  u = snap(u);
-  v = snap(v);
-}
 
 // λ_i = (tan(α_{i−1}/2) + tan(α_i/2)) / |t_i|, α_i the angle about `axis` from t_i to t_{i+1}:
 // the mean-value coordinates of the origin in the plane normal to `axis` (unnormalised).
@@ -199,16 +153,14 @@ std::string pointText(const Vec3& x) {
 
 // x's projection on the plane of polygon f, if x is within cd.snapLength of the face (its
 // plane, and inside it); returns false otherwise. For quads, the inverse-bilinear parameters.
-bool onFace(const CageData& cd, const Scratch& s, std::size_t f, std::span<double> row) {
+bool onFace(const CageData& cd, const Vec3& x, const Scratch& s, std::size_t f,
+            std::span<double> row) {
   const auto face = cd.face(f);
   const std::size_t n = face.size();
   if (n == 4) {
-    std::array<Vec3, 4> q;
-    for (int c = 0; c < 4; ++c) q[c] = s.v[face[c]];
-    double u, v;
-    closestParameters(q, u, v);
-    const std::array<double, 4> phi = bilinear(u, v);
-    if (!(glm::length(combine(phi, q)) <= cd.snapLength)) return false;
+    const Origin foot = footOf(cd.patch[f], x);
+    if (!(glm::length(foot.offset) <= cd.snapLength)) return false;
+    const std::array<double, 4> phi = bilinear(foot.u, foot.v);
     std::fill(row.begin(), row.end(), 0.0);
     for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
     return true;
@@ -275,12 +227,150 @@ bool snapRow(const CageData& cd, const Vec3& x, const Scratch& s, std::span<doub
   for (std::size_t f = 0; f + 1 < cd.offsets.size(); ++f) {
     const BoundingBox& b = cd.box[f];
     if (glm::length(glm::clamp(x, b.min, b.max) - x) > tol) continue;
-    if (onFace(cd, s, f, row)) return true;
+    if (onFace(cd, x, s, f, row)) return true;
   }
   return false;
 }
 
-// ---- the faces' weights ----
+// ---- double-double arithmetic (the null vector near a quad's plane) ----
+
+// hi + lo, |lo| ≤ ulp(hi) / 2: ~32 significant digits. Error-free transformations (Knuth's
+// two-sum, the product by a fused multiply-add), so the bits do not depend on the SIMD path.
+struct DoubleDouble {
+  double hi = 0.0, lo = 0.0;
+};
+
+DoubleDouble twoSum(double a, double b) {
+  const double s = a + b, bb = s - a;
+  return {s, (a - (s - bb)) + (b - bb)};
+}
+DoubleDouble operator+(const DoubleDouble& a, const DoubleDouble& b) {
+  const DoubleDouble s = twoSum(a.hi, b.hi);
+  const DoubleDouble t = twoSum(a.lo, b.lo);
+  DoubleDouble r = twoSum(s.hi, s.lo + t.hi);
+  return twoSum(r.hi, r.lo + t.lo);
+}
+DoubleDouble operator-(const DoubleDouble& a) { return {-a.hi, -a.lo}; }
+DoubleDouble operator-(const DoubleDouble& a, const DoubleDouble& b) { return a + (-b); }
+DoubleDouble operator*(const DoubleDouble& a, const DoubleDouble& b) {
+  const double p = a.hi * b.hi;
+  const double e = std::fma(a.hi, b.hi, -p) + (a.hi * b.lo + a.lo * b.hi);
+  return twoSum(p, e);
+}
+
+// N_i = (−1)^i det(p_j − x, p_k − x, p_l − x) in double-double, the differences exact.
+std::array<DoubleDouble, 4> exactNullVector(std::span<const Vec3> p,
+                                            std::span<const std::uint32_t> face, const Vec3& x) {
+  std::array<std::array<DoubleDouble, 3>, 4> v;
+  for (int c = 0; c < 4; ++c)
+    for (int k = 0; k < 3; ++k) v[c][k] = twoSum(p[face[c]][k], -x[k]);
+  const auto det = [&](int a, int b, int c) {
+    const auto& A = v[a];
+    const auto& B = v[b];
+    const auto& C = v[c];
+    return A[0] * (B[1] * C[2] - B[2] * C[1]) + A[1] * (B[2] * C[0] - B[0] * C[2]) +
+           A[2] * (B[0] * C[1] - B[1] * C[0]);
+  };
+  return {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
+}
+
+// ---- a quad's integral ----
+
+// F = ∫∫ ψ(u, v) (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv with ψ = Σ N̂_k B_k (see the top), and where
+// the quadrature went: `near` if it measured from x's foot (then `foot` is that origin),
+// `inside` false if x touched the patch.
+struct QuadIntegral {
+  double value = 0.0;
+  bool near = false, inside = true;
+  Origin foot;
+};
+
+// The tensor rule of order n over [u0, u0 + s] × [v0, v0 + s], node vectors from `o`, kBlock
+// nodes at a time into kBlock interleaved partial sums (vectorised without reordering any sum:
+// the same bits on every simd::Path), as QuadGreenCoordinates' gaussSquare.
+[[gnu::always_inline]] inline double gaussSquare(const Patch& q, const Origin& o,
+                                                 const std::array<double, 4>& n, double u0,
+                                                 double v0, double s, int order) {
+  const GaussRule& rule = gaussRules()[order];
+  const double bx = o.offset.x, by = o.offset.y, bz = o.offset.z;
+  const double ux = q.eu.x, uy = q.eu.y, uz = q.eu.z, vx = q.ev.x, vy = q.ev.y, vz = q.ev.z;
+  const double wx = q.euv.x, wy = q.euv.y, wz = q.euv.z;
+  const double du0 = u0 - o.u, dv0 = v0 - o.v, uo = o.u;
+  // ψ = n0 + a u + b v + c uv (the bilinear combination of the corner values).
+  const double pa = n[1] - n[0], pb = n[3] - n[0], pc = n[0] - n[1] + n[2] - n[3];
+  alignas(64) double acc[kBlock] = {};
+  for (int t0 = 0; t0 < rule.tensorCount; t0 += kBlock) {
+    for (int l = 0; l < kBlock; ++l) {
+      const double su = s * rule.tu[t0 + l], sv = s * rule.tv[t0 + l];
+      const double u = u0 + su, v = v0 + sv, du = du0 + su, dv = dv0 + sv;
+      const double dw = du * v + uo * dv;
+      const double rx = bx + du * ux + dv * vx + dw * wx;
+      const double ry = by + du * uy + dv * vy + dw * wy;
+      const double rz = bz + du * uz + dv * vz + dw * wz;
+      const double ax = ux + v * wx, ay = uy + v * wy, az = uz + v * wz;  // ξ_u
+      const double cx = vx + u * wx, cy = vy + u * wy, cz = vz + u * wz;  // ξ_v
+      const double det =
+          rx * (ay * cz - az * cy) + ry * (az * cx - ax * cz) + rz * (ax * cy - ay * cx);
+      const double r2 = rx * rx + ry * ry + rz * rz;
+      const double psi = n[0] + pa * u + pb * v + pc * (u * v);
+      acc[l] += rule.tw[t0 + l] * psi * det / (r2 * r2);
+    }
+  }
+  double sum = 0.0;
+  for (int l = 0; l < kBlock; ++l) sum += acc[l];
+  return s * s * sum;
+}
+
+[[gnu::always_inline]] inline void integrateQuad(const Patch& q, const Vec3& x,
+                                                 const std::array<double, 4>& n, double touchRadius,
+                                                 QuadIntegral& out) {
+  const auto square = [&](const Origin& o, double u0, double v0, double s, int order)
+      __attribute__((always_inline)) {
+    out.value += gaussSquare(q, o, n, u0, v0, s, order);
+  };
+  out.foot.u = -1.0;  // unset
+  double tu = 0.0, tv = 0.0;
+  out.inside = integrateAdaptive(q, x, touchRadius, square, out.foot, tu, tv);
+  out.near = out.foot.u >= 0.0;
+}
+
+// integrateQuad compiled for each simd::Path (core/detail/simd.h), as in quad_green.cpp.
+using IntegrateFn = void (*)(const Patch&, const Vec3&, const std::array<double, 4>&, double,
+                             QuadIntegral&);
+void integrateBaseline(const Patch& q, const Vec3& x, const std::array<double, 4>& n,
+                       double touchRadius, QuadIntegral& out) {
+  integrateQuad(q, x, n, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V3 void integrateV3(const Patch& q, const Vec3& x,
+                                          const std::array<double, 4>& n, double touchRadius,
+                                          QuadIntegral& out) {
+  integrateQuad(q, x, n, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V4 void integrateV4(const Patch& q, const Vec3& x,
+                                          const std::array<double, 4>& n, double touchRadius,
+                                          QuadIntegral& out) {
+  integrateQuad(q, x, n, touchRadius, out);
+}
+constexpr IntegrateFn kIntegrate[detail::simd::kPathCount] = {integrateBaseline, integrateV3,
+                                                              integrateV4};
+
+// The fan's centre (u, v): x's foot, put on a side of the patch when it is closer to it than
+// kSideSnap times x's distance to the patch. The fan's triangle on that side would be a sliver
+// that x sees at close range, whose fast weights err by ~ε / width (only the three equations
+// matter, as the integral fixes the rest, but their error is then amplified). Any fan centre
+// gives the same weights up to round-off, so moving it is no discontinuity.
+constexpr double kSideSnap = 16.0;
+void fanCentre(const Patch& q, const Origin& foot, double& u, double& v) {
+  const double reach = kSideSnap * glm::length(foot.offset);
+  const double lu = glm::length(q.tangentU(foot.v)), lv = glm::length(q.tangentV(foot.u));
+  const auto snap = [reach](double t, double length) {
+    return t * length <= reach || t < 0x1p-40                 ? 0.0
+           : (1.0 - t) * length <= reach || t > 1.0 - 0x1p-40 ? 1.0
+                                                              : t;
+  };
+  u = snap(foot.u, lu);
+  v = snap(foot.v, lv);
+}
 
 // ---- the kernel of one point ----
 
@@ -311,7 +401,7 @@ class PointKernel {
         }
         for (int c = 0; c < 3; ++c) add(face[c], w[c], d[c]);
       } else if (face.size() == 4) {
-        if (!quad(face, row)) return false;
+        if (!quad(f, face, row)) return false;
       } else {
         polygon(f, face);
       }
@@ -334,7 +424,8 @@ class PointKernel {
                 std::array<double, 3>& w, bool part = false) {
     const detail::FastTriangle fast = detail::fastMeanValueTriangle(v, d, w);
     if (part) {
-      if (fastLimit_ > 0.0 && std::isfinite(fast.error) && fast.elevation >= kMinElevation)
+      if (fastLimit_ > 0.0 && fast.elevation >= kMinElevation &&
+          fast.error <= kTauW * (std::fabs(w[0]) + std::fabs(w[1]) + std::fabs(w[2])))
         return true;
     } else {
       ++triangles_;
@@ -363,85 +454,78 @@ class PointKernel {
     for (int c = 0; c < 3; ++c) row[ids[c]] += b[c] / sum;
   }
 
-  // The quad's weights (see the top): the tessellations of levels 1 and 2 around x's foot,
-  // extrapolated.
-  bool quad(std::span<const std::uint32_t> face, std::span<double> row) {
-    std::array<Vec3, 4> q;
-    for (int c = 0; c < 4; ++c) q[c] = s_.v[face[c]];
-    double uc, vc;
-    closestParameters(q, uc, vc);
-    std::array<double, 4> coarse, fine;
-    if (!tessellation(face, q, uc, vc, kCoarse, coarse, row)) return false;
-    if (!tessellation(face, q, uc, vc, kFine, fine, row)) return false;
-    constexpr double r = static_cast<double>(kFine * kFine) / (kCoarse * kCoarse);
-    for (int i = 0; i < 4; ++i) s_.acc[face[i]] += (r * fine[i] - coarse[i]) / (r - 1.0);
+  // The quad's weights (see the top): W = W_fan + (F − N̂·W_fan) N̂, W_fan the weights of four
+  // triangles fanned around a point of the patch (they solve the three equations), F = N̂·W the
+  // integral of ψ = Σ N̂_i B_i by adaptive quadrature. False if x lies on the patch (row filled).
+  bool quad(std::size_t f, std::span<const std::uint32_t> face, std::span<double> row) {
+    const Patch& q = cd_.patch[f];
+    const std::array<double, 4> n = nullVector(face);
+    QuadIntegral integral;
+    kIntegrate[static_cast<int>(detail::simd::activePath())](q, x_, n, cd_.touchRadius, integral);
+    // The fan's centre: x's foot when the quadrature went near x (the fan's triangles then see x
+    // as the patch does, at a distance like the patch's), else the patch's centre.
+    double u = 0.5, v = 0.5;
+    if (integral.near) fanCentre(q, integral.foot, u, v);
+    const std::array<double, 4> phi = bilinear(u, v);
+    if (!integral.inside) {
+      std::fill(row.begin(), row.end(), 0.0);
+      for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
+      return false;
+    }
+    const Vec3 centre = integral.near ? fromOrigin(q, integral.foot, u, v) : q.at(u, v) - x_;
+    const double centreD = glm::length(centre);
+    // The fan's triangle on side c (corners c, c + 1) is empty when the centre is on that side.
+    const std::array<bool, 4> empty = {v == 0.0, u == 1.0, v == 1.0, u == 0.0};
+    std::array<double, 4> w4 = {0.0, 0.0, 0.0, 0.0};
+    for (int c = 0; c < 4; ++c) {
+      if (empty[c]) continue;
+      const int c1 = (c + 1) % 4;
+      const std::array<Vec3, 3> tv = {centre, s_.v[face[c]], s_.v[face[c1]]};
+      const std::array<double, 3> td = {centreD, s_.d[face[c]], s_.d[face[c1]]};
+      std::array<double, 3> w;
+      if (!triangle(tv, td, w, true)) {
+        // x lies on this triangle (so within rounding of the patch, as it passed the snapping
+        // test only when snapTolerance is 0): the interpolant at the centre.
+        std::fill(row.begin(), row.end(), 0.0);
+        for (int k = 0; k < 4; ++k) row[face[k]] += phi[k];
+        return false;
+      }
+      for (int k = 0; k < 4; ++k) w4[k] += w[0] * phi[k];
+      w4[c] += w[1];
+      w4[c1] += w[2];
+    }
+    const double free =
+        integral.value - (n[0] * w4[0] + n[1] * w4[1] + n[2] * w4[2] + n[3] * w4[3]);
+    for (int k = 0; k < 4; ++k) add(face[k], w4[k] + free * n[k], s_.d[face[k]]);
     return true;
   }
 
-  // The weights of the quad's corners from the exact triangle weights of the tessellation of
-  // level k: the unit square cut at u = û and v = v̂, each of the four parts into k × k cells,
-  // each cell into two triangles by its diagonal through the corner nearest the foot (level 1:
-  // the 8 triangles fanned around the foot). False if x lies on a triangle (row filled).
-  bool tessellation(std::span<const std::uint32_t> face, const std::array<Vec3, 4>& q, double uc,
-                    double vc, int k, std::array<double, 4>& w4, std::span<double> row) {
-    const int n = 2 * k + 1;  // grid lines per direction
-    auto& grid = s_.grid;
-    grid.resize(static_cast<std::size_t>(n * n));
-    const auto line = [k](double foot, int a) {
-      return a <= k ? foot * a / k : foot + (1.0 - foot) * (a - k) / k;
-    };
-    for (int b = 0; b < n; ++b) {
-      for (int a = 0; a < n; ++a) {
-        GridNode& g = grid[static_cast<std::size_t>(b * n + a)];
-        g.u = line(uc, a);
-        g.t = line(vc, b);
-        g.phi = bilinear(g.u, g.t);
-        const bool corner = (a == 0 || a == n - 1) && (b == 0 || b == n - 1);
-        const int c = b == 0 ? (a == 0 ? 0 : 1) : (a == 0 ? 3 : 2);
-        g.v = corner ? q[c] : combine(g.phi, q);
-        g.d = corner ? s_.d[face[c]] : glm::length(g.v);
-        g.w = 0.0;
-      }
+  // N̂, the unit null vector of (p_0 − x, …, p_3 − x): N_i = (−1)^i det(the other three). Near
+  // the plane of a (nearly) planar quad every N_i is ~h d² while its round-off is ~u d³ (u the
+  // working precision), so N̂'s direction errs by u d / h, and the weights by that times the
+  // free component (~1 / h near edges): in long double 1e-10 relative at 1e-9 diagonals from an
+  // edge. Where |N| < 1e-3 of the scale of its terms the cofactors are therefore recomputed in
+  // double-double (exact differences p − x, error ~1e-32 d / h). Zero if x is in the plane of a
+  // planar quad: then F = 0 and the fan alone gives the weights (zero outside the quad; on it,
+  // the fan's triangles find x).
+  std::array<double, 4> nullVector(std::span<const std::uint32_t> face) const {
+    using V = glm::vec<3, Real>;
+    std::array<V, 4> v;
+    for (int c = 0; c < 4; ++c) v[c] = V(cd_.p[face[c]]) - V(x_);
+    const auto det = [&](int a, int b, int c) { return glm::dot(v[a], glm::cross(v[b], v[c])); };
+    std::array<Real, 4> n = {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
+    const std::array<double, 4>& d = {s_.d[face[0]], s_.d[face[1]], s_.d[face[2]], s_.d[face[3]]};
+    const Real scale =
+        d[1] * d[2] * d[3] + d[0] * d[2] * d[3] + d[0] * d[1] * d[3] + d[0] * d[1] * d[2];
+    Real length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+    if (length < Real{1e-3} * scale) {
+      const std::array<DoubleDouble, 4> exact = exactNullVector(cd_.p, face, x_);
+      for (int i = 0; i < 4; ++i) n[i] = Real(exact[i].hi) + Real(exact[i].lo);
+      length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
     }
-    const auto at = [&](int a, int b) -> GridNode& {
-      return grid[static_cast<std::size_t>(b * n + a)];
-    };
-    for (int b = 0; b + 1 < n; ++b) {
-      for (int a = 0; a + 1 < n; ++a) {
-        GridNode* c00 = &at(a, b);
-        GridNode* c10 = &at(a + 1, b);
-        GridNode* c11 = &at(a + 1, b + 1);
-        GridNode* c01 = &at(a, b + 1);
-        if (c10->u == c00->u || c01->t == c00->t) continue;  // a cell cut to nothing
-        std::array<std::array<GridNode*, 3>, 2> tris;
-        if ((a < k) == (b < k)) {  // the foot is towards c00 or c11
-          tris = {{{c00, c10, c11}, {c00, c11, c01}}};
-        } else {
-          tris = {{{c00, c10, c01}, {c10, c11, c01}}};
-        }
-        for (const auto& tri : tris) {
-          const std::array<Vec3, 3> tv = {tri[0]->v, tri[1]->v, tri[2]->v};
-          const std::array<double, 3> td = {tri[0]->d, tri[1]->d, tri[2]->d};
-          std::array<double, 3> w;
-          if (!triangle(tv, td, w, true)) {
-            // x lies on this triangle (so within rounding of the patch, as it passed the
-            // snapping test only when snapTolerance is 0): the interpolant at the foot.
-            std::fill(row.begin(), row.end(), 0.0);
-            const std::array<double, 4> phi = bilinear(uc, vc);
-            for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
-            return false;
-          }
-          for (int c = 0; c < 3; ++c) {
-            tri[c]->w += w[c];
-            kappa_ += std::fabs(w[c]) * td[c];
-          }
-        }
-      }
-    }
-    w4 = {0, 0, 0, 0};
-    for (const GridNode& g : grid)
-      for (int i = 0; i < 4; ++i) w4[i] += g.w * g.phi[i];
-    return true;
+    if (!(length > 0)) return {0.0, 0.0, 0.0, 0.0};
+    return {static_cast<double>(n[0] / length), static_cast<double>(n[1] / length),
+            static_cast<double>(n[2] / length), static_cast<double>(n[3] / length)};
   }
 
   // Langer et al.'s spherical mean-value weights of a planar polygon (see the top), in long
@@ -566,6 +650,7 @@ CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
   cd.indices.assign(cage.faceIndices().begin(), cage.faceIndices().end());
   cd.diagonal = cage.diagonal();
   cd.snapLength = options.snapTolerance * cage.diagonal();
+  cd.touchRadius = std::max(cd.snapLength, 1e-16 * cd.diagonal) / kAdmissible;
   const BoundingBox all = boundingBox(cage.vertices());
   cd.center = 0.5 * (all.min + all.max);
   std::map<std::pair<std::uint32_t, std::uint32_t>, bool> edges;
@@ -600,6 +685,8 @@ CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
     }
     cd.normal.push_back(normal);
     cd.box.push_back(box);
+    cd.patch.emplace_back();
+    if (n == 4) setPatch(cd.patch.back(), cd.p, face);
   }
   for (const auto& [edge, unused] : edges) cd.edges.push_back(edge);
   return cd;
