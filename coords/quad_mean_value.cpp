@@ -232,48 +232,6 @@ bool snapRow(const CageData& cd, const Vec3& x, const Scratch& s, std::span<doub
   return false;
 }
 
-// ---- double-double arithmetic (the null vector near a quad's plane) ----
-
-// hi + lo, |lo| ≤ ulp(hi) / 2: ~32 significant digits. Error-free transformations (Knuth's
-// two-sum, the product by a fused multiply-add), so the bits do not depend on the SIMD path.
-struct DoubleDouble {
-  double hi = 0.0, lo = 0.0;
-};
-
-DoubleDouble twoSum(double a, double b) {
-  const double s = a + b, bb = s - a;
-  return {s, (a - (s - bb)) + (b - bb)};
-}
-DoubleDouble operator+(const DoubleDouble& a, const DoubleDouble& b) {
-  const DoubleDouble s = twoSum(a.hi, b.hi);
-  const DoubleDouble t = twoSum(a.lo, b.lo);
-  DoubleDouble r = twoSum(s.hi, s.lo + t.hi);
-  return twoSum(r.hi, r.lo + t.lo);
-}
-DoubleDouble operator-(const DoubleDouble& a) { return {-a.hi, -a.lo}; }
-DoubleDouble operator-(const DoubleDouble& a, const DoubleDouble& b) { return a + (-b); }
-DoubleDouble operator*(const DoubleDouble& a, const DoubleDouble& b) {
-  const double p = a.hi * b.hi;
-  const double e = std::fma(a.hi, b.hi, -p) + (a.hi * b.lo + a.lo * b.hi);
-  return twoSum(p, e);
-}
-
-// N_i = (−1)^i det(p_j − x, p_k − x, p_l − x) in double-double, the differences exact.
-std::array<DoubleDouble, 4> exactNullVector(std::span<const Vec3> p,
-                                            std::span<const std::uint32_t> face, const Vec3& x) {
-  std::array<std::array<DoubleDouble, 3>, 4> v;
-  for (int c = 0; c < 4; ++c)
-    for (int k = 0; k < 3; ++k) v[c][k] = twoSum(p[face[c]][k], -x[k]);
-  const auto det = [&](int a, int b, int c) {
-    const auto& A = v[a];
-    const auto& B = v[b];
-    const auto& C = v[c];
-    return A[0] * (B[1] * C[2] - B[2] * C[1]) + A[1] * (B[2] * C[0] - B[0] * C[2]) +
-           A[2] * (B[0] * C[1] - B[1] * C[0]);
-  };
-  return {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
-}
-
 // ---- a quad's integral ----
 
 // F = ∫∫ ψ(u, v) (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv with ψ = Σ N̂_k B_k (see the top), and where
@@ -500,29 +458,20 @@ class PointKernel {
     return true;
   }
 
-  // N̂, the unit null vector of (p_0 − x, …, p_3 − x): N_i = (−1)^i det(the other three). Near
-  // the plane of a (nearly) planar quad every N_i is ~h d² while its round-off is ~u d³ (u the
-  // working precision), so N̂'s direction errs by u d / h, and the weights by that times the
-  // free component (~1 / h near edges): in long double 1e-10 relative at 1e-9 diagonals from an
-  // edge. Where |N| < 1e-3 of the scale of its terms the cofactors are therefore recomputed in
-  // double-double (exact differences p − x, error ~1e-32 d / h). Zero if x is in the plane of a
-  // planar quad: then F = 0 and the fan alone gives the weights (zero outside the quad; on it,
-  // the fan's triangles find x).
+  // N̂, the unit null vector of (p_0 − x, …, p_3 − x): N_i = (−1)^i det(the other three), in long
+  // double. Near the plane of a nearly planar quad every N_i is ~h d² with round-off ~u d³, so
+  // N̂'s direction errs by u d / h; that error multiplies only the free component F − N̂·W_fan,
+  // which the fan keeps O(1) against the weights' 1 / h (measured: reproduction ~2e-16 at 1e-10
+  // diagonals from edges and vertices, unchanged with N in double-double). Zero if x is in the
+  // plane of a planar quad: then F = 0 and the fan alone gives the weights (zero outside the
+  // quad; on it, the fan's triangles find x).
   std::array<double, 4> nullVector(std::span<const std::uint32_t> face) const {
     using V = glm::vec<3, Real>;
     std::array<V, 4> v;
     for (int c = 0; c < 4; ++c) v[c] = V(cd_.p[face[c]]) - V(x_);
     const auto det = [&](int a, int b, int c) { return glm::dot(v[a], glm::cross(v[b], v[c])); };
-    std::array<Real, 4> n = {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
-    const std::array<double, 4>& d = {s_.d[face[0]], s_.d[face[1]], s_.d[face[2]], s_.d[face[3]]};
-    const Real scale =
-        d[1] * d[2] * d[3] + d[0] * d[2] * d[3] + d[0] * d[1] * d[3] + d[0] * d[1] * d[2];
-    Real length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-    if (length < Real{1e-3} * scale) {
-      const std::array<DoubleDouble, 4> exact = exactNullVector(cd_.p, face, x_);
-      for (int i = 0; i < 4; ++i) n[i] = Real(exact[i].hi) + Real(exact[i].lo);
-      length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-    }
+    const std::array<Real, 4> n = {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
+    const Real length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
     if (!(length > 0)) return {0.0, 0.0, 0.0, 0.0};
     return {static_cast<double>(n[0] / length), static_cast<double>(n[1] / length),
             static_cast<double>(n[2] / length), static_cast<double>(n[3] / length)};
