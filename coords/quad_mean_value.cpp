@@ -383,7 +383,7 @@ class PointKernel {
     const detail::FastTriangle fast = detail::fastMeanValueTriangle(v, d, w);
     if (part) {
       if (fastLimit_ > 0.0 && fast.elevation >= kMinElevation &&
-          fast.error <= kTauW * (std::fabs(w[0]) + std::fabs(w[1]) + std::fabs(w[2])))
+          fast.error <= 1e-10 * (std::fabs(w[0]) + std::fabs(w[1]) + std::fabs(w[2])))
         return true;
     } else {
       ++triangles_;
@@ -420,37 +420,55 @@ class PointKernel {
     const std::array<double, 4> n = nullVector(face);
     QuadIntegral integral;
     kIntegrate[static_cast<int>(detail::simd::activePath())](q, x_, n, cd_.touchRadius, integral);
-    // The fan's centre: x's foot when the quadrature went near x (the fan's triangles then see x
-    // as the patch does, at a distance like the patch's), else the patch's centre.
+    // Where the quadrature went near x, the fan's centre is x's foot (the fan's triangles then
+    // see x as the patch does, at a distance like the patch's); otherwise two triangles split
+    // along the diagonal from the corner of least vertex index (the same triangles whichever
+    // corner the face starts at) give the three equations at half the cost.
     double u = 0.5, v = 0.5;
     if (integral.near) fanCentre(q, integral.foot, u, v);
     const std::array<double, 4> phi = bilinear(u, v);
-    if (!integral.inside) {
+    const auto onPatch = [&] {
       std::fill(row.begin(), row.end(), 0.0);
-      for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
+      for (int k = 0; k < 4; ++k) row[face[k]] += phi[k];
       return false;
+    };
+    if (!integral.inside) return onPatch();
+    // Nodes 0 … 3 are the corners, 4 the fan's centre.
+    std::array<std::array<int, 3>, 4> tris;
+    int count = 0;
+    if (integral.near) {
+      // The fan's triangle on side c (corners c, c + 1) is empty when the centre is on that side.
+      const std::array<bool, 4> empty = {v == 0.0, u == 1.0, v == 1.0, u == 0.0};
+      for (int c = 0; c < 4; ++c)
+        if (!empty[c]) tris[count++] = {4, c, (c + 1) % 4};
+    } else {
+      const int a = static_cast<int>(std::min_element(face.begin(), face.end()) - face.begin());
+      tris[count++] = {a, (a + 1) % 4, (a + 2) % 4};
+      tris[count++] = {a, (a + 2) % 4, (a + 3) % 4};
     }
-    const Vec3 centre = integral.near ? fromOrigin(q, integral.foot, u, v) : q.at(u, v) - x_;
-    const double centreD = glm::length(centre);
-    // The fan's triangle on side c (corners c, c + 1) is empty when the centre is on that side.
-    const std::array<bool, 4> empty = {v == 0.0, u == 1.0, v == 1.0, u == 0.0};
+    const Vec3 centre = integral.near ? fromOrigin(q, integral.foot, u, v) : Vec3(0.0);
+    const double centreD = integral.near ? glm::length(centre) : 0.0;
     std::array<double, 4> w4 = {0.0, 0.0, 0.0, 0.0};
-    for (int c = 0; c < 4; ++c) {
-      if (empty[c]) continue;
-      const int c1 = (c + 1) % 4;
-      const std::array<Vec3, 3> tv = {centre, s_.v[face[c]], s_.v[face[c1]]};
-      const std::array<double, 3> td = {centreD, s_.d[face[c]], s_.d[face[c1]]};
-      std::array<double, 3> w;
-      if (!triangle(tv, td, w, true)) {
-        // x lies on this triangle (so within rounding of the patch, as it passed the snapping
-        // test only when snapTolerance is 0): the interpolant at the centre.
-        std::fill(row.begin(), row.end(), 0.0);
-        for (int k = 0; k < 4; ++k) row[face[k]] += phi[k];
-        return false;
+    for (int t = 0; t < count; ++t) {
+      std::array<Vec3, 3> tv;
+      std::array<double, 3> td;
+      for (int c = 0; c < 3; ++c) {
+        const int node = tris[t][c];
+        tv[c] = node == 4 ? centre : s_.v[face[node]];
+        td[c] = node == 4 ? centreD : s_.d[face[node]];
       }
-      for (int k = 0; k < 4; ++k) w4[k] += w[0] * phi[k];
-      w4[c] += w[1];
-      w4[c1] += w[2];
+      std::array<double, 3> w;
+      // False: x lies on this triangle (so within rounding of the patch, as it passed the
+      // snapping test only when snapTolerance is 0): the interpolant at the centre.
+      if (!triangle(tv, td, w, true)) return onPatch();
+      for (int c = 0; c < 3; ++c) {
+        const int node = tris[t][c];
+        if (node < 4) {
+          w4[node] += w[c];
+        } else {
+          for (int k = 0; k < 4; ++k) w4[k] += w[c] * phi[k];
+        }
+      }
     }
     const double free =
         integral.value - (n[0] * w4[0] + n[1] * w4[1] + n[2] * w4[2] + n[3] * w4[3]);
@@ -459,22 +477,33 @@ class PointKernel {
   }
 
   // N̂, the unit null vector of (p_0 − x, …, p_3 − x): N_i = (−1)^i det(the other three), in long
-  // double. Near the plane of a nearly planar quad every N_i is ~h d² with round-off ~u d³, so
-  // N̂'s direction errs by u d / h; that error multiplies only the free component F − N̂·W_fan,
-  // which the fan keeps O(1) against the weights' 1 / h (measured: reproduction ~2e-16 at 1e-10
-  // diagonals from edges and vertices, unchanged with N in double-double). Zero if x is in the
-  // plane of a planar quad: then F = 0 and the fan alone gives the weights (zero outside the
-  // quad; on it, the fan's triangles find x).
+  // double where |N| < 1e-3 of the scale of its terms, else in double. Near the plane of a nearly
+  // planar quad every N_i is ~h d² with round-off ~u d³, so N̂'s direction errs by u d / h; that
+  // error multiplies only the free component F − N̂·W_fan, which the fan keeps O(1) against the
+  // weights' 1 / h (measured: reproduction ~2e-16 at 1e-10 diagonals from edges and vertices,
+  // unchanged with N in double-double). Zero if x is in the plane of a planar quad: then F = 0 and
+  // the fan alone gives the weights (zero outside the quad; on it, the fan's triangles find x).
   std::array<double, 4> nullVector(std::span<const std::uint32_t> face) const {
-    using V = glm::vec<3, Real>;
-    std::array<V, 4> v;
-    for (int c = 0; c < 4; ++c) v[c] = V(cd_.p[face[c]]) - V(x_);
-    const auto det = [&](int a, int b, int c) { return glm::dot(v[a], glm::cross(v[b], v[c])); };
-    const std::array<Real, 4> n = {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
-    const Real length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-    if (!(length > 0)) return {0.0, 0.0, 0.0, 0.0};
-    return {static_cast<double>(n[0] / length), static_cast<double>(n[1] / length),
-            static_cast<double>(n[2] / length), static_cast<double>(n[3] / length)};
+    const auto cofactors = [&]<class T>(T) {
+      using V = glm::vec<3, T>;
+      std::array<V, 4> v;
+      for (int c = 0; c < 4; ++c) v[c] = V(cd_.p[face[c]]) - V(x_);
+      const auto det = [&](int a, int b, int c) { return glm::dot(v[a], glm::cross(v[b], v[c])); };
+      const std::array<T, 4> n = {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
+      const T length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+      std::array<double, 4> unit = {0.0, 0.0, 0.0, 0.0};
+      if (length > 0)
+        for (int i = 0; i < 4; ++i) unit[i] = static_cast<double>(n[i] / length);
+      return std::pair{unit, static_cast<double>(length)};
+    };
+    // In double where |N| is not small against its terms (x well off the quad's plane).
+    const auto [unit, length] = cofactors(0.0);
+    const double* d = &s_.d[0];
+    const double scale =
+        d[face[1]] * d[face[2]] * d[face[3]] + d[face[0]] * d[face[2]] * d[face[3]] +
+        d[face[0]] * d[face[1]] * d[face[3]] + d[face[0]] * d[face[1]] * d[face[2]];
+    if (length >= 1e-3 * scale) return unit;
+    return cofactors(Real{0}).first;
   }
 
   // Langer et al.'s spherical mean-value weights of a planar polygon (see the top), in long
