@@ -87,6 +87,10 @@ constexpr double kFarLimit = 3000.0;
 // A triangle of a quad's tessellation takes the careful path when x's elevation over its plane
 // is below this (the fast weights then solve their equations to ~1e-13 of m_T).
 constexpr double kMinElevation = 1e-3;
+// A quad far from x solves its three equations by Cramer's rule (threeCorners) when |N| is at
+// least this fraction of the scale of its terms (x well off the plane of a nearly planar quad:
+// the 3 × 3 systems are then well conditioned), else by two triangles.
+constexpr double kCramerElevation = 1e-2;
 
 // The cage's faces, edges and per-face boxes (for the snapping test).
 struct CageData {
@@ -106,8 +110,27 @@ struct CageData {
   }
 };
 
+// F = ∫∫ ψ(u, v) (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv with ψ = Σ N̂_k B_k (see the top), and where
+// the quadrature went: `near` if it measured from x's foot (then `foot` is that origin),
+// `inside` false if x touched the patch.
+struct QuadIntegral {
+  double value = 0.0;
+  bool near = false, inside = true;
+  Origin foot;
+};
+
+// What a quad's weights need that does not change between a point's passes: N̂ (see
+// nullVector), its relative size and the integral.
+struct QuadTerms {
+  std::array<Real, 4> n{};
+  double relative = 0.0;
+  QuadIntegral integral;
+};
+
 // Per-thread buffers of one point.
 struct Scratch {
+  std::vector<QuadTerms> quads;  // per face (quads only), filled on the point's first pass
+  std::vector<char> quadDone;
   std::vector<Vec3> v;  // p_i − x
   std::vector<double> d;
   std::vector<Real> acc;                              // Σ over faces of the unnormalised weights
@@ -234,15 +257,6 @@ bool snapRow(const CageData& cd, const Vec3& x, const Scratch& s, std::span<doub
 
 // ---- a quad's integral ----
 
-// F = ∫∫ ψ(u, v) (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv with ψ = Σ N̂_k B_k (see the top), and where
-// the quadrature went: `near` if it measured from x's foot (then `foot` is that origin),
-// `inside` false if x touched the patch.
-struct QuadIntegral {
-  double value = 0.0;
-  bool near = false, inside = true;
-  Origin foot;
-};
-
 // The tensor rule of order n over [u0, u0 + s] × [v0, v0 + s], node vectors from `o`, kBlock
 // nodes at a time into kBlock interleaved partial sums (vectorised without reordering any sum:
 // the same bits on every simd::Path), as QuadGreenCoordinates' gaussSquare.
@@ -350,7 +364,7 @@ class PointKernel {
       if (face.size() == 3) {
         const std::array<Vec3, 3> v = {s_.v[face[0]], s_.v[face[1]], s_.v[face[2]]};
         const std::array<double, 3> d = {s_.d[face[0]], s_.d[face[1]], s_.d[face[2]]};
-        std::array<double, 3> w;
+        std::array<Real, 3> w;
         if (!triangle(v, d, w)) {
           // On the triangle: its barycentric coordinates are the careful path's face row.
           std::fill(row.begin(), row.end(), 0.0);
@@ -368,9 +382,9 @@ class PointKernel {
   }
 
  private:
-  void add(std::uint32_t i, double w, double d) {
+  void add(std::uint32_t i, Real w, double d) {
     s_.acc[i] += w;
-    kappa_ += std::fabs(w) * d;
+    kappa_ += std::fabs(static_cast<double>(w)) * d;
   }
 
   // The weights of the triangle x + v; false if x lies on it.
@@ -379,11 +393,13 @@ class PointKernel {
   // keeps to ε / elevation (and the shared boundary of the tessellation turns into linear
   // precision). They take the fast path unless x is near their plane.
   bool triangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
-                std::array<double, 3>& w, bool part = false) {
-    const detail::FastTriangle fast = detail::fastMeanValueTriangle(v, d, w);
+                std::array<Real, 3>& w, bool part = false) {
+    std::array<double, 3> fw;
+    const detail::FastTriangle fast = detail::fastMeanValueTriangle(v, d, fw);
+    w = {fw[0], fw[1], fw[2]};
     if (part) {
       if (fastLimit_ > 0.0 && fast.elevation >= kMinElevation &&
-          fast.error <= 1e-10 * (std::fabs(w[0]) + std::fabs(w[1]) + std::fabs(w[2])))
+          fast.error <= 1e-10 * (std::fabs(fw[0]) + std::fabs(fw[1]) + std::fabs(fw[2])))
         return true;
     } else {
       ++triangles_;
@@ -395,7 +411,7 @@ class PointKernel {
     const std::array<Vec3, 3> corners = {x_ + v[0], x_ + v[1], x_ + v[2]};
     const detail::CarefulTriangle r = detail::carefulMeanValueTriangle(corners, x_);
     if (r.onFace) return false;
-    for (int c = 0; c < 3; ++c) w[c] = static_cast<double>(r.w[c]);
+    w = r.w;
     return true;
   }
 
@@ -417,13 +433,28 @@ class PointKernel {
   // integral of ψ = Σ N̂_i B_i by adaptive quadrature. False if x lies on the patch (row filled).
   bool quad(std::size_t f, std::span<const std::uint32_t> face, std::span<double> row) {
     const Patch& q = cd_.patch[f];
-    const std::array<double, 4> n = nullVector(face);
-    QuadIntegral integral;
-    kIntegrate[static_cast<int>(detail::simd::activePath())](q, x_, n, cd_.touchRadius, integral);
-    // Where the quadrature went near x, the fan's centre is x's foot (the fan's triangles then
-    // see x as the patch does, at a distance like the patch's); otherwise two triangles split
-    // along the diagonal from the corner of least vertex index (the same triangles whichever
-    // corner the face starts at) give the three equations at half the cost.
+    QuadTerms& terms = s_.quads[f];
+    const std::array<Real, 4>& nl = terms.n;
+    if (!s_.quadDone[f]) {
+      s_.quadDone[f] = 1;
+      terms.n = nullVector(face, terms.relative);
+      terms.integral = QuadIntegral{};
+      const std::array<double, 4> nd = {static_cast<double>(nl[0]), static_cast<double>(nl[1]),
+                                        static_cast<double>(nl[2]), static_cast<double>(nl[3])};
+      kIntegrate[static_cast<int>(detail::simd::activePath())](q, x_, nd, cd_.touchRadius,
+                                                               terms.integral);
+    }
+    const double relative = terms.relative;
+    const QuadIntegral& integral = terms.integral;
+    const std::array<double, 4> n = {static_cast<double>(nl[0]), static_cast<double>(nl[1]),
+                                     static_cast<double>(nl[2]), static_cast<double>(nl[3])};
+    // The three equations: where the quadrature went near x, from four triangles fanned around
+    // x's foot (they then see x as the patch does, at a distance like the patch's). Otherwise
+    // by Cramer's rule (threeCorners) where that is well conditioned, else from two triangles
+    // split along the diagonal from the corner of least vertex index (the same triangles
+    // whichever corner the face starts at); but on the careful pass (outside, where the weights
+    // cancel) from the fan around the patch's centre, whose smaller triangles' rounding is
+    // smaller (measured at 1000 diagonals: reproduction 5e-10, against 3e-8 with the split).
     double u = 0.5, v = 0.5;
     if (integral.near) fanCentre(q, integral.foot, u, v);
     const std::array<double, 4> phi = bilinear(u, v);
@@ -433,10 +464,27 @@ class PointKernel {
       return false;
     };
     if (!integral.inside) return onPatch();
+    std::array<Real, 4> w4 = {0, 0, 0, 0};
+    if (!integral.near && fastLimit_ > 0.0 && relative >= kCramerElevation) {
+      // Cramer's rule errs by about ε / relative (its condition) of the weights: an error
+      // estimate in the budget of the point's fast triangles (else, refused on the second pass,
+      // the split triangles below).
+      threeCorners(face, n, w4);
+      const double error = kEps / relative *
+                           static_cast<double>(std::fabs(w4[0]) + std::fabs(w4[1]) +
+                                               std::fabs(w4[2]) + std::fabs(w4[3]));
+      ++triangles_;
+      if (error <= fastLimit_) {
+        error_ += error;
+        return addQuad(face, nl, integral.value, w4);
+      }
+      w4 = {0, 0, 0, 0};
+    }
     // Nodes 0 … 3 are the corners, 4 the fan's centre.
     std::array<std::array<int, 3>, 4> tris;
     int count = 0;
-    if (integral.near) {
+    const bool fan = integral.near || fastLimit_ == 0.0;
+    if (fan) {
       // The fan's triangle on side c (corners c, c + 1) is empty when the centre is on that side.
       const std::array<bool, 4> empty = {v == 0.0, u == 1.0, v == 1.0, u == 0.0};
       for (int c = 0; c < 4; ++c)
@@ -446,9 +494,10 @@ class PointKernel {
       tris[count++] = {a, (a + 1) % 4, (a + 2) % 4};
       tris[count++] = {a, (a + 2) % 4, (a + 3) % 4};
     }
-    const Vec3 centre = integral.near ? fromOrigin(q, integral.foot, u, v) : Vec3(0.0);
-    const double centreD = integral.near ? glm::length(centre) : 0.0;
-    std::array<double, 4> w4 = {0.0, 0.0, 0.0, 0.0};
+    const Vec3 centre = !fan            ? Vec3(0.0)
+                        : integral.near ? fromOrigin(q, integral.foot, u, v)
+                                        : q.at(u, v) - x_;
+    const double centreD = fan ? glm::length(centre) : 0.0;
     for (int t = 0; t < count; ++t) {
       std::array<Vec3, 3> tv;
       std::array<double, 3> td;
@@ -457,10 +506,11 @@ class PointKernel {
         tv[c] = node == 4 ? centre : s_.v[face[node]];
         td[c] = node == 4 ? centreD : s_.d[face[node]];
       }
-      std::array<double, 3> w;
+      std::array<Real, 3> w;
       // False: x lies on this triangle (so within rounding of the patch, as it passed the
       // snapping test only when snapTolerance is 0): the interpolant at the centre.
-      if (!triangle(tv, td, w, true)) return onPatch();
+      // The split's triangles are the quad's own equations: in the point's error budget.
+      if (!triangle(tv, td, w, fan)) return onPatch();
       for (int c = 0; c < 3; ++c) {
         const int node = tris[t][c];
         if (node < 4) {
@@ -470,10 +520,43 @@ class PointKernel {
         }
       }
     }
-    const double free =
-        integral.value - (n[0] * w4[0] + n[1] * w4[1] + n[2] * w4[2] + n[3] * w4[3]);
-    for (int k = 0; k < 4; ++k) add(face[k], w4[k] + free * n[k], s_.d[face[k]]);
+    return addQuad(face, nl, integral.value, w4);
+  }
+
+  // W = W_p + (F − N̂·W_p) N̂ into the sums.
+  // In long double: N̂'s rounding would add free · ε |p − x| to the reproduction, and the careful
+  // triangles' rounding to double ε |W| |p − x|, which outside, where the weights cancel,
+  // reaches the coordinates.
+  bool addQuad(std::span<const std::uint32_t> face, const std::array<Real, 4>& n, double F,
+               const std::array<Real, 4>& wp) {
+    const Real free = F - (n[0] * wp[0] + n[1] * wp[1] + n[2] * wp[2] + n[3] * wp[3]);
+    for (int k = 0; k < 4; ++k) add(face[k], wp[k] + free * n[k], s_.d[face[k]]);
     return true;
+  }
+
+  // A solution of the three equations Σ W_i v_i = m with one weight 0: the corner d of largest
+  // |N_d| left out (|N_d| = |det| of the other three, the best conditioned of the four 3 × 3
+  // systems), the other three by Cramer's rule; m from the quad's four edges.
+  void threeCorners(std::span<const std::uint32_t> face, const std::array<double, 4>& n,
+                    std::array<Real, 4>& w) const {
+    Vec3 m(0.0);
+    for (int c = 0; c < 4; ++c) {
+      double theta, rho;
+      const std::uint32_t a = face[c], b = face[(c + 1) % 4];
+      m += 0.5 * detail::edgeMeanVector(s_.v[a], s_.v[b], s_.d[a], s_.d[b], theta, rho);
+    }
+    int d = 0;
+    for (int k = 1; k < 4; ++k)
+      if (std::fabs(n[k]) > std::fabs(n[d])) d = k;
+    const Vec3& va = s_.v[face[(d + 1) % 4]];
+    const Vec3& vb = s_.v[face[(d + 2) % 4]];
+    const Vec3& vc = s_.v[face[(d + 3) % 4]];
+    const Vec3 bc = glm::cross(vb, vc), ca = glm::cross(vc, va), ab = glm::cross(va, vb);
+    const double det = glm::dot(va, bc);
+    w[d] = 0.0;
+    w[(d + 1) % 4] = glm::dot(m, bc) / det;
+    w[(d + 2) % 4] = glm::dot(m, ca) / det;
+    w[(d + 3) % 4] = glm::dot(m, ab) / det;
   }
 
   // N̂, the unit null vector of (p_0 − x, …, p_3 − x): N_i = (−1)^i det(the other three), in long
@@ -481,9 +564,10 @@ class PointKernel {
   // planar quad every N_i is ~h d² with round-off ~u d³, so N̂'s direction errs by u d / h; that
   // error multiplies only the free component F − N̂·W_fan, which the fan keeps O(1) against the
   // weights' 1 / h (measured: reproduction ~2e-16 at 1e-10 diagonals from edges and vertices,
-  // unchanged with N in double-double). Zero if x is in the plane of a planar quad: then F = 0 and
-  // the fan alone gives the weights (zero outside the quad; on it, the fan's triangles find x).
-  std::array<double, 4> nullVector(std::span<const std::uint32_t> face) const {
+  // unchanged with N in double-double). Zero if x is in the plane of a planar
+  // quad: then F = 0 and the fan alone gives the weights (zero outside the quad; on it, the fan's
+  // triangles find x).
+  std::array<Real, 4> nullVector(std::span<const std::uint32_t> face, double& relative) const {
     const auto cofactors = [&]<class T>(T) {
       using V = glm::vec<3, T>;
       std::array<V, 4> v;
@@ -491,9 +575,9 @@ class PointKernel {
       const auto det = [&](int a, int b, int c) { return glm::dot(v[a], glm::cross(v[b], v[c])); };
       const std::array<T, 4> n = {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
       const T length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-      std::array<double, 4> unit = {0.0, 0.0, 0.0, 0.0};
+      std::array<Real, 4> unit = {0, 0, 0, 0};
       if (length > 0)
-        for (int i = 0; i < 4; ++i) unit[i] = static_cast<double>(n[i] / length);
+        for (int i = 0; i < 4; ++i) unit[i] = n[i] / length;
       return std::pair{unit, static_cast<double>(length)};
     };
     // In double where |N| is not small against its terms (x well off the quad's plane).
@@ -502,6 +586,7 @@ class PointKernel {
     const double scale =
         d[face[1]] * d[face[2]] * d[face[3]] + d[face[0]] * d[face[2]] * d[face[3]] +
         d[face[0]] * d[face[1]] * d[face[3]] + d[face[0]] * d[face[1]] * d[face[2]];
+    relative = length / scale;
     if (length >= 1e-3 * scale) return unit;
     return cofactors(Real{0}).first;
   }
@@ -580,6 +665,8 @@ void computeRow(const CageData& cd, const Vec3& x, Scratch& s, std::span<double>
   // for points whose reproduction estimate ε Σ |w| d / (|W| diagonal) exceeds kTauRepro
   // (outside, where W cancels), takes the careful path everywhere.
   double limit = std::numeric_limits<double>::infinity();
+  s.quads.resize(cd.offsets.size() - 1);
+  s.quadDone.assign(cd.offsets.size() - 1, 0);
   for (int pass = 1;; ++pass) {
     std::fill(s.acc.begin(), s.acc.end(), Real{0});
     PointKernel kernel(cd, x, s, limit);
