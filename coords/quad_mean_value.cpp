@@ -87,10 +87,6 @@ constexpr double kFarLimit = 3000.0;
 // A triangle of a quad's tessellation takes the careful path when x's elevation over its plane
 // is below this (the fast weights then solve their equations to ~1e-13 of m_T).
 constexpr double kMinElevation = 1e-3;
-// A quad far from x solves its three equations by Cramer's rule (threeCorners) when |N| is at
-// least this fraction of the scale of its terms (x well off the plane of a nearly planar quad:
-// the 3 × 3 systems are then well conditioned), else by two triangles.
-constexpr double kCramerElevation = 1e-2;
 
 // The cage's faces, edges and per-face boxes (for the snapping test).
 struct CageData {
@@ -120,10 +116,9 @@ struct QuadIntegral {
 };
 
 // What a quad's weights need that does not change between a point's passes: N̂ (see
-// nullVector), its relative size and the integral.
+// nullVector) and the integral.
 struct QuadTerms {
   std::array<Real, 4> n{};
-  double relative = 0.0;
   QuadIntegral integral;
 };
 
@@ -437,24 +432,18 @@ class PointKernel {
     const std::array<Real, 4>& nl = terms.n;
     if (!s_.quadDone[f]) {
       s_.quadDone[f] = 1;
-      terms.n = nullVector(face, terms.relative);
+      terms.n = nullVector(face);
       terms.integral = QuadIntegral{};
       const std::array<double, 4> nd = {static_cast<double>(nl[0]), static_cast<double>(nl[1]),
                                         static_cast<double>(nl[2]), static_cast<double>(nl[3])};
       kIntegrate[static_cast<int>(detail::simd::activePath())](q, x_, nd, cd_.touchRadius,
                                                                terms.integral);
     }
-    const double relative = terms.relative;
     const QuadIntegral& integral = terms.integral;
-    const std::array<double, 4> n = {static_cast<double>(nl[0]), static_cast<double>(nl[1]),
-                                     static_cast<double>(nl[2]), static_cast<double>(nl[3])};
     // The three equations: where the quadrature went near x, from four triangles fanned around
-    // x's foot (they then see x as the patch does, at a distance like the patch's). Otherwise
-    // by Cramer's rule (threeCorners) where that is well conditioned, else from two triangles
-    // split along the diagonal from the corner of least vertex index (the same triangles
-    // whichever corner the face starts at); but on the careful pass (outside, where the weights
-    // cancel) from the fan around the patch's centre, whose smaller triangles' rounding is
-    // smaller (measured at 1000 diagonals: reproduction 5e-10, against 3e-8 with the split).
+    // x's foot (they then see x as the patch does, at a distance like the patch's); otherwise
+    // by the least-norm solution (leastNorm), but on the careful pass (outside, where the
+    // weights cancel) from the fan around the patch's centre in long double.
     double u = 0.5, v = 0.5;
     if (integral.near) fanCentre(q, integral.foot, u, v);
     const std::array<double, 4> phi = bilinear(u, v);
@@ -465,39 +454,19 @@ class PointKernel {
     };
     if (!integral.inside) return onPatch();
     std::array<Real, 4> w4 = {0, 0, 0, 0};
-    if (!integral.near && fastLimit_ > 0.0 && relative >= kCramerElevation) {
-      // Cramer's rule errs by about ε / relative (its condition) of the weights: an error
-      // estimate in the budget of the point's fast triangles (else, refused on the second pass,
-      // the split triangles below).
-      threeCorners(face, n, w4);
-      const double error = kEps / relative *
-                           static_cast<double>(std::fabs(w4[0]) + std::fabs(w4[1]) +
-                                               std::fabs(w4[2]) + std::fabs(w4[3]));
-      ++triangles_;
-      if (error <= fastLimit_) {
-        error_ += error;
-        return addQuad(face, nl, integral.value, w4);
-      }
-      w4 = {0, 0, 0, 0};
+    if (!integral.near && fastLimit_ > 0.0) {
+      leastNorm(face, w4);
+      return addQuad(face, nl, integral.value, w4);
     }
-    // Nodes 0 … 3 are the corners, 4 the fan's centre.
+    // The fan: nodes 0 … 3 are the corners, 4 its centre; the triangle on side c (corners c,
+    // c + 1) is empty when the centre is on that side.
     std::array<std::array<int, 3>, 4> tris;
     int count = 0;
-    const bool fan = integral.near || fastLimit_ == 0.0;
-    if (fan) {
-      // The fan's triangle on side c (corners c, c + 1) is empty when the centre is on that side.
-      const std::array<bool, 4> empty = {v == 0.0, u == 1.0, v == 1.0, u == 0.0};
-      for (int c = 0; c < 4; ++c)
-        if (!empty[c]) tris[count++] = {4, c, (c + 1) % 4};
-    } else {
-      const int a = static_cast<int>(std::min_element(face.begin(), face.end()) - face.begin());
-      tris[count++] = {a, (a + 1) % 4, (a + 2) % 4};
-      tris[count++] = {a, (a + 2) % 4, (a + 3) % 4};
-    }
-    const Vec3 centre = !fan            ? Vec3(0.0)
-                        : integral.near ? fromOrigin(q, integral.foot, u, v)
-                                        : q.at(u, v) - x_;
-    const double centreD = fan ? glm::length(centre) : 0.0;
+    const std::array<bool, 4> empty = {v == 0.0, u == 1.0, v == 1.0, u == 0.0};
+    for (int c = 0; c < 4; ++c)
+      if (!empty[c]) tris[count++] = {4, c, (c + 1) % 4};
+    const Vec3 centre = integral.near ? fromOrigin(q, integral.foot, u, v) : q.at(u, v) - x_;
+    const double centreD = glm::length(centre);
     for (int t = 0; t < count; ++t) {
       std::array<Vec3, 3> tv;
       std::array<double, 3> td;
@@ -509,8 +478,7 @@ class PointKernel {
       std::array<Real, 3> w;
       // False: x lies on this triangle (so within rounding of the patch, as it passed the
       // snapping test only when snapTolerance is 0): the interpolant at the centre.
-      // The split's triangles are the quad's own equations: in the point's error budget.
-      if (!triangle(tv, td, w, fan)) return onPatch();
+      if (!triangle(tv, td, w, true)) return onPatch();
       for (int c = 0; c < 3; ++c) {
         const int node = tris[t][c];
         if (node < 4) {
@@ -534,29 +502,56 @@ class PointKernel {
     return true;
   }
 
-  // A solution of the three equations Σ W_i v_i = m with one weight 0: the corner d of largest
-  // |N_d| left out (|N_d| = |det| of the other three, the best conditioned of the four 3 × 3
-  // systems), the other three by Cramer's rule; m from the quad's four edges.
-  void threeCorners(std::span<const std::uint32_t> face, const std::array<double, 4>& n,
-                    std::array<Real, 4>& w) const {
+  // The least-norm solution of the three equations Σ W_i v_i = m (m from the quad's four edges)
+  // by Householder QR of the 4 × 3 matrix of rows v_i: backward stable, so its residual is
+  // ~ε |v| |W_p| with |W_p| ≤ |W| (the exact weights solve the same equations), however nearly
+  // parallel the v_i are (a small quad far away) or coplanar (x near a planar quad's plane).
+  // Cramer's rule on three corners, tried first, erred by ε times the systems' condition
+  // (reproduction 3e-12 at 10 diagonals).
+  void leastNorm(std::span<const std::uint32_t> face, std::array<Real, 4>& w) const {
     Vec3 m(0.0);
     for (int c = 0; c < 4; ++c) {
       double theta, rho;
       const std::uint32_t a = face[c], b = face[(c + 1) % 4];
       m += 0.5 * detail::edgeMeanVector(s_.v[a], s_.v[b], s_.d[a], s_.d[b], theta, rho);
     }
-    int d = 0;
-    for (int k = 1; k < 4; ++k)
-      if (std::fabs(n[k]) > std::fabs(n[d])) d = k;
-    const Vec3& va = s_.v[face[(d + 1) % 4]];
-    const Vec3& vb = s_.v[face[(d + 2) % 4]];
-    const Vec3& vc = s_.v[face[(d + 3) % 4]];
-    const Vec3 bc = glm::cross(vb, vc), ca = glm::cross(vc, va), ab = glm::cross(va, vb);
-    const double det = glm::dot(va, bc);
-    w[d] = 0.0;
-    w[(d + 1) % 4] = glm::dot(m, bc) / det;
-    w[(d + 2) % 4] = glm::dot(m, ca) / det;
-    w[(d + 3) % 4] = glm::dot(m, ab) / det;
+    // A = Vᵀ (rows v_c) = Q R by three Householder reflections H_j = I − 2 h_j h_jᵀ (rows j …
+    // 3); V = Rᵀ Qᵀ, so W = Q (R⁻ᵀ m, 0) = H_0 H_1 H_2 (y, 0) with Rᵀ y = m.
+    double a[4][3];
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 3; ++k) a[c][k] = s_.v[face[c]][k];
+    double h[3][4] = {};
+    for (int j = 0; j < 3; ++j) {
+      double norm2 = 0.0;
+      for (int r = j; r < 4; ++r) norm2 += a[r][j] * a[r][j];
+      const double norm = std::sqrt(norm2);
+      const double alpha = a[j][j] > 0.0 ? -norm : norm;
+      for (int r = j; r < 4; ++r) h[j][r] = a[r][j];
+      h[j][j] -= alpha;
+      double hn2 = 0.0;
+      for (int r = j; r < 4; ++r) hn2 += h[j][r] * h[j][r];
+      if (!(hn2 > 0.0)) continue;  // the column is already reduced: H_j = I
+      const double hn = std::sqrt(hn2);
+      for (int r = j; r < 4; ++r) h[j][r] /= hn;
+      for (int k = j; k < 3; ++k) {
+        double dot = 0.0;
+        for (int r = j; r < 4; ++r) dot += h[j][r] * a[r][k];
+        for (int r = j; r < 4; ++r) a[r][k] -= 2.0 * dot * h[j][r];
+      }
+    }
+    const double mm[3] = {m.x, m.y, m.z};
+    double z[4] = {0.0, 0.0, 0.0, 0.0};
+    for (int k = 0; k < 3; ++k) {  // Rᵀ y = m, Rᵀ lower triangular
+      double sum = mm[k];
+      for (int r = 0; r < k; ++r) sum -= a[r][k] * z[r];
+      z[k] = sum / a[k][k];
+    }
+    for (int j = 2; j >= 0; --j) {
+      double dot = 0.0;
+      for (int r = j; r < 4; ++r) dot += h[j][r] * z[r];
+      for (int r = j; r < 4; ++r) z[r] -= 2.0 * dot * h[j][r];
+    }
+    for (int c = 0; c < 4; ++c) w[c] = z[c];
   }
 
   // N̂, the unit null vector of (p_0 − x, …, p_3 − x): N_i = (−1)^i det(the other three), in long
@@ -567,7 +562,7 @@ class PointKernel {
   // unchanged with N in double-double). Zero if x is in the plane of a planar
   // quad: then F = 0 and the fan alone gives the weights (zero outside the quad; on it, the fan's
   // triangles find x).
-  std::array<Real, 4> nullVector(std::span<const std::uint32_t> face, double& relative) const {
+  std::array<Real, 4> nullVector(std::span<const std::uint32_t> face) const {
     const auto cofactors = [&]<class T>(T) {
       using V = glm::vec<3, T>;
       std::array<V, 4> v;
@@ -586,7 +581,6 @@ class PointKernel {
     const double scale =
         d[face[1]] * d[face[2]] * d[face[3]] + d[face[0]] * d[face[2]] * d[face[3]] +
         d[face[0]] * d[face[1]] * d[face[3]] + d[face[0]] * d[face[1]] * d[face[2]];
-    relative = length / scale;
     if (length >= 1e-3 * scale) return unit;
     return cofactors(Real{0}).first;
   }
