@@ -15,30 +15,41 @@
 // one where its error estimate asks for it. An all-triangle cage is handed whole to a
 // MeanValueCoordinates, so its rows are those of MVC bit for bit.
 //
-// Quads (Thiery, Memari, Boubekeur 2018): σ is the bilinear patch and φ its bilinear basis.
-// The three equations Σ W_i v_i = m fix W up to the null vector N of (v_0 … v_3) (N_i the signed
-// cofactors; N ∝ φ(u, v) exactly when x = σ(u, v)); the fourth degree of freedom needs the
-// integral itself. The paper solves the three equations exactly and takes the fourth from a
-// sampled quadrature. Here the integral is taken over tessellations of the patch that adapt to
-// x: with (û, v̂) the closest point of the patch to x (damped Gauss-Newton from the centre,
-// clamped to the unit square), the parameter square is cut at û and v̂ into four rectangles,
-// each into k × k cells, each cell into two triangles by its diagonal towards the foot (level
-// k = 1: 8 triangles fanned around σ(û, v̂)). Every triangle gets the exact triangle weights of
-// its corners, and a node at (u, v) passes its weight to the quad's corners by φ(u, v). Levels
-// 1 and 2 are extrapolated, W = (4 W₂ − W₁) / 3 (the error of each falls like 1 / k²). This
-//  - solves the three equations exactly for every level (the triangles' boundary is the
-//    quad's), so it is the paper's construction with another quadrature for the null
-//    direction, and keeps partition of unity and linear precision exact;
-//  - does not depend on a diagonal or on the starting vertex (the tessellations are the same
-//    sets of triangles for every rotation of the quad);
-//  - tends to the bilinear interpolant φ(û, v̂) as x approaches the patch, the node σ(û, v̂)
-//    being the foot of x in both levels, so that the coordinates are continuous onto the face
-//    (where points within snapTolerance get φ at the inverse-bilinear parameters);
-//  - is robust near the patch and its plane, as every triangle is (the careful path where x is
-//    near a triangle's plane).
-// Its remaining error is that of the quadrature: measured against a 64 × 64 tessellation, max
-// |Δw| 1e-3 to 6e-3 at points inside six quad cages (see kCoarse). It costs 40 triangle terms
-// per quad.
+// Quads (Thiery, Memari, Boubekeur 2018): σ is the bilinear patch ξ(u, v) and φ its bilinear
+// basis B. The three equations Σ W_i v_i = m fix W up to the null vector N of (v_0 … v_3) (N_i
+// the signed cofactors; N ∝ φ(u, v) exactly when x = σ(u, v)); the fourth degree of freedom is
+// taken from the integral itself: W = W_p + (F − N̂·W_p) N̂ with W_p any solution of the three
+// equations and
+//     F = N̂·W = ∫∫ ψ(u, v) (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv,   ψ = Σ N̂_k B_k,
+// (dΩ / r = (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv). ψ = N̂·B is the functional whose projection
+// on N is |N̂|² = 1, the best conditioned there is; Σ W_i = ∫ dΩ / r would have projection
+// Σ N_i, which vanishes for every planar quad (N is then the corners' affine dependence). F is
+// integrated by the adaptive Gauss-Legendre quadrature of coords/detail/bilinear_quadrature.h
+// (shared with QuadGreenCoordinates: admissibility ρ / D ≤ 1/2, orders from its table, node
+// vectors from x's foot near the patch, compiled per simd::Path). W_p:
+//  - where the quadrature went near x (some square not admissible): four triangles fanned
+//    around x's foot, each with its exact MVC weights (the careful path where x is near its
+//    plane or its fast error estimate exceeds 1e-10 of its weights: a sliver seen at close range
+//    had weights 1e-4 off), the foot's weight passed on by φ(foot). The fan's triangles see x
+//    as the patch does, so F − N̂·W_p stays O(1) against the weights' 1 / h. A foot within 16
+//    heights of a side is put on it (no sliver triangle on that side);
+//  - elsewhere, the least-norm solution by Householder QR (backward stable however nearly
+//    parallel the v_i are); on the careful pass (outside, where the weights cancel), the fan
+//    around the patch centre in long double.
+// So the three equations, hence partition of unity and linear precision, hold to round-off; the
+// result does not depend on a diagonal or (beyond round-off) on the starting vertex; it tends to
+// φ(foot) as x approaches the patch (the fan's centre node is the foot), and is robust near the
+// patch and its plane. Measured: rows equal a brute-force long-double integral (16-point rule,
+// 5-radius admissibility) to 3e-16 (max |Δw|) inside, outside and at 1e-3 … 1e-12 diagonals from
+// faces, edges and vertices of planar and warped quads, wherever that reference is itself
+// accurate (its node vectors carry 1e-19 / distance: one point 1.7e-11 above a face differed by
+// 6e-9); the tessellation this replaced was 1e-3 … 6e-3 off. Reproduction: ~2e-16 at 1e-4 …
+// 1e-10 diagonals from edges and vertices, 3e-13 at 10, 4e-13 / 2e-12 (planar / warped) at 100,
+// 5e-10 / 1.4e-9 at 1000 diagonals. Cost (the bench's twisted 294-quad box, one thread, batch):
+// 515 ns per (point × quad) against MVC's 25 ns for the quad's two triangles (21×; the
+// tessellation this replaced: 2650 ns). Profile: 26% F (~90 nodes per quad; QGC's eight
+// integrals take 220 ns), 24% the four edges' mean vector (asin), 44% the rest of quad() (null
+// vector, Householder QR, sums). The 3× target would need F alone to cost ~2 MVC triangles.
 //
 // Polygons with more than 4 vertices (planar): Langer, Belyaev and Seidel's spherical
 // mean-value construction. With m̂ = m / |m|, t_i the component of u_i = v_i / d_i orthogonal to
@@ -84,8 +95,8 @@ constexpr double kEps = std::numeric_limits<double>::epsilon();
 constexpr double kTauW = 1e-13;
 constexpr double kTauRepro = 1e-13;
 constexpr double kFarLimit = 3000.0;
-// A triangle of a quad's tessellation takes the careful path when x's elevation over its plane
-// is below this (the fast weights then solve their equations to ~1e-13 of m_T).
+// A triangle of a quad's fan takes the careful path when x's elevation over its plane is below
+// this (the fast weights then solve their equations to ~1e-13 of m_T).
 constexpr double kMinElevation = 1e-3;
 
 // The cage's faces, edges and per-face boxes (for the snapping test).

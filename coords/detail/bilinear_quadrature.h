@@ -11,7 +11,8 @@
 // the convex hull of its corners, hence in that ball), with the order chosen from t = ρ / D
 // (kOrderLimit: measured on 4000 random planar and warped quads against a 60-point rule in long
 // double, for the kernels 1/r and r·N/r³ the rule's error is below 1e-15 of the piece's
-// contribution; for QMVC's r·N/r⁴ see quad_mean_value.cpp); otherwise it is cut in four. A
+// contribution; QMVC's r·N/r⁴ matches a stricter long-double reference to 3e-16, see
+// quad_mean_value.cpp); otherwise it is cut in four. A
 // square whose radius falls to `touchRadius` (or whose side to 2⁻⁶⁰) while x is still that close
 // to it is a contact, reported to the caller.
 
