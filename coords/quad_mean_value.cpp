@@ -15,30 +15,41 @@
 // one where its error estimate asks for it. An all-triangle cage is handed whole to a
 // MeanValueCoordinates, so its rows are those of MVC bit for bit.
 //
-// Quads (Thiery, Memari, Boubekeur 2018): σ is the bilinear patch and φ its bilinear basis.
-// The three equations Σ W_i v_i = m fix W up to the null vector N of (v_0 … v_3) (N_i the signed
-// cofactors; N ∝ φ(u, v) exactly when x = σ(u, v)); the fourth degree of freedom needs the
-// integral itself. The paper solves the three equations exactly and takes the fourth from a
-// sampled quadrature. Here the integral is taken over tessellations of the patch that adapt to
-// x: with (û, v̂) the closest point of the patch to x (damped Gauss-Newton from the centre,
-// clamped to the unit square), the parameter square is cut at û and v̂ into four rectangles,
-// each into k × k cells, each cell into two triangles by its diagonal towards the foot (level
-// k = 1: 8 triangles fanned around σ(û, v̂)). Every triangle gets the exact triangle weights of
-// its corners, and a node at (u, v) passes its weight to the quad's corners by φ(u, v). Levels
-// 1 and 2 are extrapolated, W = (4 W₂ − W₁) / 3 (the error of each falls like 1 / k²). This
-//  - solves the three equations exactly for every level (the triangles' boundary is the
-//    quad's), so it is the paper's construction with another quadrature for the null
-//    direction, and keeps partition of unity and linear precision exact;
-//  - does not depend on a diagonal or on the starting vertex (the tessellations are the same
-//    sets of triangles for every rotation of the quad);
-//  - tends to the bilinear interpolant φ(û, v̂) as x approaches the patch, the node σ(û, v̂)
-//    being the foot of x in both levels, so that the coordinates are continuous onto the face
-//    (where points within snapTolerance get φ at the inverse-bilinear parameters);
-//  - is robust near the patch and its plane, as every triangle is (the careful path where x is
-//    near a triangle's plane).
-// Its remaining error is that of the quadrature: measured against a 64 × 64 tessellation, max
-// |Δw| 1e-3 to 6e-3 at points inside six quad cages (see kCoarse). It costs 40 triangle terms
-// per quad.
+// Quads (Thiery, Memari, Boubekeur 2018): σ is the bilinear patch ξ(u, v) and φ its bilinear
+// basis B. The three equations Σ W_i v_i = m fix W up to the null vector N of (v_0 … v_3) (N_i
+// the signed cofactors; N ∝ φ(u, v) exactly when x = σ(u, v)); the fourth degree of freedom is
+// taken from the integral itself: W = W_p + (F − N̂·W_p) N̂ with W_p any solution of the three
+// equations and
+//     F = N̂·W = ∫∫ ψ(u, v) (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv,   ψ = Σ N̂_k B_k,
+// (dΩ / r = (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv). ψ = N̂·B is the functional whose projection
+// on N is |N̂|² = 1, the best conditioned there is; Σ W_i = ∫ dΩ / r would have projection
+// Σ N_i, which vanishes for every planar quad (N is then the corners' affine dependence). F is
+// integrated by the adaptive Gauss-Legendre quadrature of coords/detail/bilinear_quadrature.h
+// (shared with QuadGreenCoordinates: admissibility ρ / D ≤ 1/2, orders from its table, node
+// vectors from x's foot near the patch, compiled per simd::Path). W_p:
+//  - where the quadrature went near x (some square not admissible): four triangles fanned
+//    around x's foot, each with its exact MVC weights (the careful path where x is near its
+//    plane or its fast error estimate exceeds 1e-10 of its weights: a sliver seen at close range
+//    had weights 1e-4 off), the foot's weight passed on by φ(foot). The fan's triangles see x
+//    as the patch does, so F − N̂·W_p stays O(1) against the weights' 1 / h. A foot within 16
+//    heights of a side is put on it (no sliver triangle on that side);
+//  - elsewhere, the least-norm solution by Householder QR (backward stable however nearly
+//    parallel the v_i are); on the careful pass (outside, where the weights cancel), the fan
+//    around the patch centre in long double.
+// So the three equations, hence partition of unity and linear precision, hold to round-off; the
+// result does not depend on a diagonal or (beyond round-off) on the starting vertex; it tends to
+// φ(foot) as x approaches the patch (the fan's centre node is the foot), and is robust near the
+// patch and its plane. Measured: rows equal a brute-force long-double integral (16-point rule,
+// 5-radius admissibility) to 3e-16 (max |Δw|) inside, outside and at 1e-3 … 1e-12 diagonals from
+// faces, edges and vertices of planar and warped quads, wherever that reference is itself
+// accurate (its node vectors carry 1e-19 / distance: one point 1.7e-11 above a face differed by
+// 6e-9); the tessellation this replaced was 1e-3 … 6e-3 off. Reproduction: ~2e-16 at 1e-4 …
+// 1e-10 diagonals from edges and vertices, 3e-13 at 10, 4e-13 / 2e-12 (planar / warped) at 100,
+// 5e-10 / 1.4e-9 at 1000 diagonals. Cost (the bench's twisted 294-quad box, one thread, batch):
+// 515 ns per (point × quad) against MVC's 25 ns for the quad's two triangles (21×; the
+// tessellation this replaced: 2650 ns). Profile: 26% F (~90 nodes per quad; QGC's eight
+// integrals take 220 ns), 24% the four edges' mean vector (asin), 44% the rest of quad() (null
+// vector, Householder QR, sums). The 3× target would need F alone to cost ~2 MVC triangles.
 //
 // Polygons with more than 4 vertices (planar): Langer, Belyaev and Seidel's spherical
 // mean-value construction. With m̂ = m / |m|, t_i the component of u_i = v_i / d_i orthogonal to
@@ -65,9 +76,11 @@
 #include <utility>
 #include <vector>
 
+#include <spacewarp/coords/detail/bilinear_quadrature.h>
 #include <spacewarp/coords/detail/mean_value_triangle.h>
 #include <spacewarp/coords/mean_value.h>
 #include <spacewarp/core/archive.h>
+#include <spacewarp/core/detail/simd.h>
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/geometry.h>
 
@@ -75,23 +88,16 @@ namespace spacewarp {
 
 namespace {
 
+using namespace detail::patch;
 using Real = long double;
 constexpr double kEps = std::numeric_limits<double>::epsilon();
 // As MeanValueCoordinates' kTauW, kTauRepro and kFarLimit (see mean_value.cpp).
 constexpr double kTauW = 1e-13;
 constexpr double kTauRepro = 1e-13;
 constexpr double kFarLimit = 3000.0;
-// Gauss-Newton steps of the closest-point search on a patch (quadratic convergence near the
-// patch, where the foot must be exact; a fixed count keeps it a continuous function of x).
-constexpr int kProjectionSteps = 12;
-// A triangle of a quad's tessellation takes the careful path when x's elevation over its plane
-// is below this (the fast weights then solve their equations to ~1e-13 of m_T).
+// A triangle of a quad's fan takes the careful path when x's elevation over its plane is below
+// this (the fast weights then solve their equations to ~1e-13 of m_T).
 constexpr double kMinElevation = 1e-3;
-// The two tessellation levels of a quad, extrapolated as (4 W₂ − W₁) / 3 (their error falls
-// like 1 / k²). Measured against a 64 × 64 tessellation (≈ the exact integral) at 1000 points
-// inside each of 6 quad cages: max |Δw| 1e-3 to 6e-3, where level 2 alone gives 4e-3 to 3e-2,
-// level 1 alone 2e-2 to 0.12, and the authors' sampled quadrature 4e-3 to 1.5e-2.
-constexpr int kCoarse = 1, kFine = 2;
 
 // The cage's faces, edges and per-face boxes (for the snapping test).
 struct CageData {
@@ -99,9 +105,11 @@ struct CageData {
   std::vector<std::uint32_t> offsets, indices;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;  // each once, first < second
   std::vector<Vec3> normal;                                    // unit Newell normal per face
+  std::vector<Patch> patch;  // per face (quads only; others default)
   std::vector<BoundingBox> box;
   double diagonal = 0.0;
   double snapLength = 0.0;
+  double touchRadius = 0.0;  // integrateAdaptive's contact radius (world units)
   Vec3 center{0.0};
 
   std::span<const std::uint32_t> face(std::size_t f) const {
@@ -109,18 +117,26 @@ struct CageData {
   }
 };
 
-// A node of a quad's tessellation: parameters, basis, position − x, distance, weight.
-struct GridNode {
-  double u = 0.0, t = 0.0;
-  std::array<double, 4> phi{};
-  Vec3 v{0.0};
-  double d = 0.0;
-  double w = 0.0;
+// F = ∫∫ ψ(u, v) (ξ − x)·(ξ_u × ξ_v) / |ξ − x|⁴ du dv with ψ = Σ N̂_k B_k (see the top), and where
+// the quadrature went: `near` if it measured from x's foot (then `foot` is that origin),
+// `inside` false if x touched the patch.
+struct QuadIntegral {
+  double value = 0.0;
+  bool near = false, inside = true;
+  Origin foot;
+};
+
+// What a quad's weights need that does not change between a point's passes: N̂ (see
+// nullVector) and the integral.
+struct QuadTerms {
+  std::array<Real, 4> n{};
+  QuadIntegral integral;
 };
 
 // Per-thread buffers of one point.
 struct Scratch {
-  std::vector<GridNode> grid;
+  std::vector<QuadTerms> quads;  // per face (quads only), filled on the point's first pass
+  std::vector<char> quadDone;
   std::vector<Vec3> v;  // p_i − x
   std::vector<double> d;
   std::vector<Real> acc;                              // Σ over faces of the unnormalised weights
@@ -128,39 +144,6 @@ struct Scratch {
   std::vector<glm::vec<3, Real>> polygonV, polygonT;  // p_i − x and the tangent vectors
   std::vector<Real> polygonD;
 };
-
-// The bilinear basis at (u, v) for corners 0, 1, 2, 3 (σ(0,0) = p_0, σ(1,0) = p_1, σ(1,1) = p_2).
-std::array<double, 4> bilinear(double u, double v) {
-  return {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
-}
-
-template <class T>
-T combine(const std::array<double, 4>& phi, const std::array<T, 4>& q) {
-  return phi[0] * q[0] + phi[1] * q[1] + phi[2] * q[2] + phi[3] * q[3];
-}
-
-// The parameters of the point of the patch with corners x + q_i closest to x: damped
-// Gauss-Newton on |Σ φ_i q_i|² from the centre, clamped to the unit square after every step.
-void closestParameters(const std::array<Vec3, 4>& q, double& u, double& v) {
-  u = v = 0.5;
-  for (int step = 0; step < kProjectionSteps; ++step) {
-    const Vec3 r = combine(bilinear(u, v), q);
-    const Vec3 su = (1 - v) * (q[1] - q[0]) + v * (q[2] - q[3]);
-    const Vec3 sv = (1 - u) * (q[3] - q[0]) + u * (q[2] - q[1]);
-    const double damp = 1e-12 * (glm::dot(su, su) + glm::dot(sv, sv));
-    const double a = glm::dot(su, su) + damp, b = glm::dot(su, sv), c = glm::dot(sv, sv) + damp;
-    const double g1 = glm::dot(su, r), g2 = glm::dot(sv, r);
-    const double det = a * c - b * b;
-    if (!(det > 0.0)) break;
-    u = std::clamp(u - (c * g1 - b * g2) / det, 0.0, 1.0);
-    v = std::clamp(v - (a * g2 - b * g1) / det, 0.0, 1.0);
-  }
-  // A foot within 2⁻⁴⁰ of a side is put on it: the fan's triangles along that side would be
-  // slivers (their weights, proportional to their width, are dropped with them).
-  const auto snap = [](double t) { return t < 0x1p-40 ? 0.0 : t > 1.0 - 0x1p-40 ? 1.0 : t; };
-  u = snap(u);
-  v = snap(v);
-}
 
 // λ_i = (tan(α_{i−1}/2) + tan(α_i/2)) / |t_i|, α_i the angle about `axis` from t_i to t_{i+1}:
 // the mean-value coordinates of the origin in the plane normal to `axis` (unnormalised).
@@ -199,16 +182,14 @@ std::string pointText(const Vec3& x) {
 
 // x's projection on the plane of polygon f, if x is within cd.snapLength of the face (its
 // plane, and inside it); returns false otherwise. For quads, the inverse-bilinear parameters.
-bool onFace(const CageData& cd, const Scratch& s, std::size_t f, std::span<double> row) {
+bool onFace(const CageData& cd, const Vec3& x, const Scratch& s, std::size_t f,
+            std::span<double> row) {
   const auto face = cd.face(f);
   const std::size_t n = face.size();
   if (n == 4) {
-    std::array<Vec3, 4> q;
-    for (int c = 0; c < 4; ++c) q[c] = s.v[face[c]];
-    double u, v;
-    closestParameters(q, u, v);
-    const std::array<double, 4> phi = bilinear(u, v);
-    if (!(glm::length(combine(phi, q)) <= cd.snapLength)) return false;
+    const Origin foot = footOf(cd.patch[f], x);
+    if (!(glm::length(foot.offset) <= cd.snapLength)) return false;
+    const std::array<double, 4> phi = bilinear(foot.u, foot.v);
     std::fill(row.begin(), row.end(), 0.0);
     for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
     return true;
@@ -275,12 +256,99 @@ bool snapRow(const CageData& cd, const Vec3& x, const Scratch& s, std::span<doub
   for (std::size_t f = 0; f + 1 < cd.offsets.size(); ++f) {
     const BoundingBox& b = cd.box[f];
     if (glm::length(glm::clamp(x, b.min, b.max) - x) > tol) continue;
-    if (onFace(cd, s, f, row)) return true;
+    if (onFace(cd, x, s, f, row)) return true;
   }
   return false;
 }
 
-// ---- the faces' weights ----
+// ---- a quad's integral ----
+
+// The tensor rule of order n over [u0, u0 + s] × [v0, v0 + s], node vectors from `o`, kBlock
+// nodes at a time into kBlock interleaved partial sums (vectorised without reordering any sum:
+// the same bits on every simd::Path), as QuadGreenCoordinates' gaussSquare.
+[[gnu::always_inline]] inline double gaussSquare(const Patch& q, const Origin& o,
+                                                 const std::array<double, 4>& n, double u0,
+                                                 double v0, double s, int order) {
+  const GaussRule& rule = gaussRules()[order];
+  const double bx = o.offset.x, by = o.offset.y, bz = o.offset.z;
+  const double ux = q.eu.x, uy = q.eu.y, uz = q.eu.z, vx = q.ev.x, vy = q.ev.y, vz = q.ev.z;
+  const double wx = q.euv.x, wy = q.euv.y, wz = q.euv.z;
+  const double du0 = u0 - o.u, dv0 = v0 - o.v, uo = o.u;
+  // ψ = n0 + a u + b v + c uv (the bilinear combination of the corner values).
+  const double pa = n[1] - n[0], pb = n[3] - n[0], pc = n[0] - n[1] + n[2] - n[3];
+  alignas(64) double acc[kBlock] = {};
+  for (int t0 = 0; t0 < rule.tensorCount; t0 += kBlock) {
+    for (int l = 0; l < kBlock; ++l) {
+      const double su = s * rule.tu[t0 + l], sv = s * rule.tv[t0 + l];
+      const double u = u0 + su, v = v0 + sv, du = du0 + su, dv = dv0 + sv;
+      const double dw = du * v + uo * dv;
+      const double rx = bx + du * ux + dv * vx + dw * wx;
+      const double ry = by + du * uy + dv * vy + dw * wy;
+      const double rz = bz + du * uz + dv * vz + dw * wz;
+      const double ax = ux + v * wx, ay = uy + v * wy, az = uz + v * wz;  // ξ_u
+      const double cx = vx + u * wx, cy = vy + u * wy, cz = vz + u * wz;  // ξ_v
+      const double det =
+          rx * (ay * cz - az * cy) + ry * (az * cx - ax * cz) + rz * (ax * cy - ay * cx);
+      const double r2 = rx * rx + ry * ry + rz * rz;
+      const double psi = n[0] + pa * u + pb * v + pc * (u * v);
+      acc[l] += rule.tw[t0 + l] * psi * det / (r2 * r2);
+    }
+  }
+  double sum = 0.0;
+  for (int l = 0; l < kBlock; ++l) sum += acc[l];
+  return s * s * sum;
+}
+
+[[gnu::always_inline]] inline void integrateQuad(const Patch& q, const Vec3& x,
+                                                 const std::array<double, 4>& n, double touchRadius,
+                                                 QuadIntegral& out) {
+  const auto square = [&](const Origin& o, double u0, double v0, double s, int order)
+      __attribute__((always_inline)) {
+    out.value += gaussSquare(q, o, n, u0, v0, s, order);
+  };
+  out.foot.u = -1.0;  // unset
+  double tu = 0.0, tv = 0.0;
+  out.inside = integrateAdaptive(q, x, touchRadius, square, out.foot, tu, tv);
+  out.near = out.foot.u >= 0.0;
+}
+
+// integrateQuad compiled for each simd::Path (core/detail/simd.h), as in quad_green.cpp.
+using IntegrateFn = void (*)(const Patch&, const Vec3&, const std::array<double, 4>&, double,
+                             QuadIntegral&);
+void integrateBaseline(const Patch& q, const Vec3& x, const std::array<double, 4>& n,
+                       double touchRadius, QuadIntegral& out) {
+  integrateQuad(q, x, n, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V3 void integrateV3(const Patch& q, const Vec3& x,
+                                          const std::array<double, 4>& n, double touchRadius,
+                                          QuadIntegral& out) {
+  integrateQuad(q, x, n, touchRadius, out);
+}
+SPACEWARP_SIMD_TARGET_V4 void integrateV4(const Patch& q, const Vec3& x,
+                                          const std::array<double, 4>& n, double touchRadius,
+                                          QuadIntegral& out) {
+  integrateQuad(q, x, n, touchRadius, out);
+}
+constexpr IntegrateFn kIntegrate[detail::simd::kPathCount] = {integrateBaseline, integrateV3,
+                                                              integrateV4};
+
+// The fan's centre (u, v): x's foot, put on a side of the patch when it is closer to it than
+// kSideSnap times x's distance to the patch. The fan's triangle on that side would be a sliver
+// that x sees at close range, whose fast weights err by ~ε / width (only the three equations
+// matter, as the integral fixes the rest, but their error is then amplified). Any fan centre
+// gives the same weights up to round-off, so moving it is no discontinuity.
+constexpr double kSideSnap = 16.0;
+void fanCentre(const Patch& q, const Origin& foot, double& u, double& v) {
+  const double reach = kSideSnap * glm::length(foot.offset);
+  const double lu = glm::length(q.tangentU(foot.v)), lv = glm::length(q.tangentV(foot.u));
+  const auto snap = [reach](double t, double length) {
+    return t * length <= reach || t < 0x1p-40                 ? 0.0
+           : (1.0 - t) * length <= reach || t > 1.0 - 0x1p-40 ? 1.0
+                                                              : t;
+  };
+  u = snap(foot.u, lu);
+  v = snap(foot.v, lv);
+}
 
 // ---- the kernel of one point ----
 
@@ -302,7 +370,7 @@ class PointKernel {
       if (face.size() == 3) {
         const std::array<Vec3, 3> v = {s_.v[face[0]], s_.v[face[1]], s_.v[face[2]]};
         const std::array<double, 3> d = {s_.d[face[0]], s_.d[face[1]], s_.d[face[2]]};
-        std::array<double, 3> w;
+        std::array<Real, 3> w;
         if (!triangle(v, d, w)) {
           // On the triangle: its barycentric coordinates are the careful path's face row.
           std::fill(row.begin(), row.end(), 0.0);
@@ -311,7 +379,7 @@ class PointKernel {
         }
         for (int c = 0; c < 3; ++c) add(face[c], w[c], d[c]);
       } else if (face.size() == 4) {
-        if (!quad(face, row)) return false;
+        if (!quad(f, face, row)) return false;
       } else {
         polygon(f, face);
       }
@@ -320,9 +388,9 @@ class PointKernel {
   }
 
  private:
-  void add(std::uint32_t i, double w, double d) {
+  void add(std::uint32_t i, Real w, double d) {
     s_.acc[i] += w;
-    kappa_ += std::fabs(w) * d;
+    kappa_ += std::fabs(static_cast<double>(w)) * d;
   }
 
   // The weights of the triangle x + v; false if x lies on it.
@@ -331,10 +399,13 @@ class PointKernel {
   // keeps to ε / elevation (and the shared boundary of the tessellation turns into linear
   // precision). They take the fast path unless x is near their plane.
   bool triangle(const std::array<Vec3, 3>& v, const std::array<double, 3>& d,
-                std::array<double, 3>& w, bool part = false) {
-    const detail::FastTriangle fast = detail::fastMeanValueTriangle(v, d, w);
+                std::array<Real, 3>& w, bool part = false) {
+    std::array<double, 3> fw;
+    const detail::FastTriangle fast = detail::fastMeanValueTriangle(v, d, fw);
+    w = {fw[0], fw[1], fw[2]};
     if (part) {
-      if (fastLimit_ > 0.0 && std::isfinite(fast.error) && fast.elevation >= kMinElevation)
+      if (fastLimit_ > 0.0 && fast.elevation >= kMinElevation &&
+          fast.error <= 1e-10 * (std::fabs(fw[0]) + std::fabs(fw[1]) + std::fabs(fw[2])))
         return true;
     } else {
       ++triangles_;
@@ -346,7 +417,7 @@ class PointKernel {
     const std::array<Vec3, 3> corners = {x_ + v[0], x_ + v[1], x_ + v[2]};
     const detail::CarefulTriangle r = detail::carefulMeanValueTriangle(corners, x_);
     if (r.onFace) return false;
-    for (int c = 0; c < 3; ++c) w[c] = static_cast<double>(r.w[c]);
+    w = r.w;
     return true;
   }
 
@@ -363,85 +434,166 @@ class PointKernel {
     for (int c = 0; c < 3; ++c) row[ids[c]] += b[c] / sum;
   }
 
-  // The quad's weights (see the top): the tessellations of levels 1 and 2 around x's foot,
-  // extrapolated.
-  bool quad(std::span<const std::uint32_t> face, std::span<double> row) {
-    std::array<Vec3, 4> q;
-    for (int c = 0; c < 4; ++c) q[c] = s_.v[face[c]];
-    double uc, vc;
-    closestParameters(q, uc, vc);
-    std::array<double, 4> coarse, fine;
-    if (!tessellation(face, q, uc, vc, kCoarse, coarse, row)) return false;
-    if (!tessellation(face, q, uc, vc, kFine, fine, row)) return false;
-    constexpr double r = static_cast<double>(kFine * kFine) / (kCoarse * kCoarse);
-    for (int i = 0; i < 4; ++i) s_.acc[face[i]] += (r * fine[i] - coarse[i]) / (r - 1.0);
+  // The quad's weights (see the top): W = W_fan + (F − N̂·W_fan) N̂, W_fan the weights of four
+  // triangles fanned around a point of the patch (they solve the three equations), F = N̂·W the
+  // integral of ψ = Σ N̂_i B_i by adaptive quadrature. False if x lies on the patch (row filled).
+  bool quad(std::size_t f, std::span<const std::uint32_t> face, std::span<double> row) {
+    const Patch& q = cd_.patch[f];
+    QuadTerms& terms = s_.quads[f];
+    const std::array<Real, 4>& nl = terms.n;
+    if (!s_.quadDone[f]) {
+      s_.quadDone[f] = 1;
+      terms.n = nullVector(face);
+      terms.integral = QuadIntegral{};
+      const std::array<double, 4> nd = {static_cast<double>(nl[0]), static_cast<double>(nl[1]),
+                                        static_cast<double>(nl[2]), static_cast<double>(nl[3])};
+      kIntegrate[static_cast<int>(detail::simd::activePath())](q, x_, nd, cd_.touchRadius,
+                                                               terms.integral);
+    }
+    const QuadIntegral& integral = terms.integral;
+    // The three equations: where the quadrature went near x, from four triangles fanned around
+    // x's foot (they then see x as the patch does, at a distance like the patch's); otherwise
+    // by the least-norm solution (leastNorm), but on the careful pass (outside, where the
+    // weights cancel) from the fan around the patch's centre in long double.
+    double u = 0.5, v = 0.5;
+    if (integral.near) fanCentre(q, integral.foot, u, v);
+    const std::array<double, 4> phi = bilinear(u, v);
+    const auto onPatch = [&] {
+      std::fill(row.begin(), row.end(), 0.0);
+      for (int k = 0; k < 4; ++k) row[face[k]] += phi[k];
+      return false;
+    };
+    if (!integral.inside) return onPatch();
+    std::array<Real, 4> w4 = {0, 0, 0, 0};
+    if (!integral.near && fastLimit_ > 0.0) {
+      leastNorm(face, w4);
+      return addQuad(face, nl, integral.value, w4);
+    }
+    // The fan: nodes 0 … 3 are the corners, 4 its centre; the triangle on side c (corners c,
+    // c + 1) is empty when the centre is on that side.
+    std::array<std::array<int, 3>, 4> tris;
+    int count = 0;
+    const std::array<bool, 4> empty = {v == 0.0, u == 1.0, v == 1.0, u == 0.0};
+    for (int c = 0; c < 4; ++c)
+      if (!empty[c]) tris[count++] = {4, c, (c + 1) % 4};
+    const Vec3 centre = integral.near ? fromOrigin(q, integral.foot, u, v) : q.at(u, v) - x_;
+    const double centreD = glm::length(centre);
+    for (int t = 0; t < count; ++t) {
+      std::array<Vec3, 3> tv;
+      std::array<double, 3> td;
+      for (int c = 0; c < 3; ++c) {
+        const int node = tris[t][c];
+        tv[c] = node == 4 ? centre : s_.v[face[node]];
+        td[c] = node == 4 ? centreD : s_.d[face[node]];
+      }
+      std::array<Real, 3> w;
+      // False: x lies on this triangle (so within rounding of the patch, as it passed the
+      // snapping test only when snapTolerance is 0): the interpolant at the centre.
+      if (!triangle(tv, td, w, true)) return onPatch();
+      for (int c = 0; c < 3; ++c) {
+        const int node = tris[t][c];
+        if (node < 4) {
+          w4[node] += w[c];
+        } else {
+          for (int k = 0; k < 4; ++k) w4[k] += w[c] * phi[k];
+        }
+      }
+    }
+    return addQuad(face, nl, integral.value, w4);
+  }
+
+  // W = W_p + (F − N̂·W_p) N̂ into the sums.
+  // In long double: N̂'s rounding would add free · ε |p − x| to the reproduction, and the careful
+  // triangles' rounding to double ε |W| |p − x|, which outside, where the weights cancel,
+  // reaches the coordinates.
+  bool addQuad(std::span<const std::uint32_t> face, const std::array<Real, 4>& n, double F,
+               const std::array<Real, 4>& wp) {
+    const Real free = F - (n[0] * wp[0] + n[1] * wp[1] + n[2] * wp[2] + n[3] * wp[3]);
+    for (int k = 0; k < 4; ++k) add(face[k], wp[k] + free * n[k], s_.d[face[k]]);
     return true;
   }
 
-  // The weights of the quad's corners from the exact triangle weights of the tessellation of
-  // level k: the unit square cut at u = û and v = v̂, each of the four parts into k × k cells,
-  // each cell into two triangles by its diagonal through the corner nearest the foot (level 1:
-  // the 8 triangles fanned around the foot). False if x lies on a triangle (row filled).
-  bool tessellation(std::span<const std::uint32_t> face, const std::array<Vec3, 4>& q, double uc,
-                    double vc, int k, std::array<double, 4>& w4, std::span<double> row) {
-    const int n = 2 * k + 1;  // grid lines per direction
-    auto& grid = s_.grid;
-    grid.resize(static_cast<std::size_t>(n * n));
-    const auto line = [k](double foot, int a) {
-      return a <= k ? foot * a / k : foot + (1.0 - foot) * (a - k) / k;
-    };
-    for (int b = 0; b < n; ++b) {
-      for (int a = 0; a < n; ++a) {
-        GridNode& g = grid[static_cast<std::size_t>(b * n + a)];
-        g.u = line(uc, a);
-        g.t = line(vc, b);
-        g.phi = bilinear(g.u, g.t);
-        const bool corner = (a == 0 || a == n - 1) && (b == 0 || b == n - 1);
-        const int c = b == 0 ? (a == 0 ? 0 : 1) : (a == 0 ? 3 : 2);
-        g.v = corner ? q[c] : combine(g.phi, q);
-        g.d = corner ? s_.d[face[c]] : glm::length(g.v);
-        g.w = 0.0;
+  // The least-norm solution of the three equations Σ W_i v_i = m (m from the quad's four edges)
+  // by Householder QR of the 4 × 3 matrix of rows v_i: backward stable, so its residual is
+  // ~ε |v| |W_p| with |W_p| ≤ |W| (the exact weights solve the same equations), however nearly
+  // parallel the v_i are (a small quad far away) or coplanar (x near a planar quad's plane).
+  // Cramer's rule on three corners, tried first, erred by ε times the systems' condition
+  // (reproduction 3e-12 at 10 diagonals).
+  void leastNorm(std::span<const std::uint32_t> face, std::array<Real, 4>& w) const {
+    Vec3 m(0.0);
+    for (int c = 0; c < 4; ++c) {
+      double theta, rho;
+      const std::uint32_t a = face[c], b = face[(c + 1) % 4];
+      m += 0.5 * detail::edgeMeanVector(s_.v[a], s_.v[b], s_.d[a], s_.d[b], theta, rho);
+    }
+    // A = Vᵀ (rows v_c) = Q R by three Householder reflections H_j = I − 2 h_j h_jᵀ (rows j …
+    // 3); V = Rᵀ Qᵀ, so W = Q (R⁻ᵀ m, 0) = H_0 H_1 H_2 (y, 0) with Rᵀ y = m.
+    double a[4][3];
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 3; ++k) a[c][k] = s_.v[face[c]][k];
+    double h[3][4] = {};
+    for (int j = 0; j < 3; ++j) {
+      double norm2 = 0.0;
+      for (int r = j; r < 4; ++r) norm2 += a[r][j] * a[r][j];
+      const double norm = std::sqrt(norm2);
+      const double alpha = a[j][j] > 0.0 ? -norm : norm;
+      for (int r = j; r < 4; ++r) h[j][r] = a[r][j];
+      h[j][j] -= alpha;
+      double hn2 = 0.0;
+      for (int r = j; r < 4; ++r) hn2 += h[j][r] * h[j][r];
+      if (!(hn2 > 0.0)) continue;  // the column is already reduced: H_j = I
+      const double hn = std::sqrt(hn2);
+      for (int r = j; r < 4; ++r) h[j][r] /= hn;
+      for (int k = j; k < 3; ++k) {
+        double dot = 0.0;
+        for (int r = j; r < 4; ++r) dot += h[j][r] * a[r][k];
+        for (int r = j; r < 4; ++r) a[r][k] -= 2.0 * dot * h[j][r];
       }
     }
-    const auto at = [&](int a, int b) -> GridNode& {
-      return grid[static_cast<std::size_t>(b * n + a)];
-    };
-    for (int b = 0; b + 1 < n; ++b) {
-      for (int a = 0; a + 1 < n; ++a) {
-        GridNode* c00 = &at(a, b);
-        GridNode* c10 = &at(a + 1, b);
-        GridNode* c11 = &at(a + 1, b + 1);
-        GridNode* c01 = &at(a, b + 1);
-        if (c10->u == c00->u || c01->t == c00->t) continue;  // a cell cut to nothing
-        std::array<std::array<GridNode*, 3>, 2> tris;
-        if ((a < k) == (b < k)) {  // the foot is towards c00 or c11
-          tris = {{{c00, c10, c11}, {c00, c11, c01}}};
-        } else {
-          tris = {{{c00, c10, c01}, {c10, c11, c01}}};
-        }
-        for (const auto& tri : tris) {
-          const std::array<Vec3, 3> tv = {tri[0]->v, tri[1]->v, tri[2]->v};
-          const std::array<double, 3> td = {tri[0]->d, tri[1]->d, tri[2]->d};
-          std::array<double, 3> w;
-          if (!triangle(tv, td, w, true)) {
-            // x lies on this triangle (so within rounding of the patch, as it passed the
-            // snapping test only when snapTolerance is 0): the interpolant at the foot.
-            std::fill(row.begin(), row.end(), 0.0);
-            const std::array<double, 4> phi = bilinear(uc, vc);
-            for (int c = 0; c < 4; ++c) row[face[c]] += phi[c];
-            return false;
-          }
-          for (int c = 0; c < 3; ++c) {
-            tri[c]->w += w[c];
-            kappa_ += std::fabs(w[c]) * td[c];
-          }
-        }
-      }
+    const double mm[3] = {m.x, m.y, m.z};
+    double z[4] = {0.0, 0.0, 0.0, 0.0};
+    for (int k = 0; k < 3; ++k) {  // Rᵀ y = m, Rᵀ lower triangular
+      double sum = mm[k];
+      for (int r = 0; r < k; ++r) sum -= a[r][k] * z[r];
+      z[k] = sum / a[k][k];
     }
-    w4 = {0, 0, 0, 0};
-    for (const GridNode& g : grid)
-      for (int i = 0; i < 4; ++i) w4[i] += g.w * g.phi[i];
-    return true;
+    for (int j = 2; j >= 0; --j) {
+      double dot = 0.0;
+      for (int r = j; r < 4; ++r) dot += h[j][r] * z[r];
+      for (int r = j; r < 4; ++r) z[r] -= 2.0 * dot * h[j][r];
+    }
+    for (int c = 0; c < 4; ++c) w[c] = z[c];
+  }
+
+  // N̂, the unit null vector of (p_0 − x, …, p_3 − x): N_i = (−1)^i det(the other three), in long
+  // double where |N| < 1e-3 of the scale of its terms, else in double. Near the plane of a nearly
+  // planar quad every N_i is ~h d² with round-off ~u d³, so N̂'s direction errs by u d / h; that
+  // error multiplies only the free component F − N̂·W_fan, which the fan keeps O(1) against the
+  // weights' 1 / h (measured: reproduction ~2e-16 at 1e-10 diagonals from edges and vertices,
+  // unchanged with N in double-double). Zero if x is in the plane of a planar
+  // quad: then F = 0 and the fan alone gives the weights (zero outside the quad; on it, the fan's
+  // triangles find x).
+  std::array<Real, 4> nullVector(std::span<const std::uint32_t> face) const {
+    const auto cofactors = [&]<class T>(T) {
+      using V = glm::vec<3, T>;
+      std::array<V, 4> v;
+      for (int c = 0; c < 4; ++c) v[c] = V(cd_.p[face[c]]) - V(x_);
+      const auto det = [&](int a, int b, int c) { return glm::dot(v[a], glm::cross(v[b], v[c])); };
+      const std::array<T, 4> n = {det(1, 2, 3), -det(0, 2, 3), det(0, 1, 3), -det(0, 1, 2)};
+      const T length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+      std::array<Real, 4> unit = {0, 0, 0, 0};
+      if (length > 0)
+        for (int i = 0; i < 4; ++i) unit[i] = n[i] / length;
+      return std::pair{unit, static_cast<double>(length)};
+    };
+    // In double where |N| is not small against its terms (x well off the quad's plane).
+    const auto [unit, length] = cofactors(0.0);
+    const double* d = &s_.d[0];
+    const double scale =
+        d[face[1]] * d[face[2]] * d[face[3]] + d[face[0]] * d[face[2]] * d[face[3]] +
+        d[face[0]] * d[face[1]] * d[face[3]] + d[face[0]] * d[face[1]] * d[face[2]];
+    if (length >= 1e-3 * scale) return unit;
+    return cofactors(Real{0}).first;
   }
 
   // Langer et al.'s spherical mean-value weights of a planar polygon (see the top), in long
@@ -518,6 +670,8 @@ void computeRow(const CageData& cd, const Vec3& x, Scratch& s, std::span<double>
   // for points whose reproduction estimate ε Σ |w| d / (|W| diagonal) exceeds kTauRepro
   // (outside, where W cancels), takes the careful path everywhere.
   double limit = std::numeric_limits<double>::infinity();
+  s.quads.resize(cd.offsets.size() - 1);
+  s.quadDone.assign(cd.offsets.size() - 1, 0);
   for (int pass = 1;; ++pass) {
     std::fill(s.acc.begin(), s.acc.end(), Real{0});
     PointKernel kernel(cd, x, s, limit);
@@ -566,6 +720,7 @@ CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
   cd.indices.assign(cage.faceIndices().begin(), cage.faceIndices().end());
   cd.diagonal = cage.diagonal();
   cd.snapLength = options.snapTolerance * cage.diagonal();
+  cd.touchRadius = std::max(cd.snapLength, 1e-16 * cd.diagonal) / kAdmissible;
   const BoundingBox all = boundingBox(cage.vertices());
   cd.center = 0.5 * (all.min + all.max);
   std::map<std::pair<std::uint32_t, std::uint32_t>, bool> edges;
@@ -600,6 +755,8 @@ CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
     }
     cd.normal.push_back(normal);
     cd.box.push_back(box);
+    cd.patch.emplace_back();
+    if (n == 4) setPatch(cd.patch.back(), cd.p, face);
   }
   for (const auto& [edge, unused] : edges) cd.edges.push_back(edge);
   return cd;
