@@ -50,8 +50,9 @@ struct CompareRequest {
 /// Cancelled still stops everything, writing nothing.
 ///
 /// Without request.methods, every method that takes the cage runs (checkCageMethodApplies():
-/// wachspress and discrete-harmonic need a convex cage, qgc triangle and quad faces); each one
-/// left out is a note (context.say) and an entry {"name", "reason"} of "leftOutMethods".
+/// wachspress needs a convex cage, discrete-harmonic a convex cage of triangles, qgc triangle and
+/// quad faces); each one left out is a note (context.say) and an entry {"name", "reason"} of
+/// "leftOutMethods".
 ///
 /// Throws InvalidInput for an unknown or repeated method, a method named in request.methods that
 /// cannot take the cage (naming e.g. the reflex edge), a control index out of range, or a plane

@@ -9,6 +9,9 @@
 #include <cstdio>
 #include <map>
 #include <numbers>
+#include <stdexcept>
+#include <string>
+#include <utility>
 
 #include <spacewarp/coords/cage.h>
 #include <spacewarp/core/errors.h>
@@ -54,8 +57,10 @@ struct DemoInputs {
 
 // The controls around the inputs, all posed by sway().
 struct DemoControls {
-  PolygonSoup cage;
-  Vec3 boxLo, boxHi;  // the lattice's box
+  PolygonSoup cage;            // pinched (concave), quads
+  PolygonSoup convexCage;      // the box unpinched, quads
+  PolygonSoup simplicialCage;  // a capped hexagonal antiprism, triangles
+  Vec3 boxLo, boxHi;           // the lattice's box
   std::array<int, 3> resolution{3, 3, 5};
   std::vector<Vec3> lattice;  // posed control points
   std::vector<Vec3> handles, targets;
@@ -79,6 +84,13 @@ DemoInputs writeInputs(const fs::path& dir) {
   return inputs;
 }
 
+// Writes NAME.obj and its pose by sway(), NAME_pose.obj.
+void writePosed(PolygonSoup soup, const fs::path& dir, const std::string& name) {
+  writeSoup(soup, dir / (name + ".obj"));
+  for (Vec3& p : soup.positions) p = sway(p);
+  writeSoup(soup, dir / (name + "_pose.obj"));
+}
+
 DemoControls writeControls(const fs::path& dir) {
   DemoControls controls;
   // A cage around the bar with a pinched waist (so it is concave, where coordinate functions
@@ -88,16 +100,35 @@ DemoControls writeControls(const fs::path& dir) {
   cage = makeBoxSurface(kBarLo - 0.2, kBarHi + 0.2, {1, 1, 4});
   for (Vec3& p : cage.positions)
     if (std::abs(p.z) < 1e-9) p.x *= 0.9, p.y *= 0.9;
-  PolygonSoup pose = cage;
-  for (Vec3& p : pose.positions) p = sway(p);
-  writeSoup(cage, dir / "cage.obj");
-  writeSoup(pose, dir / "cage_pose.obj");
-  // The same box unpinched and undivided (every vertex a corner), for the methods that need a
-  // convex cage (wachspress, discrete-harmonic).
-  PolygonSoup convex = makeBoxSurface(kBarLo - 0.2, kBarHi + 0.2, {1, 1, 1});
-  writeSoup(convex, dir / "convex_cage.obj");
-  for (Vec3& p : convex.positions) p = sway(p);
-  writeSoup(convex, dir / "convex_cage_pose.obj");
+  writePosed(cage, dir, "cage");
+  // The same box unpinched and undivided (every vertex a corner), for wachspress, which needs a
+  // convex cage.
+  controls.convexCage = makeBoxSurface(kBarLo - 0.2, kBarHi + 0.2, {1, 1, 1});
+  writePosed(controls.convexCage, dir, "convex_cage");
+  // discrete-harmonic needs a convex cage of triangles (a box's quads are refused): two rings of
+  // six vertices on the ellipsoid (x² + y²)/1.4² + z²/3.5² = 1 at z = ±1.75, the upper turned by
+  // 30°, joined by a band of triangles and capped by apexes at z = ±3.5: 14 vertices, 24
+  // triangles (the points' convex hull, no two faces coplanar). Its faces clear the bar by 0.19.
+  // With the rings, its interpolation of the sway along the bar is closer than a bipyramid's
+  // (max |x' − sway(x)| over the bar 0.14 against 0.42).
+  PolygonSoup& simplicial = controls.simplicialCage;
+  const double pi = std::numbers::pi, radius = 1.4 * std::sin(pi / 3.0), height = 3.5;
+  for (int ring = 0; ring < 2; ++ring)
+    for (int i = 0; i < 6; ++i) {
+      const double azimuth = pi / 3.0 * i + (ring == 1 ? pi / 6.0 : 0.0);
+      simplicial.positions.emplace_back(radius * std::cos(azimuth), radius * std::sin(azimuth),
+                                        ring == 1 ? height / 2.0 : -height / 2.0);
+    }
+  simplicial.positions.emplace_back(0.0, 0.0, -height);  // 12
+  simplicial.positions.emplace_back(0.0, 0.0, height);   // 13
+  for (std::uint32_t i = 0; i < 6; ++i) {
+    const std::uint32_t next = (i + 1) % 6;  // lower ring i..next, upper ring 6 + i in between
+    simplicial.addPolygon({12, next, i});
+    simplicial.addPolygon({i, next, 6 + i});
+    simplicial.addPolygon({next, 6 + next, 6 + i});
+    simplicial.addPolygon({13, 6 + i, 6 + next});
+  }
+  writePosed(simplicial, dir, "simplicial_cage");
 
   // A Bernstein lattice around the cage and handles at the cage's vertices, swayed alike.
   controls.boxLo = kBarLo - 0.25;
@@ -206,17 +237,25 @@ std::map<std::string, json> demoRigs(const DemoControls& controls) {
         {"handles",
          {{-0.3, 0, kBarLo.z}, {0.3, 0, kBarLo.z}, {0, -0.3, kBarHi.z}, {0, 0.3, kBarHi.z}}}};
   }
-  // Each cage method on the pinched cage, or on the convex box where it needs a convex cage.
-  const Cage pinched(controls.cage, "cage.obj");
+  // Each cage method on the first of these cages that it takes: the pinched cage, the convex
+  // box (wachspress), the capped antiprism (discrete-harmonic, which needs triangle faces).
+  const std::pair<const char*, const PolygonSoup*> cages[] = {
+      {"cage", &controls.cage},
+      {"convex_cage", &controls.convexCage},
+      {"simplicial_cage", &controls.simplicialCage}};
   for (const std::string& method : cageMethods()) {
-    bool takesPinched = true;
-    try {
-      checkCageMethodApplies(method, pinched);
-    } catch (const InvalidInput&) {
-      takesPinched = false;
+    for (const auto& [name, soup] : cages) {
+      try {
+        checkCageMethodApplies(method, Cage(*soup, std::string(name) + ".obj"));
+      } catch (const InvalidInput&) {
+        continue;
+      }
+      rigs[method] = {{"method", method},
+                      {"cage", std::string(name) + ".obj"},
+                      {"pose", std::string(name) + "_pose.obj"}};
+      break;
     }
-    const std::string prefix = takesPinched ? "cage" : "convex_cage";
-    rigs[method] = {{"method", method}, {"cage", prefix + ".obj"}, {"pose", prefix + "_pose.obj"}};
+    if (!rigs.count(method)) throw std::logic_error("demo: no cage of the demo takes " + method);
   }
   // The volume's inverse is seeded from a coarse lattice that may reach past the cage: the
   // methods defined inside only take the nearest cage point's coordinates there. 100k tets are

@@ -31,7 +31,7 @@ const std::map<std::string, std::string>& cageCoordinateNames() {
       {"qmvc", "mean-value coordinates of polygon and quad faces"},
       {"qgc", "Green coordinates of triangle and quad faces"},
       {"wachspress", "Wachspress coordinates of a convex cage"},
-      {"discrete-harmonic", "discrete harmonic coordinates of a convex cage"},
+      {"discrete-harmonic", "discrete harmonic coordinates of a convex cage of triangles"},
   };
   return names;
 }

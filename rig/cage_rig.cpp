@@ -151,8 +151,13 @@ double closedFormMemory(const Cage& cage, const CageMethodOptions&) {
 }
 
 const std::map<std::string, Factory>& factories() {
+  // The convex-cage checks, named in their messages: wachspress takes any convex cage,
+  // discrete-harmonic only simplicial ones (its constructor's own refusal, made beforehand).
   const auto convex = [](const char* name) {
     return [name](const Cage& cage) { checkConvexCage(cage, name); };
+  };
+  const auto simplicial = [](const char* name) {
+    return [name](const Cage& cage) { checkSimplicialConvexCage(cage, name); };
   };
   static const std::map<std::string, Factory> table = {
       {"mvc", {plainCoordinates<MeanValueCoordinates>, closedFormMemory}},
@@ -168,7 +173,7 @@ const std::map<std::string, Factory>& factories() {
         vertexColumns, convex("wachspress")}},
       {"discrete-harmonic",
        {convexCoordinates<DiscreteHarmonicCoordinates, DiscreteHarmonicOptions>, closedFormMemory,
-        vertexColumns, convex("discrete-harmonic")}},
+        vertexColumns, simplicial("discrete-harmonic")}},
 #ifdef SPACEWARP_HAVE_HARMONIC
       {"harmonic",
        {harmonicCoordinates,

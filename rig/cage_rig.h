@@ -49,9 +49,10 @@ std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
                                                    const ProgressCallback& progress = {});
 
 /// Throws InvalidInput (naming the cage and the face or reflex edge at fault) unless `method`
-/// can take `cage`: qgc needs triangle and quad faces, wachspress and discrete-harmonic a convex
-/// cage (checkConvexCage()); the others take any valid cage. Throws InvalidInput for an unknown
-/// method.
+/// can take `cage`: qgc needs triangle and quad faces, wachspress a convex cage
+/// (checkConvexCage()), discrete-harmonic a convex cage of triangles
+/// (checkSimplicialConvexCage()); the others take any valid cage. Throws InvalidInput for an
+/// unknown method.
 void checkCageMethodApplies(const std::string& method, const Cage& cage);
 
 /// The columns of the coordinates of `method` for `cage` (their columnCount()), known before

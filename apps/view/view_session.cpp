@@ -249,8 +249,8 @@ void setCageControls(ViewSession::State& s, const std::filesystem::path& cagePat
     }
   }
   s.edges.assign(edges.begin(), edges.end());
-  // The cage methods that take this cage (wachspress and discrete-harmonic need a convex one;
-  // harmonic is there where built with TetGen).
+  // The cage methods that take this cage (wachspress needs a convex one, discrete-harmonic a
+  // convex one of triangles; harmonic is there where built with TetGen).
   s.methods.clear();
   for (const std::string& method : cageMethods()) {
     try {

@@ -62,9 +62,9 @@ enum class ControlKind { Cage, Lattice, Handles, None };
 class ViewSession {
  public:
   /// The model (OBJ/OFF/PLY soup or cloud) with a cage file: methods: every cage method that
-  /// takes the cage (cageMethods() through checkCageMethodApplies(): wachspress and
-  /// discrete-harmonic need a convex cage, harmonic TetGen), ffd, rbf, idw, mls; the pose starts at
-  /// the rest cage. Throws IoError/InvalidInput naming the file at fault.
+  /// takes the cage (cageMethods() through checkCageMethodApplies(): wachspress needs a convex
+  /// cage, discrete-harmonic a convex cage of triangles, harmonic TetGen), ffd, rbf, idw, mls; the
+  /// pose starts at the rest cage. Throws IoError/InvalidInput naming the file at fault.
   static ViewSession withCage(const std::filesystem::path& model, const std::filesystem::path& cage,
                               const ViewSessionOptions& options = {});
   /// The model with a rig file: a cage rig (any of cageMethods()) poses its cage, an ffd rig with

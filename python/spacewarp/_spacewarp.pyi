@@ -661,10 +661,11 @@ class DeformationGraphWarp(Warp):
 
 
 class DiscreteHarmonic(Coordinates):
-    """Discrete harmonic coordinates of a convex Cage (CLI "discrete-harmonic"; as CGAL 6.2):
-    (n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge for a cage
-    that is not convex. outside: "raise" or "nearest", as Wachspress. snap_tolerance: relative to the
-    cage diagonal.
+    """Discrete harmonic coordinates of a convex Cage of triangles (CLI "discrete-harmonic"; as
+    CGAL 6.2): (n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge
+    for a cage that is not convex, and naming the face for a polygon face (or coplanar triangles that
+    merge into one), where the closed form has poles: use Wachspress for those. outside: "raise" or
+    "nearest", as Wachspress. snap_tolerance: relative to the cage diagonal.
     """
 
     def __init__(
@@ -1115,10 +1116,19 @@ class QuadMeanValue(Coordinates):
     for polygons, Thiery et al. 2018 for quads (bilinear patches, planar or not); no face is
     triangulated. (n, V) weights that sum to 1 and reproduce the point, everywhere in space; equal
     to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
-    [0, 1e-3].
+    [0, 1e-3]. polygon_planarity: how far (relative to the cage diagonal, in [0, 1e-2]) a vertex of a
+    face of more than 4 vertices may be from the face's plane; the default admits coordinates
+    rounded to ~10 digits. Raises InvalidInput naming a face farther from planar (quads may be
+    non-planar).
     """
 
-    def __init__(self, cage: Cage, *, snap_tolerance: float = 1e-14) -> None: ...
+    def __init__(
+        self,
+        cage: Cage,
+        *,
+        snap_tolerance: float = 1e-14,
+        polygon_planarity: float = 1e-09,
+    ) -> None: ...
 
     @property
     def cage(self) -> Cage:

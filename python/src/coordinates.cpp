@@ -365,12 +365,15 @@ void bindCageCoordinates(py::module_& m) {
 for polygons, Thiery et al. 2018 for quads (bilinear patches, planar or not); no face is
 triangulated. (n, V) weights that sum to 1 and reproduce the point, everywhere in space; equal
 to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
-[0, 1e-3].)")
-      .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance) {
-             return madeWithoutGil<QuadMeanValueCoordinates>(std::move(cage),
-                                                             QuadMeanValueOptions{snapTolerance});
+[0, 1e-3]. polygon_planarity: how far (relative to the cage diagonal, in [0, 1e-2]) a vertex of a
+face of more than 4 vertices may be from the face's plane; the default admits coordinates
+rounded to ~10 digits. Raises InvalidInput naming a face farther from planar (quads may be
+non-planar).)")
+      .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance, double polygonPlanarity) {
+             return madeWithoutGil<QuadMeanValueCoordinates>(
+                 std::move(cage), QuadMeanValueOptions{snapTolerance, polygonPlanarity});
            }),
-           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14)
+           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "polygon_planarity"_a = 1e-9)
       .def_property_readonly(
           "cage", [](const QuadMeanValueCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
   py::class_<QuadGreenCoordinates, Coordinates, std::shared_ptr<QuadGreenCoordinates>>(
@@ -404,10 +407,11 @@ coordinates of the nearest cage point). snap_tolerance: relative to the cage dia
   py::class_<DiscreteHarmonicCoordinates, Coordinates,
              std::shared_ptr<DiscreteHarmonicCoordinates>>(
       m, "DiscreteHarmonic",
-      R"(Discrete harmonic coordinates of a convex Cage (CLI "discrete-harmonic"; as CGAL 6.2):
-(n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge for a cage
-that is not convex. outside: "raise" or "nearest", as Wachspress. snap_tolerance: relative to the
-cage diagonal.)")
+      R"(Discrete harmonic coordinates of a convex Cage of triangles (CLI "discrete-harmonic"; as
+CGAL 6.2): (n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge
+for a cage that is not convex, and naming the face for a polygon face (or coplanar triangles that
+merge into one), where the closed form has poles: use Wachspress for those. outside: "raise" or
+"nearest", as Wachspress. snap_tolerance: relative to the cage diagonal.)")
       .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance,
                        const std::string& outside) {
              return madeWithoutGil<DiscreteHarmonicCoordinates>(

@@ -233,11 +233,17 @@ TEST_F(CliTest, DemoWritesEveryResult) {
       EXPECT_GT(fs::file_size(dir_ / "demo" / ("bar_" + method + ".vdb")), 0u) << method;
     }
   }
-  // The convex-cage methods run on the unpinched box, the others on the pinched cage.
-  for (const std::string method : {"wachspress", "discrete-harmonic", "qmvc", "qgc"}) {
-    const nlohmann::json rig = nlohmann::json::parse(slurp(dir_ / "demo" / (method + ".json")));
-    const bool convex = method == "wachspress" || method == "discrete-harmonic";
-    EXPECT_EQ(rig["cage"], convex ? "convex_cage.obj" : "cage.obj") << method;
+  // wachspress runs on the unpinched box, discrete-harmonic (triangle faces only) on the
+  // bipyramid, the others on the pinched cage.
+  const std::pair<const char*, const char*> cageOf[] = {
+      {"wachspress", "convex_cage.obj"},
+      {"discrete-harmonic", "simplicial_cage.obj"},
+      {"qmvc", "cage.obj"},
+      {"qgc", "cage.obj"}};
+  for (const auto& [method, cage] : cageOf) {
+    const nlohmann::json rig =
+        nlohmann::json::parse(slurp(dir_ / "demo" / (std::string(method) + ".json")));
+    EXPECT_EQ(rig["cage"], cage) << method;
   }
   // Builds with OpenVDB also run MLS with distances inside the bar, and on the fingers.
   if (fs::exists(dir_ / "demo" / "bar.vdb")) {

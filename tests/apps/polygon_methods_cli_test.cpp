@@ -1,8 +1,9 @@
 // End-to-end tests of the polygon and convex cage methods (qmvc, qgc, wachspress,
 // discrete-harmonic) in the CLI: deform by --method and by a rig gives the same bytes, weights
 // are the library's bit for bit (rows summing to 1), compare's default set depends on the cage
-// (the convex methods only on a convex cage), and a concave cage with a convex method, or
-// --outside with a method that has no outside policy, is refused with the right exit code.
+// (wachspress only on a convex cage, discrete-harmonic only on a convex cage of triangles), and a
+// concave cage with a convex method, or --outside with a method that has no outside policy, is
+// refused with the right exit code.
 
 #include <algorithm>
 #include <cmath>
@@ -20,6 +21,7 @@
 #include <spacewarp/core/primitives.h>
 #include <spacewarp/rig/cage_rig.h>
 #include "apps/cli_test_util.h"
+#include "coords/convex_test_shapes.h"
 #include "coords/coords_test_shapes.h"
 
 namespace spacewarp {
@@ -36,16 +38,26 @@ bool needsConvex(const std::string& method) {
   return method == "wachspress" || method == "discrete-harmonic";
 }
 
+// The cage each method is tested on: discrete-harmonic takes convex cages of triangles only.
+std::string cageFor(const std::string& method) {
+  if (method == "discrete-harmonic") return "simplicial";
+  return method == "wachspress" ? "convex" : "concave";
+}
+
 class PolygonMethodsTest : public test::CliFixture {
  protected:
   PolygonMethodsTest() : CliFixture("spacewarp_polygon_methods_") {}
 
   void SetUp() override {
     CliFixture::SetUp();
-    // Convex: the cube of 6 quads. Concave: the box pinched at its waist, 10 quads.
+    // Convex: the cube of 6 quads. Concave: the box pinched at its waist, 10 quads. Simplicial:
+    // the octahedron |x| + |y| + |z| <= 2, 8 triangles.
     writeCage("convex", makeBoxSurface(Vec3(-1.0), Vec3(1.0), {1, 1, 1}));
     writeCage("concave", test::pinchedBox(0.6));
-    writeCloud(Vec3(-0.55), Vec3(0.55), 400, 3);  // inside both cages
+    PolygonSoup octahedron = test::octahedron();
+    for (Vec3& p : octahedron.positions) p *= 2.0;
+    writeCage("simplicial", octahedron);
+    writeCloud(Vec3(-0.55), Vec3(0.55), 400, 3);  // inside the three cages
   }
 
   // name.obj and its pose name_pose.obj (every vertex moved differently).
@@ -75,7 +87,7 @@ class PolygonMethodsTest : public test::CliFixture {
 
 TEST_F(PolygonMethodsTest, DeformByMethodAndByRigWriteTheSameBytes) {
   for (const std::string method : kNewMethods) {
-    const std::string cage = needsConvex(method) ? "convex" : "concave";
+    const std::string cage = cageFor(method);
     const CliResult byMethod = deformByMethod(method, cage, "by_method.ply");
     ASSERT_EQ(byMethod.exitCode, 0) << method << ": " << byMethod.err;
     write("rig.json",
@@ -97,7 +109,7 @@ TEST_F(PolygonMethodsTest, DeformByMethodAndByRigWriteTheSameBytes) {
 TEST_F(PolygonMethodsTest, WeightsAreTheLibrarysAndRowsSumToOne) {
   const PointSet cloud = readSoup(dir_ / "cloud.ply");
   for (const std::string method : kNewMethods) {
-    const std::string cage = needsConvex(method) ? "convex" : "concave";
+    const std::string cage = cageFor(method);
     const CliResult r = run("weights --method " + method + " --cage " + cagePath(cage) + " " +
                             (dir_ / "cloud.ply").string() + " -o " + (dir_ / "w.npy").string());
     ASSERT_EQ(r.exitCode, 0) << method << ": " << r.err;
@@ -120,12 +132,12 @@ TEST_F(PolygonMethodsTest, WeightsAreTheLibrarysAndRowsSumToOne) {
   }
 }
 
-TEST_F(PolygonMethodsTest, CompareRunsEveryCageMethodOnAConvexCage) {
-  const CliResult r = compare("convex", "--methods qmvc,qgc,wachspress,discrete-harmonic,mvc");
+TEST_F(PolygonMethodsTest, CompareRunsEveryCageMethodOnAConvexCageOfTriangles) {
+  const CliResult r = compare("simplicial", "--methods qmvc,qgc,wachspress,discrete-harmonic,mvc");
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  // The default set on the convex cage: every method, none left out (harmonic's tet mesh makes
+  // The default set on the octahedron: every method, none left out (harmonic's tet mesh makes
   // it slow: its options keep it small).
-  const CliResult all = compare("convex", "--tets 3000");
+  const CliResult all = compare("simplicial", "--tets 3000");
   ASSERT_EQ(all.exitCode, 0) << all.err;
   const json report = json::parse(test::slurp(dir_ / "out" / "report.json"));
   std::vector<std::string> names;
@@ -156,6 +168,30 @@ TEST_F(PolygonMethodsTest, CompareLeavesTheConvexMethodsOutOfTheDefaultOnAConcav
   }
 }
 
+// On the cube (convex, quads) the default set leaves discrete-harmonic out, with a note saying it
+// needs triangle faces, and runs wachspress; asked for by name, it is bad input (3).
+TEST_F(PolygonMethodsTest, CompareLeavesDiscreteHarmonicOutOfTheDefaultOnAConvexCageOfQuads) {
+  const CliResult r = compare("convex", "--tets 3000");
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const json report = json::parse(test::slurp(dir_ / "out" / "report.json"));
+  std::vector<std::string> names;
+  for (const json& m : report["methods"]) names.push_back(m["name"].get<std::string>());
+  ASSERT_EQ(report["leftOutMethods"].size(), 1u) << report["leftOutMethods"].dump();
+  const json& leftOut = report["leftOutMethods"][0];
+  EXPECT_EQ(leftOut["name"], "discrete-harmonic");
+  EXPECT_THAT(leftOut["reason"].get<std::string>(), HasSubstr("convex.obj"));
+  EXPECT_THAT(leftOut["reason"].get<std::string>(), HasSubstr("triangle faces"));
+  EXPECT_THAT(r.out, HasSubstr("leaving discrete-harmonic out of the default methods"));
+  EXPECT_EQ(std::find(names.begin(), names.end(), "discrete-harmonic"), names.end());
+  for (const char* method : {"wachspress", "mvc", "qmvc", "qgc"})
+    EXPECT_NE(std::find(names.begin(), names.end(), method), names.end()) << method;
+  fs::remove_all(dir_ / "out");
+  const CliResult byName = compare("convex", "--methods wachspress,discrete-harmonic");
+  EXPECT_EQ(byName.exitCode, 3) << byName.err;
+  EXPECT_THAT(byName.err, HasSubstr("triangle faces"));
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
 // Asked for by name, a convex method on a concave cage is bad input (3) naming the cage and an
 // edge, and nothing is written: compare, deform and weights alike.
 TEST_F(PolygonMethodsTest, AConvexMethodOnAConcaveCageExitsWith3NamingTheEdge) {
@@ -175,10 +211,11 @@ TEST_F(PolygonMethodsTest, AConvexMethodOnAConcaveCageExitsWith3NamingTheEdge) {
 }
 
 TEST_F(PolygonMethodsTest, OutsideAppliesToTheMethodsWithAnOutsidePolicyOnly) {
-  writeCloud(Vec3(-1.5), Vec3(1.5), 50, 4);  // some points outside the cube
+  writeCloud(Vec3(-1.5), Vec3(1.5), 50, 4);  // some points outside the cube and the octahedron
   const auto deformOutside = [&](const std::string& method, const std::string& extra) {
-    return run("deform --method " + method + " --cage " + cagePath("convex") + " --pose " +
-               (dir_ / "convex_pose.obj").string() + " " + extra + " " +
+    const std::string cage = needsConvex(method) ? cageFor(method) : "convex";
+    return run("deform --method " + method + " --cage " + cagePath(cage) + " --pose " +
+               (dir_ / (cage + "_pose.obj")).string() + " " + extra + " " +
                (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
   };
   for (const char* method : {"wachspress", "discrete-harmonic"}) {
@@ -198,14 +235,16 @@ TEST_F(PolygonMethodsTest, InfoDescribesTheNewRigs) {
       {"qmvc", "mean-value coordinates of polygon and quad faces"},
       {"qgc", "Green coordinates of triangle and quad faces"},
       {"wachspress", "Wachspress coordinates of a convex cage"},
-      {"discrete-harmonic", "discrete harmonic coordinates of a convex cage"}};
+      {"discrete-harmonic", "discrete harmonic coordinates of a convex cage of triangles"}};
   for (const auto& [method, what] : expected) {
-    json rig = {{"method", method}, {"cage", "convex.obj"}, {"pose", "convex_pose.obj"}};
+    const std::string cage = cageFor(method);
+    json rig = {{"method", method}, {"cage", cage + ".obj"}, {"pose", cage + "_pose.obj"}};
     if (needsConvex(method)) rig["outside"] = "nearest";
     const CliResult r = run("info " + write("rig.json", rig.dump()).string());
     ASSERT_EQ(r.exitCode, 0) << method << ": " << r.err;
     EXPECT_THAT(r.out, HasSubstr(std::string(method) + " (" + what + ")"));
-    EXPECT_THAT(r.out, HasSubstr("8 vertices"));
+    EXPECT_THAT(r.out, HasSubstr(cage + ".obj (" + std::to_string(readSoup(cagePath(cage)).size()) +
+                                 " vertices"));
     if (needsConvex(method)) {
       EXPECT_THAT(r.out, HasSubstr("nearest")) << method;
     }

@@ -30,6 +30,16 @@ CUBE = np.array([[2.0 * i - 1.0, 2.0 * j - 1.0, 2.0 * k - 1.0]
                  for k in (0, 1) for j in (0, 1) for i in (0, 1)])
 CUBE_QUADS = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
 
+# The octahedron |x| + |y| + |z| <= 2 (around the cube [-0.5, 0.5]^3) as a cage of outward
+# triangles, corners +-2 e_x, +-2 e_y, +-2 e_z in that order: a convex cage of triangles, as
+# DiscreteHarmonic needs (the cube's quads are refused).
+OCTAHEDRON = np.array([[2.0, 0, 0], [-2.0, 0, 0], [0, 2.0, 0], [0, -2.0, 0], [0, 0, 2.0],
+                       [0, 0, -2.0]])
+# One triangle per octant; its corners x, y, z run counter-clockwise seen from outside when the
+# octant has an even number of negative axes (an even index sum), else they are swapped.
+OCTAHEDRON_TRIANGLES = [[x, y, z] if (x + y + z) % 2 == 0 else [x, z, y]
+                        for x in (0, 1) for y in (2, 3) for z in (4, 5)]
+
 
 def cli_path() -> Path:
     return Path(os.environ.get("SPACEWARP_CLI", REPO / "build" / "apps" / "spacewarp"))

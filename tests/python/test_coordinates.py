@@ -16,7 +16,8 @@ import pytest
 spacewarp = pytest.importorskip("spacewarp")
 swt = pytest.importorskip("spacewarp.testing")
 
-from conftest import CUBE, CUBE_QUADS, write_cage  # noqa: E402
+from conftest import (CUBE, CUBE_QUADS, OCTAHEDRON, OCTAHEDRON_TRIANGLES,  # noqa: E402
+                      write_cage)
 
 HARMONIC_TETS = 3000
 
@@ -260,6 +261,16 @@ def test_cage_coordinates_by_name(cage, points):
                           spacewarp.Harmonic(cage, tets=HARMONIC_TETS).weights(points))
     with pytest.raises(spacewarp.InvalidInput, match="nope"):
         spacewarp.cage_coordinates("nope", cage)
+    # The cube's quads: wachspress takes them; discrete-harmonic needs a convex cage of triangles.
+    assert np.array_equal(spacewarp.cage_coordinates("wachspress", cage).weights(points),
+                          spacewarp.Wachspress(cage).weights(points))
+    with pytest.raises(spacewarp.InvalidInput, match="quad.*triangle faces"):
+        spacewarp.cage_coordinates("discrete-harmonic", cage)
+    octahedron = spacewarp.Cage(OCTAHEDRON, OCTAHEDRON_TRIANGLES)
+    inside = 0.5 * points  # |x| + |y| + |z| <= 1.35: inside the octahedron
+    assert np.array_equal(
+        spacewarp.cage_coordinates("discrete-harmonic", octahedron).weights(inside),
+        spacewarp.DiscreteHarmonic(octahedron).weights(inside))
 
 
 def test_weights_reject_bad_points(cage):

@@ -16,7 +16,8 @@ import pytest
 
 spacewarp = pytest.importorskip("spacewarp")
 
-from conftest import CUBE, CUBE_QUADS, write_cage  # noqa: E402
+from conftest import (CUBE, CUBE_QUADS, OCTAHEDRON, OCTAHEDRON_TRIANGLES,  # noqa: E402
+                      write_cage)
 
 NEW_METHODS = {"qmvc": "QuadMeanValue", "qgc": "QuadGreen", "wachspress": "Wachspress",
                "discrete-harmonic": "DiscreteHarmonic"}
@@ -42,6 +43,11 @@ def cube():
 
 
 @pytest.fixture(scope="module")
+def octahedron():
+    return spacewarp.Cage(OCTAHEDRON, np.array(OCTAHEDRON_TRIANGLES), name="octahedron")
+
+
+@pytest.fixture(scope="module")
 def concave():
     vertices, faces = pinched_box()
     return spacewarp.Cage(vertices, faces, name="pinched")
@@ -52,9 +58,10 @@ def points():
     return np.random.default_rng(20).uniform(-0.5, 0.5, size=(150, 3))
 
 
-def make(method: str, cube, concave, **options):
-    """The coordinates of `method` on the cage it takes: the convex ones on the cube."""
-    cage = cube if method in ("wachspress", "discrete-harmonic") else concave
+def make(method: str, cube, octahedron, concave, **options):
+    """The coordinates of `method` on a cage it takes: Wachspress on the cube, DiscreteHarmonic
+    (triangle faces only) on the octahedron, the others on the concave cage."""
+    cage = {"wachspress": cube, "discrete-harmonic": octahedron}.get(method, concave)
     return getattr(spacewarp, NEW_METHODS[method])(cage, **options), cage
 
 
@@ -82,8 +89,9 @@ def test_a_cage_keeps_its_polygons(cube, concave):
 
 
 @pytest.mark.parametrize("method", NEW_METHODS)
-def test_weights_have_the_documented_shape_and_reproduce_at_rest(method, cube, concave, points):
-    coordinates, cage = make(method, cube, concave)
+def test_weights_have_the_documented_shape_and_reproduce_at_rest(method, cube, octahedron,
+                                                                 concave, points):
+    coordinates, cage = make(method, cube, octahedron, concave)
     w = coordinates.weights(points)
     vertices = len(cage.vertices)
     columns = vertices + (4 * cage.face_count if method == "qgc" else 0)
@@ -98,8 +106,9 @@ def test_weights_have_the_documented_shape_and_reproduce_at_rest(method, cube, c
 
 
 @pytest.mark.parametrize("method", NEW_METHODS)
-def test_by_name_equals_the_class_and_pickles_bit_identically(method, cube, concave, points):
-    coordinates, cage = make(method, cube, concave)
+def test_by_name_equals_the_class_and_pickles_bit_identically(method, cube, octahedron, concave,
+                                                              points):
+    coordinates, cage = make(method, cube, octahedron, concave)
     by_name = spacewarp.cage_coordinates(method, cage)
     assert type(by_name) is type(coordinates)
     assert np.array_equal(by_name.weights(points), coordinates.weights(points))
@@ -112,27 +121,30 @@ def test_by_name_equals_the_class_and_pickles_bit_identically(method, cube, conc
     assert np.array_equal(pickle.loads(pickle.dumps(warp))(points), warp(points))
 
 
-def test_options_are_keyword_arguments_and_reach_the_archive(cube, concave):
+def test_options_are_keyword_arguments_and_reach_the_archive(cube, octahedron, concave):
     assert (spacewarp.QuadMeanValue(concave, snap_tolerance=1e-12).to_bytes()
             != spacewarp.QuadMeanValue(concave).to_bytes())
     assert (spacewarp.QuadGreen(concave, surface_tolerance=1e-12).to_bytes()
             != spacewarp.QuadGreen(concave).to_bytes())
-    for cls in (spacewarp.Wachspress, spacewarp.DiscreteHarmonic):
-        assert cls(cube, outside="nearest").to_bytes() != cls(cube).to_bytes()
+    for cls, cage in ((spacewarp.Wachspress, cube), (spacewarp.DiscreteHarmonic, octahedron)):
+        assert cls(cage, outside="nearest").to_bytes() != cls(cage).to_bytes()
         with pytest.raises(TypeError):
-            cls(cube, 1e-12)  # keyword only
+            cls(cage, 1e-12)  # keyword only
 
 
-def test_errors_are_invalid_input(cube, concave):
-    for cls in (spacewarp.Wachspress, spacewarp.DiscreteHarmonic):
+def test_errors_are_invalid_input(cube, octahedron, concave):
+    for cls, cage in ((spacewarp.Wachspress, cube), (spacewarp.DiscreteHarmonic, octahedron)):
         with pytest.raises(spacewarp.InvalidInput, match="pinched.*edge|edge.*pinched"):
             cls(concave)
         with pytest.raises(spacewarp.InvalidInput, match="outside"):
-            cls(cube, outside="sometimes")
+            cls(cage, outside="sometimes")
         outside = np.array([[0.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
         with pytest.raises(spacewarp.InvalidInput):
-            cls(cube).weights(outside)
-        assert cls(cube, outside="nearest").weights(outside).shape == (2, 8)
+            cls(cage).weights(outside)
+        assert cls(cage, outside="nearest").weights(outside).shape == (2, len(cage.vertices))
+    # DiscreteHarmonic takes triangle faces only: the cube's quads are refused, naming one.
+    with pytest.raises(spacewarp.InvalidInput, match="cube.*quad.*triangle faces"):
+        spacewarp.DiscreteHarmonic(cube)
     # A hexagonal face: QuadGreen takes triangles and quads only; QuadMeanValue any polygon.
     hexagon = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.5, 0.0], [2.0, 1.5, 0.0],
                [1.0, 2.0, 0.0], [0.0, 1.0, 0.0]]
@@ -144,13 +156,27 @@ def test_errors_are_invalid_input(cube, concave):
     with pytest.raises(spacewarp.InvalidInput, match="face 0"):
         spacewarp.QuadGreen(prism_cage)
     assert spacewarp.QuadMeanValue(prism_cage).weights([[1.0, 1.0, 0.5]]).shape == (1, 12)
+    # A polygon a little off planar (one hexagon corner lifted 1e-4, ~3e-5 diagonals off the
+    # face's plane): refused naming the face by default (1e-9 diagonals), taken when
+    # polygon_planarity allows it, and a tolerance out of [0, 1e-2] is refused.
+    lifted = prism.copy()
+    lifted[2, 2] += 1e-4
+    lifted_cage = spacewarp.Cage(lifted, faces, name="lifted")
+    with pytest.raises(spacewarp.InvalidInput, match="lifted.*face 0"):
+        spacewarp.QuadMeanValue(lifted_cage)
+    qmvc = spacewarp.QuadMeanValue(lifted_cage, polygon_planarity=1e-3)
+    assert abs(qmvc.weights([[1.0, 1.0, 0.5]]).sum() - 1.0) <= 1e-12
+    looser = spacewarp.QuadMeanValue(lifted_cage, polygon_planarity=2e-3)
+    assert qmvc.to_bytes() != looser.to_bytes()  # the option is kept in the archive
+    with pytest.raises(spacewarp.InvalidInput, match="polygonPlanarity"):
+        spacewarp.QuadMeanValue(prism_cage, polygon_planarity=0.1)
     with pytest.raises(spacewarp.InvalidInput, match="point 1 is not finite"):
         spacewarp.QuadMeanValue(concave).weights([[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0]])
 
 
 @pytest.mark.parametrize("method", NEW_METHODS)
-def test_weights_equal_the_cli(method, cli, tmp_path, cube, concave, points):
-    coordinates, cage = make(method, cube, concave)
+def test_weights_equal_the_cli(method, cli, tmp_path, cube, octahedron, concave, points):
+    coordinates, cage = make(method, cube, octahedron, concave)
     faces = [f.tolist() for f in cage.faces]
     cage_file = write_cage(tmp_path / "cage.obj", cage.vertices, faces)
     points_file = tmp_path / "points.ply"

@@ -26,6 +26,7 @@
 #include <spacewarp/rig/rig.h>
 #include <spacewarp/rig/warp_archive.h>
 
+#include "coords/convex_test_shapes.h"
 #include "coords/coords_test_shapes.h"
 
 #include "rig/archive_test_util.h"
@@ -55,8 +56,17 @@ std::shared_ptr<const Cage> triQuadCage() {
   return std::make_shared<const Cage>(mixed, "tri-quad");
 }
 
+// Convex, six quads: wachspress takes it, discrete-harmonic (triangles only) does not.
 std::shared_ptr<const Cage> cube() {
   return std::make_shared<const Cage>(makeBoxSurface(Vec3(-1.0), Vec3(1.0), {1, 1, 1}), "cube");
+}
+
+// Convex, eight triangles (|x| + |y| + |z| <= 3, around the cube [-0.9, 0.9]^3 of test points):
+// both convex methods take it.
+std::shared_ptr<const Cage> octahedron() {
+  PolygonSoup soup = test::octahedron();
+  for (Vec3& p : soup.positions) p *= 3.0;
+  return std::make_shared<const Cage>(soup, "octahedron");
 }
 
 std::vector<Vec3> posedOf(std::span<const Vec3> rest) {
@@ -68,9 +78,11 @@ std::vector<Vec3> posedOf(std::span<const Vec3> rest) {
   return posed;
 }
 
-// The cage each method takes: the concave tri-quad cage, or the cube for the convex methods.
+// The cage each method is tested on: the concave tri-quad cage, the cube for wachspress, the
+// octahedron for discrete-harmonic.
 std::shared_ptr<const Cage> cageFor(const std::string& method) {
-  return method == "wachspress" || method == "discrete-harmonic" ? cube() : triQuadCage();
+  if (method == "wachspress") return cube();
+  return method == "discrete-harmonic" ? octahedron() : triQuadCage();
 }
 
 TEST(CageMethods, TheNewMethodsAreListedByName) {
@@ -85,12 +97,12 @@ TEST(CageMethods, TheNewMethodsAreListedByName) {
 TEST(CageMethods, ColumnsKnownBeforehandAreTheCoordinatesColumns) {
   CageMethodOptions options;
   options.harmonicTets = 2000;
-  for (const auto& cage : {triQuadCage(), cube()}) {
+  for (const auto& cage : {triQuadCage(), cube(), octahedron()}) {
     for (const std::string& method : cageMethods()) {
       try {
         checkCageMethodApplies(method, *cage);
       } catch (const InvalidInput&) {
-        continue;  // the convex methods on the concave cage: tested below
+        continue;  // the convex methods on the concave cage, discrete-harmonic on quads: below
       }
       const auto coordinates = cageCoordinates(method, cage, options);
       EXPECT_EQ(cageCoordinatesColumns(method, *cage), coordinates->columnCount())
@@ -112,12 +124,32 @@ TEST(CageMethods, ConvexMethodsRefuseAConcaveCageNamingItAndAnEdge) {
     EXPECT_THAT(message, HasSubstr("pinched")) << method;
     EXPECT_THAT(message, HasSubstr("edge")) << method;
     EXPECT_THROW(cageCoordinates(method, concave), InvalidInput) << method;
-    EXPECT_NO_THROW(checkCageMethodApplies(method, *cube())) << method;
+    EXPECT_NO_THROW(checkCageMethodApplies(method, *octahedron())) << method;
   }
   for (const char* method : {"mvc", "green", "qmvc", "qgc"}) {
     EXPECT_NO_THROW(checkCageMethodApplies(method, *concave)) << method;
     EXPECT_NO_THROW(checkCageMethodApplies(method, *triQuadCage())) << method;
   }
+}
+
+// discrete-harmonic takes convex cages of triangles only (polygon faces give its closed form
+// poles): the check made before the coordinates (compare's default set, the viewer, checkRig)
+// refuses the cube as the constructor does, naming the cage and a quad face; wachspress takes it.
+TEST(CageMethods, DiscreteHarmonicRefusesAConvexCageOfQuadsNamingTheFace) {
+  const std::string message =
+      test::messageOf<InvalidInput>([&] { checkCageMethodApplies("discrete-harmonic", *cube()); });
+  EXPECT_THAT(message, HasSubstr("cube"));
+  EXPECT_THAT(message, HasSubstr("quad"));
+  EXPECT_THAT(message, HasSubstr("triangle faces"));
+  // The constructor's refusal, after its own name in place of the method's.
+  EXPECT_THAT(test::messageOf<InvalidInput>([&] { cageCoordinates("discrete-harmonic", cube()); }),
+              HasSubstr(message.substr(message.find(": "))));
+  EXPECT_NO_THROW(checkCageMethodApplies("wachspress", *cube()));
+  // The cube's faces cut into triangles merge back into quads: still refused.
+  const Cage split(test::triangulated(makeBoxSurface(Vec3(-1.0), Vec3(1.0), {1, 1, 1})), "split");
+  EXPECT_THAT(
+      test::messageOf<InvalidInput>([&] { checkCageMethodApplies("discrete-harmonic", split); }),
+      HasSubstr("coplanar"));
 }
 
 TEST(CageMethods, QuadGreenRefusesALargerPolygonNamingTheFace) {
@@ -137,7 +169,7 @@ TEST(CageMethods, OutsideOptionReachesTheConvexCoordinates) {
   ASSERT_NE(w, nullptr);
   EXPECT_EQ(w->options().outside, ConvexOutsidePolicy::NearestPoint);
   const auto d = std::dynamic_pointer_cast<const DiscreteHarmonicCoordinates>(
-      cageCoordinates("discrete-harmonic", cube()));
+      cageCoordinates("discrete-harmonic", octahedron()));
   ASSERT_NE(d, nullptr);
   EXPECT_EQ(d->options().outside, ConvexOutsidePolicy::Throw);
   options.outside = "sometimes";
@@ -145,7 +177,8 @@ TEST(CageMethods, OutsideOptionReachesTheConvexCoordinates) {
 }
 
 // Every new Coordinates, and its warp, saves and loads bit-identically (convex ones with both
-// outside policies; points inside the cube where outside points are refused).
+// outside policies; points inside the cube, and so inside the octahedron, where outside points
+// are refused).
 TEST(CageMethods, ArchivesRoundTripBitIdentically) {
   std::vector<std::shared_ptr<const Coordinates>> all = {
       std::make_shared<const QuadMeanValueCoordinates>(triQuadCage(), QuadMeanValueOptions{1e-12}),
@@ -155,7 +188,7 @@ TEST(CageMethods, ArchivesRoundTripBitIdentically) {
     all.push_back(
         std::make_shared<const WachspressCoordinates>(cube(), WachspressOptions{1e-13, outside}));
     all.push_back(std::make_shared<const DiscreteHarmonicCoordinates>(
-        cube(), DiscreteHarmonicOptions{1e-13, outside}));
+        octahedron(), DiscreteHarmonicOptions{1e-13, outside}));
   }
   std::mt19937 rng(20);
   const std::vector<Vec3> inside = test::randomPoints(rng, 200, -0.9, 0.9);
@@ -177,7 +210,8 @@ class CageMethodRigs : public ::testing::Test {
     dir_ = std::filesystem::temp_directory_path() /
            ("spacewarp_cage_methods_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir_);
-    for (const auto& [name, cage] : {std::pair{"triquad", triQuadCage()}, {"cube", cube()}}) {
+    for (const auto& [name, cage] :
+         {std::pair{"tri-quad", triQuadCage()}, {"cube", cube()}, {"octahedron", octahedron()}}) {
       PolygonSoup soup;
       soup.positions.assign(cage->vertices().begin(), cage->vertices().end());
       for (std::size_t f = 0; f < cage->faceCount(); ++f) {
@@ -202,7 +236,7 @@ TEST_F(CageMethodRigs, EveryNewMethodByRigEqualsTheLibraryBitForBit) {
   std::mt19937 rng(7);
   const std::vector<Vec3> points = test::randomPoints(rng, 300, -0.9, 0.9);
   for (const std::string method : kNewMethods) {
-    const std::string file = cageFor(method)->name() == "cube" ? "cube" : "triquad";
+    const std::string file = cageFor(method)->name();
     const Rig r = rig(R"({"method": ")" + method + R"(", "cage": ")" + file +
                       R"(.obj", "pose": ")" + file + R"(_posed.obj"})");
     ASSERT_NE(r.coordinates, nullptr) << method;
@@ -225,12 +259,12 @@ TEST_F(CageMethodRigs, OutsideKeyIsTakenByTheConvexMethodsOnly) {
   EXPECT_EQ(w.options().outside, ConvexOutsidePolicy::NearestPoint);
   EXPECT_THAT(
       test::messageOf<InvalidInput>([&] {
-        rig(R"({"method": "discrete-harmonic", "cage": "cube.obj", "pose": "cube_posed.obj", "outside": "far"})");
+        rig(R"({"method": "discrete-harmonic", "cage": "octahedron.obj", "pose": "octahedron_posed.obj", "outside": "far"})");
       }),
       HasSubstr("outside"));
   EXPECT_THAT(
       test::messageOf<InvalidInput>([&] {
-        rig(R"({"method": "qmvc", "cage": "triquad.obj", "pose": "triquad_posed.obj", "outside": "nearest"})");
+        rig(R"({"method": "qmvc", "cage": "tri-quad.obj", "pose": "tri-quad_posed.obj", "outside": "nearest"})");
       }),
       HasSubstr("outside"));
   // Checking a rig (no coordinates made) already refuses a concave cage for wachspress.
@@ -238,11 +272,20 @@ TEST_F(CageMethodRigs, OutsideKeyIsTakenByTheConvexMethodsOnly) {
       test::messageOf<InvalidInput>([&] {
         checkRig(
             parseRigJson(
-                R"({"method": "wachspress", "cage": "triquad.obj", "pose": "triquad_posed.obj"})",
+                R"({"method": "wachspress", "cage": "tri-quad.obj", "pose": "tri-quad_posed.obj"})",
                 "rig.json"),
             dir_, "rig.json");
       }),
-      HasSubstr("triquad.obj"));
+      HasSubstr("tri-quad.obj"));
+  // ... and the cube of quads for discrete-harmonic, naming the file and the face.
+  const std::string quads = test::messageOf<InvalidInput>([&] {
+    checkRig(parseRigJson(
+                 R"({"method": "discrete-harmonic", "cage": "cube.obj", "pose": "cube_posed.obj"})",
+                 "rig.json"),
+             dir_, "rig.json");
+  });
+  EXPECT_THAT(quads, HasSubstr("cube.obj"));
+  EXPECT_THAT(quads, HasSubstr("triangle faces"));
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/rig/cage_rig.h>
 
+#include "coords/convex_test_shapes.h"
 #include "view_test_util.h"
 
 namespace spacewarp::test {
@@ -254,8 +255,9 @@ std::vector<RigCase> rigCases() {
 INSTANTIATE_TEST_SUITE_P(Kinds, ViewSessionRigTest, ::testing::ValuesIn(rigCases()),
                          [](const auto& info) { return info.param.name; });
 
-// The cage methods offered are those that take the cage: the convex-cage methods only on a
-// convex cage, each giving the positions of the rig it saves.
+// The cage methods offered are those that take the cage: wachspress only on a convex cage,
+// discrete-harmonic only on a convex cage of triangles, each giving the positions of the rig it
+// saves.
 TEST_F(ViewSessionTest, CageMethodsAreThoseThatTakeTheCage) {
   const auto has = [](const ViewSession& session, const std::string& method) {
     return std::ranges::count(session.methods(), method) > 0;
@@ -270,19 +272,29 @@ TEST_F(ViewSessionTest, CageMethodsAreThoseThatTakeTheCage) {
   EXPECT_FALSE(has(concave, "discrete-harmonic"));
   EXPECT_THROW(concave.setMethod("wachspress"), InvalidInput);
 
-  writeSoup(makeBoxSurface(Vec3(-1, -1, -1.5), Vec3(1, 1, 1.5), glm::ivec3(1, 1, 1)),
-            dir_ / "cage.obj");
-  ViewSession convex = cageSession();
-  const std::vector<Vec3> pose = sway(convex.restControls());
-  for (const char* method : {"wachspress", "discrete-harmonic", "qmvc", "qgc"}) {
+  const auto offersAndMatchesItsRig = [&](ViewSession& session, const char* method) {
     SCOPED_TRACE(method);
-    ASSERT_TRUE(has(convex, method));
-    convex.setMethod(method);
-    convex.setPose(pose);
-    EXPECT_LT(relativeGap(convex.positions(), deformedByRig(convex.writeRig(dir_).back()),
+    ASSERT_TRUE(has(session, method));
+    session.setMethod(method);
+    session.setPose(sway(session.restControls()));
+    EXPECT_LT(relativeGap(session.positions(), deformedByRig(session.writeRig(dir_).back()),
                           model_.positions),
               1e-12);
-  }
+  };
+  // A box: convex, but quads.
+  writeSoup(makeBoxSurface(Vec3(-1, -1, -1.5), Vec3(1, 1, 1.5), glm::ivec3(1, 1, 1)),
+            dir_ / "cage.obj");
+  ViewSession box = cageSession();
+  EXPECT_FALSE(has(box, "discrete-harmonic"));
+  EXPECT_THROW(box.setMethod("discrete-harmonic"), InvalidInput);
+  for (const char* method : {"wachspress", "qmvc", "qgc"}) offersAndMatchesItsRig(box, method);
+  // The octahedron |x| + |y| + |z| <= 3 around the model: convex, triangles.
+  PolygonSoup octahedron = test::octahedron();
+  for (Vec3& p : octahedron.positions) p *= 3.0;
+  writeSoup(octahedron, dir_ / "cage.obj");
+  ViewSession simplicial = cageSession();
+  for (const char* method : {"discrete-harmonic", "wachspress", "qmvc", "qgc"})
+    offersAndMatchesItsRig(simplicial, method);
 }
 
 // The Armadillo of Ju et al. (2005) in its cage, posed by one of the paper's posed cages.
