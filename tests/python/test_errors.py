@@ -376,7 +376,7 @@ def test_a_sigint_handler_that_does_not_raise_lets_the_work_finish():
 _JACOBIAN_INTERRUPT = CAGE_SCRIPT + """
 print("started", flush=True)
 try:
-    warp.jacobian(points[:70_000])  # about 4 s on 2 cores
+    warp.jacobian(points[:1_000_000])  # about a minute on 2 cores
     print("finished", flush=True)
 except KeyboardInterrupt:
     print("KeyboardInterrupt", flush=True)
@@ -384,9 +384,11 @@ except KeyboardInterrupt:
 
 
 def test_sigint_stops_a_long_jacobian():
+    # The bound is a sixth of the whole job, so the test shows the job was cut short without
+    # timing the cancellation itself (2.5 s flaked at load 9).
     line, elapsed, code = interrupt_child(_JACOBIAN_INTERRUPT, pause=0.5)
     assert line == "KeyboardInterrupt", f"child said {line!r} after the signal"
-    assert elapsed < 2.5, f"{elapsed:.2f} s from SIGINT to KeyboardInterrupt"
+    assert elapsed < 10, f"{elapsed:.2f} s from SIGINT to KeyboardInterrupt"
 
 
 def test_sigint_outside_library_work_still_works():
