@@ -12,6 +12,7 @@
 
 #include <spacewarp/coords/detail/bilinear_quadrature.h>
 #include <spacewarp/coords/detail/green_triangles.h>
+#include <spacewarp/coords/detail/quad_fold.h>
 #include <spacewarp/coords/green.h>
 #include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/simd.h>
@@ -392,6 +393,7 @@ QuadGreenCoordinates::QuadGreenCoordinates(std::shared_ptr<const Cage> cage,
       m->triangleColumn.push_back(column);
       column += 1;
     } else if (face.size() == 4) {
+      detail::checkQuadUnfolded(cage->vertices(), face, f, "QuadGreenCoordinates", cage->name());
       Quad q = makeQuad(cage->vertices(), face);
       q.face = f;
       q.column = column;

@@ -78,6 +78,7 @@
 
 #include <spacewarp/coords/detail/bilinear_quadrature.h>
 #include <spacewarp/coords/detail/mean_value_triangle.h>
+#include <spacewarp/coords/detail/quad_fold.h>
 #include <spacewarp/coords/mean_value.h>
 #include <spacewarp/core/archive.h>
 #include <spacewarp/core/detail/simd.h>
@@ -756,7 +757,10 @@ CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
     cd.normal.push_back(normal);
     cd.box.push_back(box);
     cd.patch.emplace_back();
-    if (n == 4) setPatch(cd.patch.back(), cd.p, face);
+    if (n == 4) {
+      detail::checkQuadUnfolded(cd.p, face, f, "QuadMeanValueCoordinates", cage.name());
+      setPatch(cd.patch.back(), cd.p, face);
+    }
   }
   for (const auto& [edge, unused] : edges) cd.edges.push_back(edge);
   return cd;

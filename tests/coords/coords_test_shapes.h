@@ -39,6 +39,23 @@ inline PolygonSoup lPrism() {
   return s;
 }
 
+/// A prism of height 1 over the planar concave ("dart") quad (0,0), (2,1), (0,2), (0.7,1), whose
+/// reflex corner is vertex 3: a closed, outward cage whose caps' bilinear patches fold over the
+/// notch. Face 0 is the bottom cap {3, 2, 1, 0}.
+inline PolygonSoup dartPrism() {
+  PolygonSoup s;
+  const double xy[4][2] = {{0, 0}, {2, 1}, {0, 2}, {0.7, 1}};
+  for (int z = 0; z < 2; ++z)
+    for (const auto& p : xy) s.positions.push_back(Vec3(p[0], p[1], z));
+  s.addPolygon({3, 2, 1, 0});
+  s.addPolygon({4, 5, 6, 7});
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    const std::uint32_t j = (i + 1) % 4;
+    s.addPolygon({i, j, j + 4, i + 4});
+  }
+  return s;
+}
+
 /// A star-shaped (concave) polyhedron: an octahedron whose 8 face centers are pushed out into
 /// spikes, 14 vertices and 24 triangles.
 inline PolygonSoup star() {

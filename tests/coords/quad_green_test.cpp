@@ -194,6 +194,19 @@ TEST(QuadGreen, RejectsLargerPolygonsNamingTheFace) {
   EXPECT_THROW(QuadGreenCoordinates(makeCage(lPrismQuads(false), "l"), bad), InvalidInput);
 }
 
+// A quad whose bilinear patch folds over (a planar dart) is refused, naming the cage, the face and
+// its vertices (coords/detail/quad_fold.h); a convex quad twisted out of its plane is not.
+TEST(QuadGreen, RefusesAQuadWhosePatchFoldsNamingIt) {
+  const auto dart = makeCage(test::dartPrism(), "dart");
+  const std::string message =
+      test::messageOf<InvalidInput>([&] { QuadGreenCoordinates qgc(dart); });
+  EXPECT_NE(message.find("dart: QuadGreenCoordinates: face 0 (vertices 3, 2, 1, 0)"),
+            std::string::npos)
+      << message;
+  EXPECT_NE(message.find("split it into triangles"), std::string::npos) << message;
+  EXPECT_NO_THROW(QuadGreenCoordinates{makeCage(jitteredBox(0.2), "nonPlanarBox")});
+}
+
 // At rest Σ φ_i v_i + Σ ψ C = x and Σ φ = 1, inside and outside (through the extension).
 TEST(QuadGreen, ReproducesLinearFunctionsAtRest) {
   for (const NamedCage& nc : quadCages()) {

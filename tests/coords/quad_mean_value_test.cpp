@@ -23,6 +23,7 @@
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
 #include "coords_test_shapes.h"
+#include "test_util.h"
 
 namespace spacewarp {
 namespace {
@@ -401,6 +402,76 @@ TEST(QuadMeanValueCoordinates, RefusesANonPlanarHexagonNamingIt) {
   } catch (const InvalidInput& e) {
     EXPECT_NE(std::string(e.what()).find("face 1 (6 vertices)"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("bent"), std::string::npos) << e.what();
+  }
+}
+
+// A planar concave quad's bilinear patch folds over its notch: points beside the notch would see
+// surface that is not there (weights ~1 / distance, reproduction lost), so it is refused, naming
+// the cage, the face and its vertices. A convex quad twisted out of its plane does not fold.
+TEST(QuadMeanValueCoordinates, RefusesAQuadWhosePatchFoldsNamingIt) {
+  const auto dart = std::make_shared<const Cage>(test::dartPrism(), "dart");
+  const std::string message =
+      test::messageOf<InvalidInput>([&] { QuadMeanValueCoordinates qmvc(dart); });
+  EXPECT_NE(message.find("dart: QuadMeanValueCoordinates: face 0 (vertices 3, 2, 1, 0)"),
+            std::string::npos)
+      << message;
+  EXPECT_NE(message.find("split it into triangles"), std::string::npos) << message;
+  // The same prism with its caps cut into triangles at the reflex corner is a valid cage.
+  PolygonSoup split = test::dartPrism();
+  split.faceIndices.clear();
+  split.faceOffsets = {0};
+  split.addPolygon({3, 2, 1});
+  split.addPolygon({3, 1, 0});
+  split.addPolygon({4, 5, 7});
+  split.addPolygon({5, 6, 7});
+  for (std::uint32_t i = 0; i < 4; ++i) split.addPolygon({i, (i + 1) % 4, (i + 1) % 4 + 4, i + 4});
+  EXPECT_NO_THROW(QuadMeanValueCoordinates(std::make_shared<const Cage>(split, "splitDart")));
+  const auto twisted = std::make_shared<const Cage>(twistedBox(1.2), "twisted");
+  EXPECT_NO_THROW(QuadMeanValueCoordinates{twisted});
+}
+
+// snapTolerance 0 still gives a point on a face (up to the round-off of its distance to the face)
+// the face's bilinear interpolant, and keeps points just off a face accurate: planar and twisted
+// quads, points at random parameters on every face and 1e-15 … 1e-9 diagonals off it.
+TEST(QuadMeanValueCoordinates, SnapToleranceZeroKeepsPointsOnAndNearFacesExact) {
+  for (const double twist : {0.0, 0.6}) {
+    const auto cage = std::make_shared<const Cage>(twistedBox(twist));
+    QuadMeanValueOptions options;
+    options.snapTolerance = 0.0;
+    const QuadMeanValueCoordinates qmvc(cage, options);
+    const double diagonal = cage->diagonal();
+    const auto vertices = cage->vertices();
+    std::mt19937 rng(20);
+    std::uniform_real_distribution<double> param(0.02, 0.98);
+    std::vector<double> row(cage->vertexCount());
+    for (std::size_t f = 0; f < cage->faceCount(); ++f) {
+      const auto face = cage->face(f);
+      const Vec3 q0 = vertices[face[0]], q1 = vertices[face[1]], q2 = vertices[face[2]],
+                 q3 = vertices[face[3]];
+      for (int k = 0; k < 4; ++k) {
+        const double u = param(rng), v = param(rng);
+        const std::array<double, 4> phi = {(1 - u) * (1 - v), u * (1 - v), u * v, (1 - u) * v};
+        const Vec3 x = phi[0] * q0 + phi[1] * q1 + phi[2] * q2 + phi[3] * q3;
+        qmvc.weights(x, row);
+        for (int c = 0; c < 4; ++c)
+          EXPECT_NEAR(row[face[c]], phi[c], 1e-12) << "twist " << twist << " face " << f;
+        const Vec3 normal = glm::normalize(
+            glm::cross((1 - v) * (q1 - q0) + v * (q2 - q3), (1 - u) * (q3 - q0) + u * (q2 - q1)));
+        for (const double h : {1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9}) {
+          const Vec3 y = x + h * diagonal * normal;
+          qmvc.weights(y, row);
+          Vec3 image(0.0);
+          double sum = 0.0;
+          for (std::size_t i = 0; i < row.size(); ++i) {
+            image += row[i] * vertices[i];
+            sum += row[i];
+          }
+          EXPECT_NEAR(sum, 1.0, 1e-13) << "twist " << twist << " face " << f << " h " << h;
+          EXPECT_LE(glm::length(image - y), 1e-13 * diagonal)
+              << "twist " << twist << " face " << f << " h " << h;
+        }
+      }
+    }
   }
 }
 
