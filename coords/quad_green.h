@@ -32,8 +32,11 @@ struct QuadGreenOptions {
 /// triangle Green coordinates. Every method is const and thread-safe.
 class QuadGreenCoordinates final : public Coordinates {
  public:
-  /// Shares `cage`. Throws InvalidInput if `cage` is null, an option is out of range, or a face
-  /// is neither a triangle nor a quad (naming it).
+  /// Shares `cage`. Throws InvalidInput if `cage` is null, an option is out of range, a face
+  /// is neither a triangle nor a quad (naming it), or a quad's bilinear patch folds over (a
+  /// planar quad that is not strictly convex, or a non-planar one whose patch normal turns
+  /// against its Newell normal somewhere: coords/detail/quad_fold.h; the message names the face
+  /// and its vertices; split such a quad into triangles). Quads may be non-planar.
   explicit QuadGreenCoordinates(std::shared_ptr<const Cage> cage,
                                 const QuadGreenOptions& options = {});
   ~QuadGreenCoordinates() override;

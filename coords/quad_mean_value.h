@@ -46,8 +46,12 @@ struct QuadMeanValueOptions {
 class QuadMeanValueCoordinates final : public Coordinates {
  public:
   /// Shares `cage`. Throws InvalidInput if `cage` is null, an option is out of range, or a face
-  /// of more than 4 vertices is not planar (see polygonPlanarity; the message names the face).
-  /// Quads may be non-planar.
+  /// of more than 4 vertices is not planar (see polygonPlanarity; the message names the face),
+  /// or a quad's bilinear patch folds over (a planar quad that is not strictly convex, or a
+  /// non-planar one whose patch normal turns against its Newell normal somewhere:
+  /// coords/detail/quad_fold.h; the message names the face and its vertices; split such a quad
+  /// into triangles: near a fold the weights would grow like 1 / distance). Quads may be
+  /// non-planar.
   explicit QuadMeanValueCoordinates(std::shared_ptr<const Cage> cage,
                                     const QuadMeanValueOptions& options = {});
   ~QuadMeanValueCoordinates() override;
