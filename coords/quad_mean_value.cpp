@@ -44,12 +44,20 @@
 // faces, edges and vertices of planar and warped quads, wherever that reference is itself
 // accurate (its node vectors carry 1e-19 / distance: one point 1.7e-11 above a face differed by
 // 6e-9); the tessellation this replaced was 1e-3 … 6e-3 off. Reproduction: ~2e-16 at 1e-4 …
-// 1e-10 diagonals from edges and vertices, 3e-13 at 10, 4e-13 / 2e-12 (planar / warped) at 100,
-// 5e-10 / 1.4e-9 at 1000 diagonals. Cost (the bench's twisted 294-quad box, one thread, batch):
-// 515 ns per (point × quad) against MVC's 25 ns for the quad's two triangles (21×; the
-// tessellation this replaced: 2650 ns). Profile: 26% F (~90 nodes per quad; QGC's eight
-// integrals take 220 ns), 24% the four edges' mean vector (asin), 44% the rest of quad() (null
-// vector, Householder QR, sums). The 3× target would need F alone to cost ~2 MVC triangles.
+// 1e-10 diagonals from edges and vertices; outside (2000 points per radius, the 2 × 2 per side
+// cube planar / jittered by ±0.2) 1.4e-14 at 3, 3.5e-13 / 1e-14 at 10, 7e-14 / 8e-14 at 30,
+// 1.2e-12 / 1.9e-12 at 100 and 3.6e-10 / 1.3e-9 at 1000 diagonals (MVC on the triangulation:
+// 2e-15, 1e-14 / 5e-14, 4e-13 / 1.4e-12, 5e-10 / 1.5e-9). At 10 diagonals the planar cube's
+// worst points (near the axes) are least-norm points whose estimate ε Σ |w| d / |W| stayed
+// under kTauRepro while their error was ~3.5 times it; kTauRepro = 1e-14 brings them to
+// 1.6e-14, but sends points 3 diagonals out to the careful pass too (4× their cost), so it is
+// left at MVC's value. Independent check (the attack's NumPy quadrature, 64² Gauss points on
+// 8 × 8 cells per quad): max |Δw| ≤ 1.7e-16 at 20 interior points of a planar and a warped cube.
+// Cost (the bench's twisted 294-quad box, one thread, batch): 515 ns per (point × quad) against
+// MVC's 25 ns for the quad's two triangles (21×; the tessellation this replaced: 2650 ns). Profile:
+// 26% F (~90 nodes per quad; QGC's eight integrals take 220 ns), 24% the four edges' mean vector
+// (asin), 44% the rest of quad() (null vector, Householder QR, sums). The 3× target would need F
+// alone to cost ~2 MVC triangles.
 //
 // Polygons with more than 4 vertices (planar): Langer, Belyaev and Seidel's spherical
 // mean-value construction. With m̂ = m / |m|, t_i the component of u_i = v_i / d_i orthogonal to
