@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 
 #include <spacewarp/coords/convex_cage.h>
+#include <spacewarp/coords/detail/quad_fold.h>
 #include <spacewarp/coords/discrete_harmonic.h>
 #include <spacewarp/coords/green.h>
 #ifdef SPACEWARP_HAVE_HARMONIC
@@ -73,6 +74,14 @@ void checkTriQuadFaces(const Cage& cage) {
       throw InvalidInput(cage.name() + ": qgc takes triangle and quad faces only, but face " +
                          std::to_string(f) + " has " + std::to_string(cage.face(f).size()) +
                          " vertices");
+}
+
+// Refuses a quad whose bilinear patch folds over (coords/detail/quad_fold.h), as qmvc's and qgc's
+// constructors do, but named by the method's CLI name and before any work.
+void checkQuadsUnfolded(const Cage& cage, const char* method) {
+  for (std::size_t f = 0; f < cage.faceCount(); ++f)
+    if (cage.face(f).size() == 4)
+      detail::checkQuadUnfolded(cage.vertices(), cage.face(f), f, method, cage.name());
 }
 
 #ifdef SPACEWARP_HAVE_HARMONIC
@@ -164,10 +173,15 @@ const std::map<std::string, Factory>& factories() {
       {"green",
        {plainCoordinates<GreenCoordinates>, closedFormMemory,
         [](const Cage& cage) { return cage.vertexCount() + cage.triangleCount(); }}},
-      {"qmvc", {plainCoordinates<QuadMeanValueCoordinates>, closedFormMemory}},
+      {"qmvc",
+       {plainCoordinates<QuadMeanValueCoordinates>, closedFormMemory, vertexColumns,
+        [](const Cage& cage) { checkQuadsUnfolded(cage, "qmvc"); }}},
       {"qgc",
        {plainCoordinates<QuadGreenCoordinates>, closedFormMemory, quadGreenColumns,
-        checkTriQuadFaces}},
+        [](const Cage& cage) {
+          checkTriQuadFaces(cage);
+          checkQuadsUnfolded(cage, "qgc");
+        }}},
       {"wachspress",
        {convexCoordinates<WachspressCoordinates, WachspressOptions>, closedFormMemory,
         vertexColumns, convex("wachspress")}},

@@ -49,7 +49,8 @@ std::shared_ptr<const Coordinates> cageCoordinates(const std::string& method,
                                                    const ProgressCallback& progress = {});
 
 /// Throws InvalidInput (naming the cage and the face or reflex edge at fault) unless `method`
-/// can take `cage`: qgc needs triangle and quad faces, wachspress a convex cage
+/// can take `cage`: qmvc and qgc need quads whose bilinear patch does not fold over (a concave
+/// planar quad, say), qgc triangle and quad faces only, wachspress a convex cage
 /// (checkConvexCage()), discrete-harmonic a convex cage of triangles
 /// (checkSimplicialConvexCage()); the others take any valid cage. Throws InvalidInput for an
 /// unknown method.

@@ -132,6 +132,21 @@ TEST(CageMethods, ConvexMethodsRefuseAConcaveCageNamingItAndAnEdge) {
   }
 }
 
+// qmvc and qgc refuse a quad whose bilinear patch folds over (a planar dart) by their CLI names,
+// so that compare leaves them out of its default set instead of failing.
+TEST(CageMethods, QuadMethodsRefuseAFoldedQuadNamingIt) {
+  const auto dart = std::make_shared<const Cage>(test::dartPrism(), "dart");
+  for (const char* method : {"qmvc", "qgc"}) {
+    const std::string message =
+        test::messageOf<InvalidInput>([&] { checkCageMethodApplies(method, *dart); });
+    EXPECT_THAT(message,
+                HasSubstr(std::string("dart: ") + method + ": face 0 (vertices 3, 2, 1, 0)"));
+    EXPECT_THAT(message, HasSubstr("split it into triangles"));
+    EXPECT_THROW(cageCoordinates(method, dart), InvalidInput) << method;
+  }
+  EXPECT_NO_THROW(checkCageMethodApplies("mvc", *dart));
+}
+
 // discrete-harmonic takes convex cages of triangles only (polygon faces give its closed form
 // poles): the check made before the coordinates (compare's default set, the viewer, checkRig)
 // refuses the cube as the constructor does, naming the cage and a quad face; wachspress takes it.
