@@ -48,14 +48,17 @@ namespace spacewarp {
 // 3e-15 relative, down to 1e-9 of the diagonal from the face. Near a quad the node vectors
 // r = ξ − x are measured from x's foot on it, and that offset from the nearest point of the quad's
 // boundary (the same bits for every face at that edge or vertex, see footOf()): r then has
-// round-off relative to |r| and the faces around an edge see x at the same place. Measured: x is
-// reproduced to ~1e-15 of the diagonal and Σ φ = 1 to ~1e-15 at 1e-12 of the diagonal from a
-// face or an edge (planar or warped quads) and from a vertex of planar quads. Near a vertex
-// where warped quads meet, on a line towards the cage centre, the error still grows as
-// ~1e-18 diag / δ (4e-12 at δ = 1e-6 of the diagonal, 3e-6 at 1e-12) whatever the orders and
-// admissibility (checked): a geometric round-off, not the quadrature; probably x there is far
-// closer to one face (h) than to the vertex and that face's offset, written from the vertex,
-// carries round-off ~1e-16 δ, i.e. 1e-16 δ / h relative. Not resolved.
+// round-off relative to |r| and the faces around an edge see x at the same place. Near a vertex
+// that is not enough: there the double layers of the faces around it cancel with a round-off
+// ~1e-18 diag / δ at δ from the vertex, planar quads or not (|Σ φ − 1| 2e-4 at δ = 1e-14 of the
+// diagonal, 9e-7 at 1e-12, in random directions; triangle Green is exact there), whatever the
+// orders and admissibility: geometric round-off, not the quadrature, whose cause was not
+// removed. So every row is then projected onto its four affine constraints (enforceAffine()):
+// Σ φ = 1 and x are reproduced to ~5e-16 of the diagonal at 1e-14 to 1e-6 of the diagonal from
+// every vertex and edge of planar and warped boxes, to ~1e-12 at 1000 diagonals (as triangle
+// Green). What the projection cannot restore is the φ entries' own error next to a vertex: a row
+// at δ = 1e-14 of the diagonal differs from the vertex's row by up to 5e-6 (9e-6 warped), at 1e-12
+// by 2e-8 (5e-8), at 1e-10 by 5e-9 (the true variation); the normal coordinates are unaffected.
 // A typical point inside a 216-quad box needs ~90 nodes per quad (orders 7 to 14).
 //
 // Inside: the integrals. Σ φ = 1 there (the solid angle of the closed surface).
