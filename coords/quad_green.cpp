@@ -49,14 +49,17 @@ namespace spacewarp {
 // 3e-15 relative, down to 1e-9 of the diagonal from the face. Near a quad the node vectors
 // r = ξ − x are measured from x's foot on it, and that offset from the nearest point of the quad's
 // boundary (the same bits for every face at that edge or vertex, see footOf()): r then has
-// round-off relative to |r| and the faces around an edge see x at the same place. Measured: x is
-// reproduced to ~1e-15 of the diagonal and Σ φ = 1 to ~1e-15 at 1e-12 of the diagonal from a
-// face or an edge (planar or warped quads) and from a vertex of planar quads. Near a vertex
-// where warped quads meet, on a line towards the cage centre, the error still grows as
-// ~1e-18 diag / δ (4e-12 at δ = 1e-6 of the diagonal, 3e-6 at 1e-12) whatever the orders and
-// admissibility (checked): a geometric round-off, not the quadrature; probably x there is far
-// closer to one face (h) than to the vertex and that face's offset, written from the vertex,
-// carries round-off ~1e-16 δ, i.e. 1e-16 δ / h relative. Not resolved.
+// round-off relative to |r| and the faces around an edge see x at the same place. Near a vertex
+// that is not enough: there the double layers of the faces around it cancel with a round-off
+// ~1e-18 diag / δ at δ from the vertex, planar quads or not (|Σ φ − 1| 2e-4 at δ = 1e-14 of the
+// diagonal, 9e-7 at 1e-12, in random directions; triangle Green is exact there), whatever the
+// orders and admissibility: geometric round-off, not the quadrature, whose cause was not
+// removed. So every row is then projected onto its four affine constraints (enforceAffine()):
+// Σ φ = 1 and x are reproduced to ~5e-16 of the diagonal at 1e-14 to 1e-6 of the diagonal from
+// every vertex and edge of planar and warped boxes, to ~1e-12 at 1000 diagonals (as triangle
+// Green). What the projection cannot restore is the φ entries' own error next to a vertex: a row
+// at δ = 1e-14 of the diagonal differs from the vertex's row by up to 5e-6 (9e-6 warped), at 1e-12
+// by 2e-8 (5e-8), at 1e-10 by 5e-9 (the true variation); the normal coordinates are unaffected.
 // A typical point inside a 216-quad box needs ~90 nodes per quad (orders 7 to 14).
 //
 // Inside: the integrals. Σ φ = 1 there (the solid angle of the closed surface).
@@ -70,7 +73,10 @@ namespace spacewarp {
 // q_k = ξ_u, ..., N = Σ B_k N_k) and keeps Σ φ = 1 (Σ_k ∂B_k = 0). (u, v) is the foot of x on
 // the extended patch, x = ξ(u, v) + t N(u, v) (then a = b = 0), by damped Newton from the nearest
 // point of the quad's four triangles (both diagonals); where that has no solution (far from a
-// warped quad) the nearest point itself. On the quad (t = 0) this equals the surface limit, so
+// warped quad) the nearest point itself; clamped to [0, 1]² (x beyond the quad's edges), so the
+// terms grow as the distance r, as triangle Green's, not as r² through B_k far outside the patch
+// (which cost ~r³ of reproduction: 3.7e-9 at 144 diagonals). On the quad (t = 0) this equals the
+// surface limit, so
 // the coordinates are continuous across quads. It is not the analytic continuation of the
 // interior coordinates (a curved patch has none in closed form; for a planar quad the continuation
 // of the bilinear hats is not bilinear either): the derivatives jump across a quad. The nearest
@@ -257,6 +263,9 @@ struct QuadGreenData {
   double tolerance = 0.0;    // world units
   double touchRadius = 0.0;  // world units
   double footTolerance = 0.0;
+  // The affine constraints' columns in the cage frame (see enforceAffine()): (v_i − c) / scale
+  // for a vertex, C_c(rest) / scale for a normal column.
+  std::vector<Vec3> affineColumn;
 };
 
 }  // namespace detail
@@ -264,6 +273,121 @@ struct QuadGreenData {
 struct QuadGreenCoordinates::Impl : detail::QuadGreenData {};
 
 namespace {
+
+// The normal columns of a mixed cage's column controls for `posed` (checked): see the file
+// comment.
+void normalControls(const detail::QuadGreenData& m, std::span<const Vec3> posed,
+                    std::span<Vec3> out) {
+  const std::size_t nv = m.cage->vertexCount();
+  thread_local std::vector<Vec3> greenControls;
+  greenControls.resize(m.green->columnCount());
+  m.green->columnControls(posed, greenControls);
+  for (std::size_t t = 0; t < m.triangleFace.size(); ++t)
+    out[m.triangleColumn[t]] = greenControls[nv + m.greenTriangle[t]];
+  const GaussRule& rule = gaussRules()[kStretchOrder];
+  for (const Quad& q : m.quads) {
+    Vec3 c[4];
+    for (int k = 0; k < 4; ++k) c[k] = posed[q.vertex[k]];
+    const Vec3 eu = c[1] - c[0], ev = c[3] - c[0], euv = c[0] - c[1] + c[2] - c[3];
+    double lengthSum[4] = {0, 0, 0, 0}, areaSum[4] = {0, 0, 0, 0};
+    for (int i = 0; i < kStretchOrder; ++i) {
+      for (int j = 0; j < kStretchOrder; ++j) {
+        const double u = rule.node[i], v = rule.node[j];
+        const Vec3 a = q.tangentU(v), b = q.tangentV(u);
+        const Vec3 pa = eu + v * euv, pb = ev + u * euv;
+        const double rest2 = glm::dot(glm::cross(a, b), glm::cross(a, b));
+        const double restArea = std::sqrt(rest2);
+        if (!(restArea > 0.0)) continue;  // a node where a folded quad has no normal
+        const double lengthStretch = std::sqrt(
+            std::max(0.0, (glm::dot(pa, pa) * glm::dot(b, b) + glm::dot(a, a) * glm::dot(pb, pb) -
+                           2.0 * glm::dot(pa, pb) * glm::dot(a, b)) /
+                              (2.0 * rest2)));
+        const double areaStretch = glm::length(glm::cross(pa, pb)) / restArea;
+        const std::array<double, 4> bk = bilinear(u, v);
+        const double w = rule.weight[i] * rule.weight[j] / restArea;
+        for (int k = 0; k < 4; ++k) {
+          lengthSum[k] += w * bk[k] * lengthStretch;
+          areaSum[k] += w * bk[k] * areaStretch;
+        }
+      }
+    }
+    for (int k = 0; k < 4; ++k) {
+      const Vec3 normal = glm::cross(c[(k + 1) % 4] - c[k], c[(k + 3) % 4] - c[k]);
+      out[q.column + k] = areaSum[k] > 0.0 ? normal * (lengthSum[k] / areaSum[k]) : Vec3(0.0);
+    }
+  }
+}
+
+// Solves the symmetric positive semi-definite 4 × 4 system a x = b by Gaussian elimination with
+// partial pivoting; false if a pivot is not above `floor` (then x is not written).
+bool solve4(double (&a)[4][4], double (&b)[4], double floor) {
+  for (int k = 0; k < 4; ++k) {
+    int p = k;
+    for (int i = k + 1; i < 4; ++i)
+      if (std::fabs(a[i][k]) > std::fabs(a[p][k])) p = i;
+    if (!(std::fabs(a[p][k]) > floor)) return false;
+    std::swap(a[k], a[p]);
+    std::swap(b[k], b[p]);
+    for (int i = k + 1; i < 4; ++i) {
+      const double f = a[i][k] / a[k][k];
+      for (int j = k; j < 4; ++j) a[i][j] -= f * a[k][j];
+      b[i] -= f * b[k];
+    }
+  }
+  for (int k = 3; k >= 0; --k) {
+    for (int j = k + 1; j < 4; ++j) b[k] -= a[k][j] * b[j];
+    b[k] /= a[k][k];
+  }
+  return true;
+}
+
+// Makes a mixed cage's row satisfy the four affine constraints Σ_i φ_i = 1 and
+// Σ_i φ_i v_i + Σ_c ψ_c C_c(rest) = x to round-off (Xiao and Chen's "global projection" for
+// Green-like coordinates, 2025): near a cage vertex the double-layer integrals of the faces
+// around it cancel with a round-off that grows as the vertex is approached (|Σ φ − 1| was 2e-4 at
+// 1e-14 of the diagonal from a vertex of a planar box). Only the φ are changed (the single layer
+// has a positive integrand, no cancellation: changing ψ too smeared 2e-7 into it), by the least
+// relative change, δ_i = φ_i ε_i with |ε| minimal: a φ that is 0 stays 0 and large ones take
+// most. The constraints are written in the cage frame, so their residual is measured to the
+// round-off of the row's own terms wherever x is. Two passes (the second takes the round-off of
+// the first); a row that already satisfies them exactly is left as it is. Measured (planar and
+// warped 2 × 2 × 2 boxes): the change is ≤ 4e-16 at interior points, 2e-4 at 1e-14 of the
+// diagonal from a vertex (the error it removes), ~1e-12 at 1000 diagonals (round-off of entries
+// ~7e3, as triangle Green's).
+void enforceAffine(const detail::QuadGreenData& m, const Vec3& x, double* row) {
+  const std::size_t nv = m.cage->vertexCount();
+  const Vec3 target = m.cage->frame().toLocal(x);
+  for (int pass = 0; pass < 2; ++pass) {
+    double e[4] = {-1.0, -target.x, -target.y, -target.z};
+    for (std::size_t c = 0; c < m.columns; ++c) {
+      const Vec3& a = m.affineColumn[c];
+      if (c < nv) e[0] += row[c];
+      e[1] += row[c] * a.x;
+      e[2] += row[c] * a.y;
+      e[3] += row[c] * a.z;
+    }
+    if (e[0] == 0.0 && e[1] == 0.0 && e[2] == 0.0 && e[3] == 0.0) return;
+    // Minimise Σ ε_i² subject to the constraints: M λ = e with M = Σ_i φ_i² a_i a_iᵀ,
+    // a_i = (1, (v_i − c) / scale), then ε_i = −φ_i a_i·λ.
+    double mat[4][4] = {};
+    for (std::size_t i = 0; i < nv; ++i) {
+      const double w = row[i] * row[i];
+      const double a[4] = {1.0, m.affineColumn[i].x, m.affineColumn[i].y, m.affineColumn[i].z};
+      for (int r = 0; r < 4; ++r)
+        for (int c = r; c < 4; ++c) mat[r][c] += w * a[r] * a[c];
+    }
+    double trace = 0.0;
+    for (int r = 0; r < 4; ++r) {
+      trace += mat[r][r];
+      for (int c = 0; c < r; ++c) mat[r][c] = mat[c][r];
+    }
+    if (!solve4(mat, e, 1e-14 * trace)) return;  // no well-posed correction: keep the row
+    for (std::size_t i = 0; i < nv; ++i) {
+      const Vec3& a = m.affineColumn[i];
+      row[i] -= row[i] * row[i] * (e[0] + a.x * e[1] + a.y * e[2] + a.z * e[3]);
+    }
+  }
+}
 
 // The rows of `count` points of a mixed cage (see the file comment), row i at rows + i · stride.
 void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size_t count,
@@ -354,9 +478,12 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
         row[m.triangleColumn[info[l].triangle]] += info[l].beta;
         continue;
       }
-      // x = ξ(u, v) + a ξ_u + b ξ_v + t N at the foot (a = b = 0) or, failing that, at the seed.
+      // x = ξ(u, v) + a ξ_u + b ξ_v + t N at the foot (a = b = 0) or, failing that, at the seed;
+      // a foot beyond the quad is clamped to it: there B_k(u, v) would grow as r² and cancel.
       double u = bu, v = bv, t = 0.0;
       if (!quadFoot(*nearest, x, m.footTolerance, u, v, t)) u = bu, v = bv;
+      u = std::clamp(u, 0.0, 1.0);
+      v = std::clamp(v, 0.0, 1.0);
       const Vec3 pu = nearest->tangentU(v), pv = nearest->tangentV(u);
       const Vec3 abt = glm::inverse(Mat3(pu, pv, glm::cross(pu, pv))) * (x - nearest->at(u, v));
       const std::array<double, 4> b = bilinear(u, v);
@@ -366,6 +493,8 @@ void evaluateMixed(const detail::QuadGreenData& m, const Vec3* points, std::size
         row[nearest->column + k] += abt.z * b[k];
       }
     }
+    for (std::size_t l = 0; l < n; ++l)
+      enforceAffine(m, points[start + l], rows + (start + l) * stride);
   }
 }
 
@@ -423,6 +552,15 @@ QuadGreenCoordinates::QuadGreenCoordinates(std::shared_ptr<const Cage> cage,
     m->footTolerance = 1e-14 * diagonal;
     m->triangles = std::make_unique<detail::GreenTriangleTerms>(cage->vertices(),
                                                                 m->triangleVertices, m->tolerance);
+
+    // The rest column controls in the cage frame, for enforceAffine().
+    std::vector<Vec3> rest(column);
+    std::copy(cage->vertices().begin(), cage->vertices().end(), rest.begin());
+    normalControls(*m, cage->vertices(), rest);
+    const CageFrame& frame = cage->frame();
+    m->affineColumn.resize(column);
+    for (std::size_t c = 0; c < column; ++c)
+      m->affineColumn[c] = c < nv ? frame.toLocal(rest[c]) : rest[c] / frame.scale;
   }
   impl_ = std::move(m);
 }
@@ -477,44 +615,7 @@ void QuadGreenCoordinates::columnControls(std::span<const Vec3> posed, std::span
   const Impl& m = *impl_;
   if (m.allTriangles) return m.green->columnControls(posed, out);
   Coordinates::columnControls(posed, out);  // checks sizes and finiteness, copies the vertices
-  const std::size_t nv = m.cage->vertexCount();
-  thread_local std::vector<Vec3> greenControls;
-  greenControls.resize(m.green->columnCount());
-  m.green->columnControls(posed, greenControls);
-  for (std::size_t t = 0; t < m.triangleFace.size(); ++t)
-    out[m.triangleColumn[t]] = greenControls[nv + m.greenTriangle[t]];
-  const GaussRule& rule = gaussRules()[kStretchOrder];
-  for (const Quad& q : m.quads) {
-    Vec3 c[4];
-    for (int k = 0; k < 4; ++k) c[k] = posed[q.vertex[k]];
-    const Vec3 eu = c[1] - c[0], ev = c[3] - c[0], euv = c[0] - c[1] + c[2] - c[3];
-    double lengthSum[4] = {0, 0, 0, 0}, areaSum[4] = {0, 0, 0, 0};
-    for (int i = 0; i < kStretchOrder; ++i) {
-      for (int j = 0; j < kStretchOrder; ++j) {
-        const double u = rule.node[i], v = rule.node[j];
-        const Vec3 a = q.tangentU(v), b = q.tangentV(u);
-        const Vec3 pa = eu + v * euv, pb = ev + u * euv;
-        const double rest2 = glm::dot(glm::cross(a, b), glm::cross(a, b));
-        const double restArea = std::sqrt(rest2);
-        if (!(restArea > 0.0)) continue;  // a node where a folded quad has no normal
-        const double lengthStretch = std::sqrt(
-            std::max(0.0, (glm::dot(pa, pa) * glm::dot(b, b) + glm::dot(a, a) * glm::dot(pb, pb) -
-                           2.0 * glm::dot(pa, pb) * glm::dot(a, b)) /
-                              (2.0 * rest2)));
-        const double areaStretch = glm::length(glm::cross(pa, pb)) / restArea;
-        const std::array<double, 4> bk = bilinear(u, v);
-        const double w = rule.weight[i] * rule.weight[j] / restArea;
-        for (int k = 0; k < 4; ++k) {
-          lengthSum[k] += w * bk[k] * lengthStretch;
-          areaSum[k] += w * bk[k] * areaStretch;
-        }
-      }
-    }
-    for (int k = 0; k < 4; ++k) {
-      const Vec3 normal = glm::cross(c[(k + 1) % 4] - c[k], c[(k + 3) % 4] - c[k]);
-      out[q.column + k] = areaSum[k] > 0.0 ? normal * (lengthSum[k] / areaSum[k]) : Vec3(0.0);
-    }
-  }
+  normalControls(m, posed, out);
 }
 
 const Cage& QuadGreenCoordinates::cage() const { return *impl_->cage; }

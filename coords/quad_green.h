@@ -5,9 +5,13 @@
 // each, from the paper's Neumann boundary condition. Interior, surface and exterior points are
 // handled as for triangle Green coordinates; outside, a quad continues the coordinates through
 // the frame of its patch at the foot of x (exact reproduction, continuous across the quad, not
-// analytic there). The quad integrals are adaptive Gauss-Legendre quadrature to ~1e-15; an
-// all-triangle cage gives GreenCoordinates' rows bit for bit. The numerics are described at the
-// top of quad_green.cpp.
+// analytic there). The quad integrals are adaptive Gauss-Legendre quadrature to ~1e-15, and each
+// row of a cage with quads is then projected onto its affine constraints (Σ φ = 1, x reproduced
+// at rest), which near a cage vertex absorbs a cancellation round-off of the faces around it: Σ φ
+// and reproduction are exact to round-off everywhere, but next to a vertex (1e-14 of the
+// diagonal) the entries themselves can be off by ~5e-6. Far outside the error grows as triangle
+// Green's (~1e-12 of the diagonal at 1000 diagonals). An all-triangle cage gives
+// GreenCoordinates' rows bit for bit. The numerics are described at the top of quad_green.cpp.
 
 #include <memory>
 #include <span>

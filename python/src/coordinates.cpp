@@ -382,7 +382,9 @@ non-planar).)")
 2022): (n, V + T + 4 Q) weights for T triangle and Q quad faces: the vertex columns, then one
 normal column per triangle face and four per quad face, in face order (column_names). Raises
 InvalidInput naming a face of more than 4 vertices. surface_tolerance: relative to the cage
-diagonal, in [0, 1e-3].)")
+diagonal, in [0, 1e-3]. Rows sum to 1 over the vertex columns and reproduce the point at rest
+to round-off (they are projected onto those constraints); within ~1e-12 of the diagonal of a cage
+vertex single weights may still be off by up to ~5e-6.)")
       .def(py::init([](std::shared_ptr<Cage> cage, double surfaceTolerance) {
              return madeWithoutGil<QuadGreenCoordinates>(std::move(cage),
                                                          QuadGreenOptions{surfaceTolerance});

@@ -355,9 +355,8 @@ TEST(QuadGreen, VerticesAndEdgesAreSurfacePoints) {
 }
 
 // Close to an edge or a vertex (1e-9 of the diagonal towards the centre of a box cage) the
-// coordinates still reproduce x and approach the surface values there. On the warped box only
-// near edges: near a vertex of warped quads the round-off grows as ~1e-18 diag / δ (measured:
-// 4e-12 of the diagonal at δ = 1e-6, 3e-6 at δ = 1e-12; see quad_green.cpp).
+// coordinates still reproduce x and approach the surface values there (near a vertex only to
+// 1e-6: rows there carry a cancellation round-off ~1e-18 diag / δ; see quad_green.cpp).
 TEST(QuadGreen, AccurateNearEdgesAndVertices) {
   for (const bool warped : {false, true}) {
     const auto cage =
@@ -367,8 +366,7 @@ TEST(QuadGreen, AccurateNearEdgesAndVertices) {
     for (std::size_t f = 0; f < cage->faceCount(); f += 5) {
       const auto face = cage->face(f);
       const Vec3 a = cage->vertices()[face[0]], b = cage->vertices()[face[1]];
-      std::vector<Vec3> near = {0.5 * (a + b), 0.9 * a + 0.1 * b};
-      if (!warped) near.push_back(a);
+      const std::vector<Vec3> near = {0.5 * (a + b), 0.9 * a + 0.1 * b, a};
       for (const Vec3& p : near) {
         const Vec3 x = p - 1e-9 * diag * glm::normalize(p);
         const std::vector<double> row = rowOf(qgc, x), on = rowOf(qgc, p);
@@ -380,6 +378,59 @@ TEST(QuadGreen, AccurateNearEdgesAndVertices) {
           worst = std::max(worst, std::abs(row[c] - on[c]));
         EXPECT_LE(worst, 1e-6) << "face " << f;
       }
+    }
+  }
+}
+
+// Next to every vertex and edge of a planar and of a warped box (1e-14 to 1e-6 of the diagonal,
+// random directions, inside and outside) and far outside (10 to 1000 diagonals), Σ φ = 1 and x
+// is reproduced to 1e-12 (of the diagonal) and a similarity to 1e-10 (of its scale times the
+// diagonal): the rows' affine constraints are enforced (see enforceAffine() in quad_green.cpp).
+// Without that, |Σ φ − 1| was 2e-4 at 1e-14 of the diagonal from a vertex of the planar box and
+// reproduction lost ~r³ far away (3.7e-9 at 144 diagonals).
+TEST(QuadGreen, AffineExactNearVerticesAndEdgesAndFarAway) {
+  const Similarity sim = someSimilarity();
+  for (const bool warped : {false, true}) {
+    const auto cage =
+        makeCage(warped ? jitteredBox(0.15) : makeBoxSurface(Vec3(-1), Vec3(1), {2, 2, 2}), "box");
+    const QuadGreenCoordinates qgc(cage);
+    const double diag = cage->diagonal();
+    std::vector<Vec3> posed;
+    for (const Vec3& v : cage->vertices()) posed.push_back(sim(v));
+    std::vector<Vec3> rest(qgc.columnCount()), moved(qgc.columnCount());
+    qgc.columnControls(cage->vertices(), rest);
+    qgc.columnControls(posed, moved);
+    std::mt19937 rng(11);
+    std::normal_distribution<double> normal;
+    const auto direction = [&] {
+      return glm::normalize(Vec3(normal(rng), normal(rng), normal(rng)));
+    };
+    std::vector<Vec3> anchors(cage->vertices().begin(), cage->vertices().end());
+    for (std::size_t f = 0; f < cage->faceCount(); ++f) {
+      const auto face = cage->face(f);
+      for (std::size_t k = 0; k < face.size(); ++k)
+        anchors.push_back(0.7 * cage->vertices()[face[k]] +
+                          0.3 * cage->vertices()[face[(k + 1) % face.size()]]);
+    }
+    std::vector<std::pair<Vec3, double>> points;  // point, reproduction bound (world units)
+    for (const Vec3& a : anchors)
+      for (const double off : {1e-14, 1e-12, 1e-10, 1e-8, 1e-6})
+        for (int d = 0; d < 2; ++d) points.push_back({a + off * diag * direction(), 1e-12 * diag});
+    for (const double r : {10.0, 100.0, 1000.0})
+      for (int d = 0; d < 10; ++d) points.push_back({r * diag * direction(), 1e-10 * diag});
+    for (const auto& [x, bound] : points) {
+      const std::vector<double> row = rowOf(qgc, x);
+      Vec3 at(0.0), to(0.0);
+      for (std::size_t c = 0; c < row.size(); ++c) {
+        at += row[c] * rest[c];
+        to += row[c] * moved[c];
+      }
+      EXPECT_NEAR(phiSum(qgc, row), 1.0, 1e-12)
+          << (warped ? "warped " : "planar ") << test::toString(x);
+      EXPECT_LE(glm::length(at - x), bound)
+          << (warped ? "warped " : "planar ") << test::toString(x);
+      EXPECT_LE(glm::length(to - sim(x)), 1e-10 * sim.scale * diag)
+          << (warped ? "warped " : "planar ") << test::toString(x);
     }
   }
 }
