@@ -31,6 +31,12 @@ struct DiscreteHarmonicOptions {
   double snapTolerance = 1e-14;
   /// Points outside the cage (farther than snapTolerance): see ConvexOutsidePolicy.
   ConvexOutsidePolicy outside = ConvexOutsidePolicy::Throw;
+  /// How far, relative to Cage::diagonal(), a corner may be from its face's best-fit plane (or
+  /// above a neighbouring face's plane) and still count as on it; farther is an error naming the
+  /// face or reflex edge. A nearly planar face is treated as lying in its best-fit plane, which
+  /// the rows then reproduce: reproduction of the corners is off by at most about this much (see
+  /// kDefaultPlanarity for what it admits). Must be in [0, 1e-2].
+  double planarity = kDefaultPlanarity;
 };
 
 /// Discrete harmonic coordinates of a closed, outward-oriented convex cage of triangles, no two

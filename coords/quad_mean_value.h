@@ -26,7 +26,7 @@ struct QuadMeanValueOptions {
   /// Cage::diagonal()) from the plane through the face's centroid normal to its Newell normal.
   /// The default admits the rounding of coordinates written with ~10 significant digits. Must
   /// be finite and in [0, 1e-2].
-  double polygonPlanarity = 1e-9;
+  double polygonPlanarity = 1e-6;
 };
 
 /// Mean-value coordinates of a closed, outward-oriented polygon cage. One weight per cage

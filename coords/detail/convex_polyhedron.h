@@ -37,12 +37,19 @@ struct ConvexPolyhedron {
 
 /// Merges and checks the faces of `cage`. Throws InvalidInput, prefixed by `method` and the cage's
 /// name, for a face that is not planar, a reflex edge (naming its two vertices), a vertex that is
-/// not a corner (its faces lie in fewer than 3 planes) or otherwise breaks convexity. A face is
-/// planar when its corners are within kConvexTolerance × the cage diagonal of its plane; two
-/// faces are coplanar (and merge) when they meet at an angle below kConvexTolerance radians, so
-/// that neither leaves the other's plane by more than that times the diagonal.
-ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method);
-inline constexpr double kConvexTolerance = 1e-9;
+/// not a corner (its faces lie in fewer than 3 planes) or otherwise breaks convexity, or a
+/// planarity outside [0, 1e-2]. All lengths are judged against one distance, planarity × the cage
+/// diagonal: a face is planar when its corners are that close to its best-fit plane (through the
+/// corners' centroid, normal to the Newell normal), and two faces sharing an edge are coplanar
+/// (and merge) when turning from one to the other by θ lifts their corner farthest from the edge
+/// line (distance d) by d |sin θ| ≤ that distance off the other's plane; an edge turning inward
+/// by more is reflex. So a polygon and its triangulation get the same answer. The checks run in
+/// cage-relative coordinates (Cage::frame()'s center), so translating a cage does not change
+/// them. A nearly planar face is then treated as lying in its best-fit plane.
+ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method, double planarity);
+
+/// Throws InvalidInput unless planarity is in [0, 1e-2].
+void checkPlanarity(const char* method, double planarity);
 
 /// Throws InvalidInput, prefixed by `method` and the cage's name, unless every face of `poly`
 /// (built from `cage`) is a triangle, naming the first that is not: a cage face that is a polygon,

@@ -165,7 +165,8 @@ inline std::vector<ConvexCase> convexCases() {
 /// max |w(x) − linear interpolation| at points along every edge of the polyhedron (not the inner
 /// diagonals of a triangulated face).
 inline double edgeLinearityError(const Coordinates& coordinates, const Cage& cage) {
-  const detail::ConvexPolyhedron poly = detail::buildConvexPolyhedron(cage, "test");
+  const detail::ConvexPolyhedron poly =
+      detail::buildConvexPolyhedron(cage, "test", kDefaultPlanarity);
   std::vector<double> row(cage.vertexCount());
   double worst = 0.0;
   for (const auto& face : poly.faces) {
@@ -207,7 +208,8 @@ inline NearSurfaceReport nearSurface(const Coordinates& coordinates, const Cage&
   const Vec3 centre = 0.5 * (box.min + box.max);
   std::vector<double> row(cage.vertexCount());
   NearSurfaceReport report;
-  const detail::ConvexPolyhedron poly = detail::buildConvexPolyhedron(cage, "test");
+  const detail::ConvexPolyhedron poly =
+      detail::buildConvexPolyhedron(cage, "test", kDefaultPlanarity);
   for (const auto& face : poly.faces) {
     for (std::size_t j = 0; j < face.loop.size(); ++j) {
       const Vec3 corner = cage.vertices()[face.loop[j]];
