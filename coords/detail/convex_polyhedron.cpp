@@ -97,7 +97,13 @@ class Builder {
       poly.ring.insert(poly.ring.end(), ring.begin(), ring.end());
       poly.ringOffsets.push_back(static_cast<std::uint32_t>(poly.ring.size()));
     }
-    for (const ConvexPolyhedron::Face& face : poly.faces) checkSupporting(face);
+    for (const ConvexPolyhedron::Face& face : poly.faces) {
+      checkSupporting(face);
+      for (std::uint32_t f : face.source)
+        for (std::uint32_t c : cage_.face(f))
+          poly.flatness =
+              std::max(poly.flatness, std::fabs(glm::dot(face.normal, p_[c]) - face.offset));
+    }
     const Vec3 center = cage_.frame().center;
     for (ConvexPolyhedron::Face& face : poly.faces) face.offset += glm::dot(face.normal, center);
     return poly;
@@ -403,7 +409,10 @@ bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
     return true;
   }
   const SurfacePoint s = nearestSurfacePoint(poly, x);
-  if (lowest < 0.0 && s.distance > snapLength && policy == ConvexOutsidePolicy::Throw) return false;
+  // The cage's own surface may be off the best-fit planes by the flatness: never "outside".
+  if (lowest < 0.0 && s.distance > std::max(snapLength, poly.flatness) &&
+      policy == ConvexOutsidePolicy::Throw)
+    return false;
   const ConvexPolyhedron::Face& face = poly.faces[s.face];
   thread_local std::vector<double> local;
   local.resize(face.loop.size());

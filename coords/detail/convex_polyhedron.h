@@ -33,6 +33,10 @@ struct ConvexPolyhedron {
   /// ring[ringOffsets[v], ringOffsets[v + 1]).
   std::vector<std::uint32_t> ringOffsets, ring;
   double diagonal = 0.0;
+  /// The largest distance of a cage face's corner from its polyhedron face's best-fit plane
+  /// (world units, at most planarity × diagonal): points outside by no more than this are on the
+  /// cage's own (nearly planar) surface, not outside it.
+  double flatness = 0.0;
 };
 
 /// Merges and checks the faces of `cage`. Throws InvalidInput, prefixed by `method` and the cage's
@@ -77,8 +81,8 @@ using InteriorRow = void (*)(const void* data, const ConvexPolyhedron& poly, con
 
 /// One row: the interior closed form when x is farther than snapLength (world units) inside every
 /// face plane, the surface coordinates of the nearest surface point when it is within snapLength of
-/// the surface or outside with NearestPoint. Returns false (row unspecified) for a point outside
-/// under Throw.
+/// the surface (or poly.flatness outside it) or outside with NearestPoint. Returns false (row
+/// unspecified) for a point outside under Throw.
 bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
                ConvexOutsidePolicy policy, InteriorRow interior, const void* data,
                std::span<double> row);

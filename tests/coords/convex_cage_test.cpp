@@ -145,24 +145,6 @@ TEST(ConvexCage, IsInvariantUnderTranslationAndScale) {
 
 namespace {
 
-// A random rotation (Rodrigues) of the vertices, then every coordinate rounded by `round`.
-template <class Round>
-PolygonSoup rotatedAndRounded(PolygonSoup soup, unsigned seed, Round round) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> gauss;
-  const Vec3 axis = glm::normalize(Vec3(gauss(rng), gauss(rng), gauss(rng)));
-  const double angle = std::uniform_real_distribution<double>(0.0, std::numbers::pi)(rng);
-  for (Vec3& p : soup.positions) {
-    p = p * std::cos(angle) + glm::cross(axis, p) * std::sin(angle) +
-        axis * glm::dot(axis, p) * (1.0 - std::cos(angle));
-    p = Vec3(round(p.x), round(p.y), round(p.z));
-  }
-  return soup;
-}
-
-double sixDecimals(double x) { return std::round(x * 1e6) / 1e6; }
-double float32(double x) { return static_cast<double>(static_cast<float>(x)); }
-
 // The box [-1,1]² × [0,1] whose top is two quads meeting at a ridge x = 0 lowered by `dip`
 // (raised where negative): the ridge turns inward by ~2 dip radians when dip > 0.
 PolygonSoup roof(double dip) {
@@ -191,8 +173,8 @@ TEST(ConvexCage, AcceptsCagesRoundedByExporters) {
                                 test::truncatedOctahedron()};
   for (unsigned seed = 1; seed <= 10; ++seed) {
     for (const PolygonSoup& shape : shapes) {
-      for (const PolygonSoup& soup :
-           {rotatedAndRounded(shape, seed, sixDecimals), rotatedAndRounded(shape, seed, float32)}) {
+      for (const PolygonSoup& soup : {test::rotatedAndRounded(shape, seed, test::sixDecimals),
+                                      test::rotatedAndRounded(shape, seed, test::float32)}) {
         const std::size_t faces =
             detail::buildConvexPolyhedron(Cage(soup), "M", kDefaultPlanarity).faces.size();
         EXPECT_EQ(faces, shape.polygonCount()) << seed;
@@ -218,7 +200,8 @@ TEST(ConvexCage, RefusesAReflexEdgeOfAMilliradian) {
   }
   EXPECT_EQ(convexityError(roof(-5e-4)), "");
   EXPECT_EQ(convexityError(test::triangulated(roof(-5e-4))), "");
-  const Cage rounded(rotatedAndRounded(test::convexBox(Vec3(-1.0), Vec3(1.0)), 1, float32));
+  const Cage rounded(
+      test::rotatedAndRounded(test::convexBox(Vec3(-1.0), Vec3(1.0)), 1, test::float32));
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { checkConvexCage(rounded, "M", 0.0); }),
               HasSubstr("more than planarity = 0"));
   EXPECT_THAT(test::messageOf<InvalidInput>([&] { checkConvexCage(rounded, "M", 0.1); }),
