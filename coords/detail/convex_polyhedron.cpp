@@ -50,7 +50,7 @@ Plane polygonPlane(std::span<const Vec3> p, std::span<const std::uint32_t> face,
                     "more than planarity = %.3g",
                     v, off / diagonal, tol / diagonal);
       throw InvalidInput(prefix + "face " + std::to_string(f) + " (vertices " + vertexList(face) +
-                         ")" + text);
+                         ")" + text + " (a larger planarity option accepts it)");
     }
   }
   return plane;

@@ -1120,8 +1120,8 @@ class QuadMeanValue(Coordinates):
     to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
     [0, 1e-3]. polygon_planarity: how far (relative to the cage diagonal, in [0, 1e-2]) a vertex of a
     face of more than 4 vertices may be from the face's best-fit plane; the default admits
-    coordinates written in float32 or with 6 decimals (cages of diagonal >= 1). Raises InvalidInput naming a face farther from planar (quads may be
-    non-planar).
+    coordinates written in float32 or with 6 decimals (cages of diagonal >= 1). Raises
+    InvalidInput naming a face farther from planar (quads may be non-planar).
     """
 
     def __init__(

@@ -367,8 +367,8 @@ triangulated. (n, V) weights that sum to 1 and reproduce the point, everywhere i
 to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
 [0, 1e-3]. polygon_planarity: how far (relative to the cage diagonal, in [0, 1e-2]) a vertex of a
 face of more than 4 vertices may be from the face's best-fit plane; the default admits
-coordinates written in float32 or with 6 decimals (cages of diagonal >= 1). Raises InvalidInput naming a face farther from planar (quads may be
-non-planar).)")
+coordinates written in float32 or with 6 decimals (cages of diagonal >= 1). Raises
+InvalidInput naming a face farther from planar (quads may be non-planar).)")
       .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance, double polygonPlanarity) {
              return madeWithoutGil<QuadMeanValueCoordinates>(
                  std::move(cage), QuadMeanValueOptions{snapTolerance, polygonPlanarity});
