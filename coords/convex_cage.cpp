@@ -4,12 +4,12 @@
 
 namespace spacewarp {
 
-void checkConvexCage(const Cage& cage, const char* method) {
-  (void)detail::buildConvexPolyhedron(cage, method);
+void checkConvexCage(const Cage& cage, const char* method, double planarity) {
+  (void)detail::buildConvexPolyhedron(cage, method, planarity);
 }
 
-void checkSimplicialConvexCage(const Cage& cage, const char* method) {
-  detail::checkSimplicial(detail::buildConvexPolyhedron(cage, method), cage, method);
+void checkSimplicialConvexCage(const Cage& cage, const char* method, double planarity) {
+  detail::checkSimplicial(detail::buildConvexPolyhedron(cage, method, planarity), cage, method);
 }
 
 }  // namespace spacewarp

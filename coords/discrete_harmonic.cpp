@@ -83,7 +83,7 @@ DiscreteHarmonicCoordinates::DiscreteHarmonicCoordinates(std::shared_ptr<const C
   if (!cage) throw InvalidInput(std::string(kName) + ": the cage is null");
   detail::checkSnapTolerance(kName, options.snapTolerance);
   auto impl = std::make_unique<Impl>();
-  impl->poly = detail::buildConvexPolyhedron(*cage, kName);
+  impl->poly = detail::buildConvexPolyhedron(*cage, kName, options.planarity);
   detail::checkSimplicial(impl->poly, *cage, kName);
   impl->snapLength = options.snapTolerance * cage->diagonal();
   impl->cage = std::move(cage);
@@ -164,6 +164,7 @@ void DiscreteHarmonicCoordinates::save(ArchiveWriter& out) const {
   impl_->cage->save(out);
   out.f64(impl_->options.snapTolerance);
   out.enumeration(impl_->options.outside);
+  out.f64(impl_->options.planarity);
 }
 
 std::shared_ptr<const DiscreteHarmonicCoordinates> DiscreteHarmonicCoordinates::load(
@@ -172,6 +173,7 @@ std::shared_ptr<const DiscreteHarmonicCoordinates> DiscreteHarmonicCoordinates::
   DiscreteHarmonicOptions options;
   options.snapTolerance = in.f64();
   options.outside = in.enumeration<ConvexOutsidePolicy>(2);
+  options.planarity = in.f64();
   return std::make_shared<const DiscreteHarmonicCoordinates>(std::move(cage), options);
 }
 

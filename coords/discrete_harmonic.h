@@ -31,6 +31,14 @@ struct DiscreteHarmonicOptions {
   double snapTolerance = 1e-14;
   /// Points outside the cage (farther than snapTolerance): see ConvexOutsidePolicy.
   ConvexOutsidePolicy outside = ConvexOutsidePolicy::Throw;
+  /// How far, relative to Cage::diagonal(), a corner may be from its face's best-fit plane (or
+  /// above a neighbouring face's plane) and still count as on it; farther is an error naming the
+  /// face or reflex edge. A nearly planar face is treated as lying in its best-fit plane, so x is
+  /// reproduced to about the corners' distance from it (1.3e-7 diagonals measured on rotated
+  /// boxes, prisms and truncated octahedra written in float32 or with 6 decimals), and points
+  /// on the cage's own faces, that far off the plane, are not outside. See kDefaultPlanarity for
+  /// what the default admits. Must be in [0, 1e-2].
+  double planarity = kDefaultPlanarity;
 };
 
 /// Discrete harmonic coordinates of a closed, outward-oriented convex cage of triangles, no two

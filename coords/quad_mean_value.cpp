@@ -741,7 +741,8 @@ CageData buildCageData(const Cage& cage, const QuadMeanValueOptions& options) {
     for (std::size_t i = 0; i < n; ++i) {
       const Vec3& a = cd.p[face[i]];
       const Vec3& b = cd.p[face[(i + 1) % n]];
-      normal += glm::cross(a, b);  // Newell
+      // Newell, relative to the first corner: far from the origin, cross(a, b) would cancel.
+      normal += glm::cross(a - cd.p[face[0]], b - cd.p[face[0]]);
       centroid += a / static_cast<double>(n);
       box.min = glm::min(box.min, a);
       box.max = glm::max(box.max, a);

@@ -23,10 +23,11 @@ struct QuadMeanValueOptions {
   /// Must be finite and in [0, 1e-3].
   double snapTolerance = 1e-14;
   /// Faces of more than 4 vertices must be planar: every vertex at most this far (relative to
-  /// Cage::diagonal()) from the plane through the face's centroid normal to its Newell normal.
-  /// The default admits the rounding of coordinates written with ~10 significant digits. Must
-  /// be finite and in [0, 1e-2].
-  double polygonPlanarity = 1e-9;
+  /// Cage::diagonal()) from the plane through the face's centroid normal to its Newell normal;
+  /// such a face is then treated as lying in that best-fit plane. The default (as
+  /// kDefaultPlanarity in coords/convex_cage.h) admits coordinates written with 6 decimals or in
+  /// float32 for cages of diagonal ≥ 1 near the origin. Must be finite and in [0, 1e-2].
+  double polygonPlanarity = 1e-6;
 };
 
 /// Mean-value coordinates of a closed, outward-oriented polygon cage. One weight per cage

@@ -97,7 +97,7 @@ WachspressCoordinates::WachspressCoordinates(std::shared_ptr<const Cage> cage,
   if (!cage) throw InvalidInput(std::string(kName) + ": the cage is null");
   detail::checkSnapTolerance(kName, options.snapTolerance);
   auto impl = std::make_unique<Impl>();
-  impl->poly = detail::buildConvexPolyhedron(*cage, kName);
+  impl->poly = detail::buildConvexPolyhedron(*cage, kName, options.planarity);
   impl->fans = buildFans(impl->poly);
   impl->snapLength = options.snapTolerance * cage->diagonal();
   impl->cage = std::move(cage);
@@ -181,6 +181,7 @@ void WachspressCoordinates::save(ArchiveWriter& out) const {
   impl_->cage->save(out);
   out.f64(impl_->options.snapTolerance);
   out.enumeration(impl_->options.outside);
+  out.f64(impl_->options.planarity);
 }
 
 std::shared_ptr<const WachspressCoordinates> WachspressCoordinates::load(ArchiveReader& in) {
@@ -188,6 +189,7 @@ std::shared_ptr<const WachspressCoordinates> WachspressCoordinates::load(Archive
   WachspressOptions options;
   options.snapTolerance = in.f64();
   options.outside = in.enumeration<ConvexOutsidePolicy>(2);
+  options.planarity = in.f64();
   return std::make_shared<const WachspressCoordinates>(std::move(cage), options);
 }
 

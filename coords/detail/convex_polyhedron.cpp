@@ -32,7 +32,7 @@ struct Plane {
 };
 
 Plane polygonPlane(std::span<const Vec3> p, std::span<const std::uint32_t> face, double tol,
-                   const std::string& prefix, std::size_t f) {
+                   double diagonal, const std::string& prefix, std::size_t f) {
   Vec3 newell(0.0);
   for (std::size_t j = 0; j < face.size(); ++j)
     newell += glm::cross(p[face[j]], p[face[(j + 1) % face.size()]]);
@@ -44,11 +44,13 @@ Plane polygonPlane(std::span<const Vec3> p, std::span<const std::uint32_t> face,
   for (std::uint32_t v : face) {
     const double off = std::fabs(glm::dot(plane.normal, p[v]) - plane.offset);
     if (off > tol) {
-      char text[160];
-      std::snprintf(text, sizeof text, " is not planar (vertex %u is %.3g from its plane)", v, off);
+      char text[192];
+      std::snprintf(text, sizeof text,
+                    " is not planar: vertex %u is %.3g cage diagonals from its best-fit plane, "
+                    "more than planarity = %.3g",
+                    v, off / diagonal, tol / diagonal);
       throw InvalidInput(prefix + "face " + std::to_string(f) + " (vertices " + vertexList(face) +
-                         ")" + text +
-                         ", so the cage is not convex in some triangulation of that face");
+                         ")" + text + " (a larger planarity option accepts it)");
     }
   }
   return plane;
@@ -62,17 +64,18 @@ double area(const Vec3& n, const Vec3& qa, const Vec3& qb) {
 // The steps of buildConvexPolyhedron(), over one cage.
 class Builder {
  public:
-  Builder(const Cage& cage, const char* method)
+  Builder(const Cage& cage, const char* method, double planarity)
       : cage_(cage),
-        p_(cage.vertices()),
+        p_(relativeVertices(cage)),
         prefix_(std::string(method) + ": " + cage.name() + ": "),
-        tol_(kConvexTolerance * cage.diagonal()),
+        planarity_(planarity),
+        tol_(planarity * cage.diagonal()),
         planes_(cage.faceCount()),
         firstFace_(cage.vertexCount(), 0),
         incident_(cage.vertexCount(), 0) {
     for (std::size_t f = cage.faceCount(); f-- > 0;) {
       const auto face = cage.face(f);
-      planes_[f] = polygonPlane(p_, face, tol_, prefix_, f);
+      planes_[f] = polygonPlane(p_, face, tol_, cage.diagonal(), prefix_, f);
       for (std::uint32_t v : face) {
         firstFace_[v] = static_cast<std::uint32_t>(f);
         ++incident_[v];
@@ -84,7 +87,7 @@ class Builder {
 
   ConvexPolyhedron build() {
     ConvexPolyhedron poly;
-    poly.vertices.assign(p_.begin(), p_.end());
+    poly.vertices.assign(cage_.vertices().begin(), cage_.vertices().end());
     poly.diagonal = cage_.diagonal();
     groupFaces(poly);
     for (std::size_t g = 0; g < poly.faces.size(); ++g) mergeFace(poly.faces[g], g);
@@ -94,7 +97,15 @@ class Builder {
       poly.ring.insert(poly.ring.end(), ring.begin(), ring.end());
       poly.ringOffsets.push_back(static_cast<std::uint32_t>(poly.ring.size()));
     }
-    for (const ConvexPolyhedron::Face& face : poly.faces) checkSupporting(face);
+    for (const ConvexPolyhedron::Face& face : poly.faces) {
+      checkSupporting(face);
+      for (std::uint32_t f : face.source)
+        for (std::uint32_t c : cage_.face(f))
+          poly.flatness =
+              std::max(poly.flatness, std::fabs(glm::dot(face.normal, p_[c]) - face.offset));
+    }
+    const Vec3 center = cage_.frame().center;
+    for (ConvexPolyhedron::Face& face : poly.faces) face.offset += glm::dot(face.normal, center);
     return poly;
   }
 
@@ -129,19 +140,39 @@ class Builder {
     }
   }
 
-  // Whether faces f and g (edge a → b in f) are coplanar; throws if the edge is reflex.
+  // Whether faces f and g (edge a → b in f) are coplanar: turning by θ about the edge lifts a
+  // corner at distance d from the edge line by d |sin θ| off the other face's plane, the distance
+  // a single polygon's corners are judged by, so a face and its triangulation get the same
+  // answer. Flat when that is within the planarity distance for the faces' widest corner; throws
+  // if the edge turns inward by more, or the faces fold back onto each other.
   bool edgeIsFlat(std::size_t f, std::size_t g, std::uint32_t a, std::uint32_t b) const {
-    const Vec3 nf = planes_[f].normal, ng = planes_[g].normal;
-    // sin of the turn from f to g about a → b: positive outward, 0 where they are coplanar.
-    const double turn = glm::dot(glm::cross(nf, ng), glm::normalize(p_[b] - p_[a]));
-    const bool flat = std::fabs(turn) <= kConvexTolerance;
-    if (turn < -kConvexTolerance || (flat && glm::dot(nf, ng) < 0)) {
-      char text[96];
-      std::snprintf(text, sizeof text, " (turning inward by %.3g degrees)",
-                    std::atan2(-turn, glm::dot(nf, ng)) * 180.0 / std::numbers::pi);
+    const Vec3 nf = planes_[f].normal, ng = planes_[g].normal, e = glm::normalize(p_[b] - p_[a]);
+    const double theta = std::atan2(glm::dot(glm::cross(nf, ng), e), glm::dot(nf, ng));
+    double width = 0.0;  // the distance of the faces' farthest corner from the edge line
+    for (std::size_t h : {f, g}) {
+      for (std::uint32_t c : cage_.face(h)) {
+        const Vec3 d = p_[c] - p_[a];
+        width = std::max(width, glm::length(d - glm::dot(d, e) * e));
+      }
+    }
+    const double lift = width * std::fabs(std::sin(theta));
+    const bool sharp = std::fabs(theta) > 0.5 * std::numbers::pi;
+    const bool folded = sharp && lift <= tol_, flat = !sharp && lift <= tol_;
+    if (folded || (theta < 0.0 && !flat)) {
+      char text[224];
+      const double degrees = std::fabs(theta) * 180.0 / std::numbers::pi;
+      if (folded) {
+        std::snprintf(text, sizeof text, " folds back onto itself (turning by %.4g degrees)",
+                      degrees);
+      } else {
+        std::snprintf(text, sizeof text,
+                      " is reflex (turning inward by %.3g degrees, which lifts a corner %.3g cage "
+                      "diagonals off the other face's plane, more than planarity = %.3g)",
+                      degrees, (sharp ? width : lift) / cage_.diagonal(), planarity_);
+      }
       throw InvalidInput(prefix_ + "the cage is not convex: the edge between vertices " +
                          std::to_string(a) + " and " + std::to_string(b) + " (faces " +
-                         std::to_string(f) + " and " + std::to_string(g) + ") is reflex" + text);
+                         std::to_string(f) + " and " + std::to_string(g) + ")" + text);
     }
     return flat;
   }
@@ -242,16 +273,26 @@ class Builder {
     for (std::size_t j = 0; j < face.loop.size(); ++j) {
       if (!(face.cornerArea[j] > 0.0)) {
         throw InvalidInput(prefix_ + "the cage is not convex: face " +
-                           std::to_string(face.source[0]) + " has a reflex corner at vertex " +
-                           std::to_string(face.loop[j]));
+                           std::to_string(face.source[0]) + " has a " +
+                           (face.loop.size() == 3 ? "degenerate" : "reflex") +
+                           " corner at vertex " + std::to_string(face.loop[j]));
       }
     }
   }
 
+  // The vertices relative to the cage frame's center, so that the checks' cross products and
+  // plane offsets lose nothing to a cage far from the origin (world coordinates of 1e8 would
+  // round the Newell normal of a unit triangle to noise).
+  static std::vector<Vec3> relativeVertices(const Cage& cage) {
+    std::vector<Vec3> p(cage.vertices().begin(), cage.vertices().end());
+    for (Vec3& v : p) v -= cage.frame().center;
+    return p;
+  }
+
   const Cage& cage_;
-  std::span<const Vec3> p_;
+  std::vector<Vec3> p_;  // cage-relative (see relativeVertices)
   std::string prefix_;
-  double tol_;
+  double planarity_, tol_;
   std::vector<Plane> planes_;
   std::unordered_map<std::uint64_t, std::uint32_t> edgeFace_;  // directed edge -> cage face
   std::vector<std::uint32_t> firstFace_, incident_;  // per vertex: its first face, how many
@@ -260,8 +301,9 @@ class Builder {
 
 }  // namespace
 
-ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method) {
-  return Builder(cage, method).build();
+ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method, double planarity) {
+  checkPlanarity(method, planarity);
+  return Builder(cage, method, planarity).build();
 }
 
 void checkSimplicial(const ConvexPolyhedron& poly, const Cage& cage, const char* method) {
@@ -367,7 +409,10 @@ bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
     return true;
   }
   const SurfacePoint s = nearestSurfacePoint(poly, x);
-  if (lowest < 0.0 && s.distance > snapLength && policy == ConvexOutsidePolicy::Throw) return false;
+  // The cage's own surface may be off the best-fit planes by the flatness: never "outside".
+  if (lowest < 0.0 && s.distance > std::max(snapLength, poly.flatness) &&
+      policy == ConvexOutsidePolicy::Throw)
+    return false;
   const ConvexPolyhedron::Face& face = poly.faces[s.face];
   thread_local std::vector<double> local;
   local.resize(face.loop.size());
@@ -397,6 +442,13 @@ std::string outsideMessage(const char* method, std::size_t count, std::size_t to
          " at " + pointText(x) +
          "); ConvexOutsidePolicy::NearestPoint gives them the coordinates " +
          "of the nearest surface point";
+}
+
+void checkPlanarity(const char* method, double planarity) {
+  if (!(planarity >= 0.0 && planarity <= 1e-2)) {
+    throw InvalidInput(std::string(method) + ": planarity must be in [0, 1e-2], got " +
+                       std::to_string(planarity));
+  }
 }
 
 void checkSnapTolerance(const char* method, double snapTolerance) {

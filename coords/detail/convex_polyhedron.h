@@ -33,16 +33,27 @@ struct ConvexPolyhedron {
   /// ring[ringOffsets[v], ringOffsets[v + 1]).
   std::vector<std::uint32_t> ringOffsets, ring;
   double diagonal = 0.0;
+  /// The largest distance of a cage face's corner from its polyhedron face's best-fit plane
+  /// (world units, at most planarity × diagonal): points outside by no more than this are on the
+  /// cage's own (nearly planar) surface, not outside it.
+  double flatness = 0.0;
 };
 
 /// Merges and checks the faces of `cage`. Throws InvalidInput, prefixed by `method` and the cage's
 /// name, for a face that is not planar, a reflex edge (naming its two vertices), a vertex that is
-/// not a corner (its faces lie in fewer than 3 planes) or otherwise breaks convexity. A face is
-/// planar when its corners are within kConvexTolerance × the cage diagonal of its plane; two
-/// faces are coplanar (and merge) when they meet at an angle below kConvexTolerance radians, so
-/// that neither leaves the other's plane by more than that times the diagonal.
-ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method);
-inline constexpr double kConvexTolerance = 1e-9;
+/// not a corner (its faces lie in fewer than 3 planes) or otherwise breaks convexity, or a
+/// planarity outside [0, 1e-2]. All lengths are judged against one distance, planarity × the cage
+/// diagonal: a face is planar when its corners are that close to its best-fit plane (through the
+/// corners' centroid, normal to the Newell normal), and two faces sharing an edge are coplanar
+/// (and merge) when turning from one to the other by θ lifts their corner farthest from the edge
+/// line (distance d) by d |sin θ| ≤ that distance off the other's plane; an edge turning inward
+/// by more is reflex. So a polygon and its triangulation get the same answer. The checks run in
+/// cage-relative coordinates (Cage::frame()'s center), so translating a cage does not change
+/// them. A nearly planar face is then treated as lying in its best-fit plane.
+ConvexPolyhedron buildConvexPolyhedron(const Cage& cage, const char* method, double planarity);
+
+/// Throws InvalidInput unless planarity is in [0, 1e-2].
+void checkPlanarity(const char* method, double planarity);
 
 /// Throws InvalidInput, prefixed by `method` and the cage's name, unless every face of `poly`
 /// (built from `cage`) is a triangle, naming the first that is not: a cage face that is a polygon,
@@ -70,8 +81,8 @@ using InteriorRow = void (*)(const void* data, const ConvexPolyhedron& poly, con
 
 /// One row: the interior closed form when x is farther than snapLength (world units) inside every
 /// face plane, the surface coordinates of the nearest surface point when it is within snapLength of
-/// the surface or outside with NearestPoint. Returns false (row unspecified) for a point outside
-/// under Throw.
+/// the surface (or poly.flatness outside it) or outside with NearestPoint. Returns false (row
+/// unspecified) for a point outside under Throw.
 bool convexRow(const ConvexPolyhedron& poly, const Vec3& x, double snapLength,
                ConvexOutsidePolicy policy, InteriorRow interior, const void* data,
                std::span<double> row);

@@ -665,7 +665,8 @@ class DiscreteHarmonic(Coordinates):
     CGAL 6.2): (n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge
     for a cage that is not convex, and naming the face for a polygon face (or coplanar triangles that
     merge into one), where the closed form has poles: use Wachspress for those. outside: "raise" or
-    "nearest", as Wachspress. snap_tolerance: relative to the cage diagonal.
+    "nearest", as Wachspress. snap_tolerance: relative to the cage diagonal. planarity: as
+    Wachspress.
     """
 
     def __init__(
@@ -674,6 +675,7 @@ class DiscreteHarmonic(Coordinates):
         *,
         snap_tolerance: float = 1e-14,
         outside: Literal["raise", "nearest"] = "raise",
+        planarity: float = 1e-06,
     ) -> None: ...
 
     @property
@@ -1119,9 +1121,9 @@ class QuadMeanValue(Coordinates):
     triangulated. (n, V) weights that sum to 1 and reproduce the point, everywhere in space; equal
     to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
     [0, 1e-3]. polygon_planarity: how far (relative to the cage diagonal, in [0, 1e-2]) a vertex of a
-    face of more than 4 vertices may be from the face's plane; the default admits coordinates
-    rounded to ~10 digits. Raises InvalidInput naming a face farther from planar (quads may be
-    non-planar).
+    face of more than 4 vertices may be from the face's best-fit plane; the default admits
+    coordinates written in float32 or with 6 decimals (cages of diagonal >= 1). Raises
+    InvalidInput naming a face farther from planar (quads may be non-planar).
     """
 
     def __init__(
@@ -1129,7 +1131,7 @@ class QuadMeanValue(Coordinates):
         cage: Cage,
         *,
         snap_tolerance: float = 1e-14,
-        polygon_planarity: float = 1e-09,
+        polygon_planarity: float = 1e-06,
     ) -> None: ...
 
     @property
@@ -1445,6 +1447,9 @@ class Wachspress(Coordinates):
     6.2): (n, V) weights, positive inside. Raises InvalidInput naming a reflex edge for a cage that
     is not convex. outside: "raise" (points outside are an InvalidInput) or "nearest" (the
     coordinates of the nearest cage point). snap_tolerance: relative to the cage diagonal.
+    planarity: relative to the cage diagonal, in [0, 1e-2]: how far a corner may be off its face's
+    best-fit plane (or above a neighbouring face's plane) and count as on it; the default admits
+    coordinates written in float32 or with 6 decimals (cages of diagonal >= 1).
     """
 
     def __init__(
@@ -1453,6 +1458,7 @@ class Wachspress(Coordinates):
         *,
         snap_tolerance: float = 1e-14,
         outside: Literal["raise", "nearest"] = "raise",
+        planarity: float = 1e-06,
     ) -> None: ...
 
     @property

@@ -366,14 +366,15 @@ for polygons, Thiery et al. 2018 for quads (bilinear patches, planar or not); no
 triangulated. (n, V) weights that sum to 1 and reproduce the point, everywhere in space; equal
 to MeanValue on an all-triangle cage. snap_tolerance: relative to the cage diagonal, in
 [0, 1e-3]. polygon_planarity: how far (relative to the cage diagonal, in [0, 1e-2]) a vertex of a
-face of more than 4 vertices may be from the face's plane; the default admits coordinates
-rounded to ~10 digits. Raises InvalidInput naming a face farther from planar (quads may be
-non-planar).)")
+face of more than 4 vertices may be from the face's best-fit plane; the default admits
+coordinates written in float32 or with 6 decimals (cages of diagonal >= 1). Raises
+InvalidInput naming a face farther from planar (quads may be non-planar).)")
       .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance, double polygonPlanarity) {
              return madeWithoutGil<QuadMeanValueCoordinates>(
                  std::move(cage), QuadMeanValueOptions{snapTolerance, polygonPlanarity});
            }),
-           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "polygon_planarity"_a = 1e-9)
+           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14,
+           "polygon_planarity"_a = kDefaultPlanarity)
       .def_property_readonly(
           "cage", [](const QuadMeanValueCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
   py::class_<QuadGreenCoordinates, Coordinates, std::shared_ptr<QuadGreenCoordinates>>(
@@ -397,13 +398,18 @@ vertex single weights may still be off by up to ~5e-6.)")
       R"(Wachspress coordinates of a convex Cage (CLI "wachspress"; Warren et al. 2007, as CGAL
 6.2): (n, V) weights, positive inside. Raises InvalidInput naming a reflex edge for a cage that
 is not convex. outside: "raise" (points outside are an InvalidInput) or "nearest" (the
-coordinates of the nearest cage point). snap_tolerance: relative to the cage diagonal.)")
-      .def(py::init(
-               [](std::shared_ptr<Cage> cage, double snapTolerance, const std::string& outside) {
-                 return madeWithoutGil<WachspressCoordinates>(
-                     std::move(cage), WachspressOptions{snapTolerance, convexOutside(outside)});
-               }),
-           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "outside"_a = "raise")
+coordinates of the nearest cage point). snap_tolerance: relative to the cage diagonal.
+planarity: relative to the cage diagonal, in [0, 1e-2]: how far a corner may be off its face's
+best-fit plane (or above a neighbouring face's plane) and count as on it; the default admits
+coordinates written in float32 or with 6 decimals (cages of diagonal >= 1).)")
+      .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance, const std::string& outside,
+                       double planarity) {
+             return madeWithoutGil<WachspressCoordinates>(
+                 std::move(cage),
+                 WachspressOptions{snapTolerance, convexOutside(outside), planarity});
+           }),
+           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "outside"_a = "raise",
+           "planarity"_a = kDefaultPlanarity)
       .def_property_readonly(
           "cage", [](const WachspressCoordinates& c) { return c.cage(); }, "The Cage (a copy).");
   py::class_<DiscreteHarmonicCoordinates, Coordinates,
@@ -413,13 +419,16 @@ coordinates of the nearest cage point). snap_tolerance: relative to the cage dia
 CGAL 6.2): (n, V) weights, which may be negative inside. Raises InvalidInput naming a reflex edge
 for a cage that is not convex, and naming the face for a polygon face (or coplanar triangles that
 merge into one), where the closed form has poles: use Wachspress for those. outside: "raise" or
-"nearest", as Wachspress. snap_tolerance: relative to the cage diagonal.)")
-      .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance,
-                       const std::string& outside) {
+"nearest", as Wachspress. snap_tolerance: relative to the cage diagonal. planarity: as
+Wachspress.)")
+      .def(py::init([](std::shared_ptr<Cage> cage, double snapTolerance, const std::string& outside,
+                       double planarity) {
              return madeWithoutGil<DiscreteHarmonicCoordinates>(
-                 std::move(cage), DiscreteHarmonicOptions{snapTolerance, convexOutside(outside)});
+                 std::move(cage),
+                 DiscreteHarmonicOptions{snapTolerance, convexOutside(outside), planarity});
            }),
-           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "outside"_a = "raise")
+           "cage"_a, py::kw_only(), "snap_tolerance"_a = 1e-14, "outside"_a = "raise",
+           "planarity"_a = kDefaultPlanarity)
       .def_property_readonly(
           "cage", [](const DiscreteHarmonicCoordinates& c) { return c.cage(); },
           "The Cage (a copy).");

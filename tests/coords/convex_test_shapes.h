@@ -165,7 +165,8 @@ inline std::vector<ConvexCase> convexCases() {
 /// max |w(x) − linear interpolation| at points along every edge of the polyhedron (not the inner
 /// diagonals of a triangulated face).
 inline double edgeLinearityError(const Coordinates& coordinates, const Cage& cage) {
-  const detail::ConvexPolyhedron poly = detail::buildConvexPolyhedron(cage, "test");
+  const detail::ConvexPolyhedron poly =
+      detail::buildConvexPolyhedron(cage, "test", kDefaultPlanarity);
   std::vector<double> row(cage.vertexCount());
   double worst = 0.0;
   for (const auto& face : poly.faces) {
@@ -207,7 +208,8 @@ inline NearSurfaceReport nearSurface(const Coordinates& coordinates, const Cage&
   const Vec3 centre = 0.5 * (box.min + box.max);
   std::vector<double> row(cage.vertexCount());
   NearSurfaceReport report;
-  const detail::ConvexPolyhedron poly = detail::buildConvexPolyhedron(cage, "test");
+  const detail::ConvexPolyhedron poly =
+      detail::buildConvexPolyhedron(cage, "test", kDefaultPlanarity);
   for (const auto& face : poly.faces) {
     for (std::size_t j = 0; j < face.loop.size(); ++j) {
       const Vec3 corner = cage.vertices()[face.loop[j]];
@@ -276,5 +278,24 @@ inline GradientReport gradientErrors(const Coordinates& coordinates, const Cage&
   }
   return report;
 }
+
+/// A random rotation (Rodrigues) of the vertices, then every coordinate rounded by `round` (as
+/// an exporter writing 6 decimals or float32 does).
+template <class Round>
+inline PolygonSoup rotatedAndRounded(PolygonSoup soup, unsigned seed, Round round) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> gauss;
+  const Vec3 axis = glm::normalize(Vec3(gauss(rng), gauss(rng), gauss(rng)));
+  const double angle = std::uniform_real_distribution<double>(0.0, std::numbers::pi)(rng);
+  for (Vec3& p : soup.positions) {
+    p = p * std::cos(angle) + glm::cross(axis, p) * std::sin(angle) +
+        axis * glm::dot(axis, p) * (1.0 - std::cos(angle));
+    p = Vec3(round(p.x), round(p.y), round(p.z));
+  }
+  return soup;
+}
+
+inline double sixDecimals(double x) { return std::round(x * 1e6) / 1e6; }
+inline double float32(double x) { return static_cast<double>(static_cast<float>(x)); }
 
 }  // namespace spacewarp::test

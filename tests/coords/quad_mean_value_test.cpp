@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -22,6 +23,7 @@
 #include <spacewarp/core/errors.h>
 #include <spacewarp/core/io/mesh_io.h>
 #include <spacewarp/core/primitives.h>
+#include "convex_test_shapes.h"
 #include "coords_test_shapes.h"
 #include "test_util.h"
 
@@ -505,6 +507,28 @@ TEST(QuadMeanValueCoordinates, ReproducesFarOutsideAsTheHeaderSays) {
       EXPECT_LE(worst, 10.0 * worstMvc + 5e-13) << "twist " << twist << " at " << r;
     }
   }
+
+// F11: a rotated hexagonal prism written in float32 or with 6 decimals (its hexagons non-planar
+// by ~1e-8 diagonals) is accepted with the default polygonPlanarity and reproduces x to about
+// that; a hexagon bent by 1e-4 diagonals is still refused.
+TEST(QuadMeanValueCoordinates, AcceptRoundedPolygonsAndReproduceToTheRounding) {
+  double worst = 0.0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    for (const PolygonSoup& soup :
+         {test::rotatedAndRounded(test::hexagonalPrism(), seed, test::sixDecimals),
+          test::rotatedAndRounded(test::hexagonalPrism(), seed, test::float32)}) {
+      const auto cage = std::make_shared<const Cage>(soup);
+      const QuadMeanValueCoordinates qmvc(cage);
+      const PropertyReport r = measureProperties(qmvc, *cage, interiorSamples(*cage, 100, seed));
+      EXPECT_LE(r.partitionOfUnity, 1e-12);
+      worst = std::max(worst, r.linearReproduction);
+    }
+  }
+  EXPECT_LE(worst, 1e-6);
+  std::printf("rounded hexagonal prisms: linear reproduction %.3g diagonals\n", worst);
+  PolygonSoup bent = test::hexagonalPrism();
+  bent.positions[0].z += 1e-4 * Cage(bent).diagonal();
+  EXPECT_THROW(QuadMeanValueCoordinates(std::make_shared<const Cage>(bent)), InvalidInput);
 }
 
 // ---- the quads' integral against a brute-force one ----

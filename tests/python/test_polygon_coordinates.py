@@ -157,7 +157,7 @@ def test_errors_are_invalid_input(cube, octahedron, concave):
         spacewarp.QuadGreen(prism_cage)
     assert spacewarp.QuadMeanValue(prism_cage).weights([[1.0, 1.0, 0.5]]).shape == (1, 12)
     # A polygon a little off planar (one hexagon corner lifted 1e-4, ~3e-5 diagonals off the
-    # face's plane): refused naming the face by default (1e-9 diagonals), taken when
+    # face's plane): refused naming the face by default (1e-6 diagonals), taken when
     # polygon_planarity allows it, and a tolerance out of [0, 1e-2] is refused.
     lifted = prism.copy()
     lifted[2, 2] += 1e-4
@@ -172,6 +172,45 @@ def test_errors_are_invalid_input(cube, octahedron, concave):
         spacewarp.QuadMeanValue(prism_cage, polygon_planarity=0.1)
     with pytest.raises(spacewarp.InvalidInput, match="point 1 is not finite"):
         spacewarp.QuadMeanValue(concave).weights([[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0]])
+
+
+def hexagonal_prism():
+    """The prism of height 1 over a regular hexagon of circumradius 1: two hexagons, six quads."""
+    angles = np.arange(6) * np.pi / 3
+    ring = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    vertices = np.array([[x, y, z] for z in (0.0, 1.0) for x, y in ring])
+    faces = [[5, 4, 3, 2, 1, 0], [6, 7, 8, 9, 10, 11]]
+    faces += [[i, (i + 1) % 6, 6 + (i + 1) % 6, 6 + i] for i in range(6)]
+    return vertices, faces
+
+
+def test_exported_precision_cages_are_accepted_and_planarity_is_a_keyword():
+    # F11: a rotated hexagonal prism written in float32 (hexagons ~1e-8 diagonals off planar) is
+    # accepted by the polygon and convex methods with their default planarity; planarity=0
+    # refuses it naming the face, and planarity is kept in the archive.
+    vertices, faces = hexagonal_prism()
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        rotated = (vertices @ q.T).astype(np.float32).astype(float)
+        cage = spacewarp.Cage(rotated, faces, name="exported")
+        inside = rotated.mean(axis=0, keepdims=True)
+        for coordinates in (spacewarp.Wachspress(cage), spacewarp.QuadMeanValue(cage)):
+            row = coordinates.weights(inside)
+            assert np.abs(row @ rotated - inside).max() <= 1e-6
+        with pytest.raises(spacewarp.InvalidInput, match="exported: face .* planarity = 0"):
+            spacewarp.Wachspress(cage, planarity=0.0)
+    assert (spacewarp.Wachspress(cage, planarity=1e-5).to_bytes() !=
+            spacewarp.Wachspress(cage).to_bytes())
+    with pytest.raises(spacewarp.InvalidInput, match="planarity must be in"):
+        spacewarp.DiscreteHarmonic(spacewarp.Cage(OCTAHEDRON, np.array(OCTAHEDRON_TRIANGLES)),
+                                   planarity=0.5)
+    # F3: an exact tetrahedron far from the origin is as convex as at the origin.
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=float) + 2.0**27
+    tet_cage = spacewarp.Cage(tet, [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    for method in (spacewarp.Wachspress, spacewarp.DiscreteHarmonic):
+        row = method(tet_cage).weights(tet.mean(axis=0, keepdims=True))
+        assert np.abs(row - 0.25).max() <= 1e-6
 
 
 @pytest.mark.parametrize("method", NEW_METHODS)
