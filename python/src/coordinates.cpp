@@ -162,7 +162,7 @@ DoubleArray weightsOf(const Coordinates& c, py::handle points, const py::object&
     ProgressTracker tracker(callback, "weights", in.size());
     forEachBlock(in.size(), callback ? std::size_t{1} << 12 : 0, tracker,
                  [&](std::size_t begin, std::size_t count) {
-                   c.weightsBatch(in.span.subspan(begin, count),
+                   c.weightsBatch(in.span, begin, begin + count,
                                   out.subspan(begin * columns, count * columns));
                  });
   });
