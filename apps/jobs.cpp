@@ -134,9 +134,8 @@ void writeWeightsFile(const Coordinates& coordinates, const std::filesystem::pat
       const std::size_t count = std::min(block, n - begin);
       const std::span<double> values(rows.data(), count * m);
       // Named like deform's errors: "pts.ply: ShepardCoordinates: 146 of 208 points ...".
-      namingFile(pointsPath.string(), [&] {
-        coordinates.weightsBatch(std::span(points.positions).subspan(begin, count), values);
-      });
+      namingFile(pointsPath.string(),
+                 [&] { coordinates.weightsBatch(points.positions, begin, begin + count, values); });
       if (extension == ".npy")
         out.write(reinterpret_cast<const char*>(values.data()),
                   static_cast<std::streamsize>(values.size() * sizeof(double)));

@@ -267,10 +267,7 @@ Cage::Cage(const PolygonSoup& soup, const std::string& name) : name_(name) {
   const std::vector<int> flip =
       outwardFlips(triangles_, triangleSource_, edges, vertices_, frame_.center, name_);
   for (std::size_t t = 0; t < triangles_.size(); ++t) {
-    if (flip[t]) {
-      std::swap(triangles_[t].y, triangles_[t].z);
-      ++reorientedCount_;
-    }
+    if (flip[t]) std::swap(triangles_[t].y, triangles_[t].z);
   }
   for (const Triangle& t : triangles_) volume_ += coneVolume(vertices_, frame_.center, t) / 6.0;
   if (!(volume_ > 0.0)) fail(name_, "the cage encloses no volume");
@@ -287,9 +284,10 @@ void Cage::orientFaces(std::span<const int> triangleFlips) {
     faceFlip[triangleSource_[t]] = triangleFlips[t];
   for (std::size_t f = 0; f < faceCount(); ++f) {
     maxFaceSize_ = std::max<std::size_t>(maxFaceSize_, faceOffsets_[f + 1] - faceOffsets_[f]);
-    if (faceFlip[f])
-      std::reverse(faceIndices_.begin() + faceOffsets_[f] + 1,
-                   faceIndices_.begin() + faceOffsets_[f + 1]);
+    if (!faceFlip[f]) continue;
+    ++reorientedCount_;
+    std::reverse(faceIndices_.begin() + faceOffsets_[f] + 1,
+                 faceIndices_.begin() + faceOffsets_[f + 1]);
   }
 }
 

@@ -82,7 +82,7 @@ class Cage {
   /// For triangle t, the index of the input polygon (face) it was cut from.
   std::span<const std::uint32_t> triangleSource() const { return triangleSource_; }
 
-  /// How many input triangles had to be flipped for a consistent outward orientation.
+  /// How many faces (input polygons) had to be reversed for a consistent outward orientation.
   std::size_t reorientedCount() const { return reorientedCount_; }
 
   /// The bounding-box diagonal: the length that every tolerance on this cage is relative to.

@@ -9,7 +9,9 @@ namespace spacewarp {
 
 /// What the coordinates of a convex cage give points outside it.
 enum class ConvexOutsidePolicy {
-  /// Throw InvalidInput, saying how many points of the call are outside and naming the first.
+  /// Throw InvalidInput, saying how many points of the call are outside and naming the first
+  /// (its index in the caller's array, also when a warp or a progress display cuts the call into
+  /// blocks), and how to ask for NearestPoint in each front end (CLI, rig, Python, C++).
   Throw,
   /// The coordinates of the nearest point on the cage surface (they reproduce that point, not x).
   NearestPoint,

@@ -37,6 +37,7 @@
 #include <Eigen/SparseCore>
 
 #include <spacewarp/coords/detail/harmonic_file.h>
+#include <spacewarp/coords/detail/outside_hint.h>
 #include <spacewarp/coords/harmonic_warp.h>
 #include <spacewarp/coords/tet_locator.h>
 #include <spacewarp/core/archive.h>
@@ -580,10 +581,11 @@ UnmappedPoints HarmonicCoordinates::weightsRange(std::span<const Vec3> points,
 
 void HarmonicCoordinates::throwUnmapped(const UnmappedPoints& unmapped,
                                         std::span<const Vec3> points) const {
-  throw InvalidInput(
-      "HarmonicCoordinates: " + std::to_string(unmapped.count) + " of " +
-      std::to_string(points.size()) + " points are outside the cage (the first is point " +
-      std::to_string(unmapped.first) + " at " + pointText(points[unmapped.first]) + ")");
+  throw InvalidInput("HarmonicCoordinates: " + std::to_string(unmapped.count) + " of " +
+                     std::to_string(points.size()) +
+                     " points are outside the cage (the first is point " +
+                     std::to_string(unmapped.first) + " at " + pointText(points[unmapped.first]) +
+                     "); " + detail::kNearestHint);
 }
 
 bool HarmonicCoordinates::weightGradients(const Vec3& x, std::span<Vec3> out) const {

@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <spacewarp/coords/detail/outside_hint.h>
 #include <spacewarp/core/archive.h>
 #include <spacewarp/core/errors.h>
 
@@ -87,9 +88,10 @@ void HarmonicWarp::throwUnmapped(const UnmappedPoints& unmapped, std::span<const
     if (!isFinite(in[i]))
       throw InvalidInput("HarmonicWarp: point " + std::to_string(i) + " is not finite");
   }
-  throw InvalidInput(
-      "HarmonicWarp: " + std::to_string(unmapped.count) + " of " + std::to_string(in.size()) +
-      " points are outside the cage (the first is point " + std::to_string(unmapped.first) + ")");
+  throw InvalidInput("HarmonicWarp: " + std::to_string(unmapped.count) + " of " +
+                     std::to_string(in.size()) +
+                     " points are outside the cage (the first is point " +
+                     std::to_string(unmapped.first) + "); " + detail::kNearestHint);
 }
 
 Mat3 HarmonicWarp::jacobian(const Vec3& x) const {

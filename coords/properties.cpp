@@ -141,7 +141,7 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
       report.lagrange = std::max(report.lagrange, std::abs(w[i] - (i == j ? 1.0 : 0.0)));
   });
 
-  // Linear interpolation on faces: at random barycentric points of every triangle.
+  // Interpolation on faces: at random barycentric points of every triangle of the cage.
   std::mt19937_64 rng(options.seed);
   auto unit = [&] { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
   std::vector<Vec3> onFaces;
@@ -159,14 +159,38 @@ PropertyReport measureProperties(const Coordinates& coordinates, const Cage& cag
     }
   }
   std::vector<double> expected(nv);
+  std::vector<char> onFace(nv);
   forEachWeightRow(coordinates, onFaces, [&](std::size_t f, const double* w) {
-    const Triangle& t = cage.triangles()[f / options.faceSamplesPerTriangle];
-    std::fill(expected.begin(), expected.end(), 0.0);
-    expected[t.x] += barycentric[f].x;
-    expected[t.y] += barycentric[f].y;
-    expected[t.z] += barycentric[f].z;
-    for (std::size_t i = 0; i < nv; ++i)
-      report.faceInterpolation = std::max(report.faceInterpolation, std::abs(w[i] - expected[i]));
+    const std::size_t t = f / options.faceSamplesPerTriangle;
+    const Triangle& tri = cage.triangles()[t];
+    const auto face = cage.face(cage.triangleSource()[t]);
+    double error = 0.0;
+    if (face.size() == 3) {  // a triangle's interpolant is linear: the barycentric row
+      std::fill(expected.begin(), expected.end(), 0.0);
+      expected[tri.x] += barycentric[f].x;
+      expected[tri.y] += barycentric[f].y;
+      expected[tri.z] += barycentric[f].z;
+      for (std::size_t i = 0; i < nv; ++i) error = std::max(error, std::abs(w[i] - expected[i]));
+    } else {
+      // A polygon's interpolant depends on the method (bilinear, 2D Wachspress or mean value):
+      // what they share is a row supported on the face's vertices that reproduces the point.
+      std::fill(onFace.begin(), onFace.end(), 0);
+      for (std::uint32_t v : face) onFace[v] = 1;
+      const Vec3 origin = cage.vertices()[tri.x];
+      double sum = 0.0;
+      Vec3 reproduced(0.0);
+      for (std::size_t i = 0; i < nv; ++i) {
+        if (!onFace[i]) {
+          error = std::max(error, std::abs(w[i]));
+          continue;
+        }
+        sum += w[i];
+        reproduced += w[i] * (cage.vertices()[i] - origin);
+      }
+      error = std::max({error, std::abs(sum - 1.0),
+                        glm::length(reproduced - (onFaces[f] - origin)) / cage.diagonal()});
+    }
+    report.faceInterpolation = std::max(report.faceInterpolation, error);
   });
   return report;
 }
@@ -179,7 +203,7 @@ double measurePropertiesMemory(std::size_t columns, std::size_t cageTriangles,
   return sizeof(double) * m * static_cast<double>(blockRows(columns)) +  // a block of rows
          3.0 * sizeof(Vec3) * m +            // rest columns, displacements, posed
          2.0 * sizeof(Vec3) * faceSamples +  // face points and their barycentrics
-         sizeof(double) * m;                 // a face sample's expected row
+         (sizeof(double) + 1.0) * m;         // a face sample's expected row, on-face flags
 }
 
 std::vector<Vec3> interiorSamples(const Cage& cage, std::size_t count, std::uint64_t seed) {

@@ -42,8 +42,14 @@ struct PropertyReport {
   /// max |w_i(v_j) − δ_ij| over the cage vertices v_j (interpolating coordinates have 0).
   /// NaN when the controls are not the cage's vertices (the check does not apply).
   double lagrange = 0.0;
-  /// max |w(x) − barycentric(x)| at random points on cage triangles (interpolating coordinates
-  /// are linear on faces). NaN when the controls are not the cage's vertices.
+  /// Interpolation on faces, at random points on the cage's triangles (0 for coordinates that
+  /// interpolate on faces). On a triangle face: max |w(x) − barycentric(x)| (the interpolant is
+  /// linear). On a polygon face, whose interpolant depends on the method (bilinear for QMVC's
+  /// quads, 2D Wachspress or mean value on a planar polygon): the largest of |w_i(x)| for the
+  /// vertices i off the face, |Σ_face w_i − 1| and |Σ_face w_i v_i − x| / diagonal, i.e. the
+  /// row is supported on the face's vertices and reproduces x. On a non-planar polygon the
+  /// points lie on the face's triangles, which are that face only for triangle methods (QMVC's
+  /// face is the bilinear patch). NaN when the controls are not the cage's vertices.
   double faceInterpolation = 0.0;
   /// max |x' − S(x)| / diagonal, where the cage is posed by the similarity S (rotation, uniform
   /// scale, translation) and x' is the deformed sample. 0 for coordinates that reproduce

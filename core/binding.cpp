@@ -105,7 +105,7 @@ Binding::Binding(std::shared_ptr<const Coordinates> coordinates, std::span<const
     // Without a display, one batch; with one, blocks big enough to keep every core busy.
     forEachBlock(
         n, progress ? std::size_t{1} << 14 : 0, tracker, [&](std::size_t begin, std::size_t count) {
-          coordinates_->weightsBatch(std::span(restPoints_).subspan(begin, count),
+          coordinates_->weightsBatch(restPoints_, begin, begin + count,
                                      std::span<double>(dense_.data() + begin * m, count * m));
         });
     return;

@@ -56,11 +56,12 @@ UnmappedPoints CoordinateWarp::applyRange(std::span<const Vec3> in, std::span<Ve
   }
   const std::size_t m = displacement_.size();
   std::vector<double> rows((end - begin) * m);
-  const std::vector<Vec3> block(in.begin() + std::ptrdiff_t(begin),
-                                in.begin() + std::ptrdiff_t(end));
-  coordinates_->weightsBatch(block, rows);
-  for (std::size_t i = 0; i < block.size(); ++i)
-    out[begin + i] = displace(block[i], std::span(rows).subspan(i * m, m), displacement_);
+  coordinates_->weightsBatch(in, begin, end, rows);  // errors name the caller's indices
+  // `in` and `out` may alias: each point is read just before its own slot is written.
+  for (std::size_t i = begin; i != end; ++i) {
+    const Vec3 x = in[i];
+    out[i] = displace(x, std::span(rows).subspan((i - begin) * m, m), displacement_);
+  }
   return {};
 }
 

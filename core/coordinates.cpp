@@ -25,20 +25,33 @@ void Coordinates::checkWeightsArguments(const Vec3& x, std::size_t rowSize) cons
 }
 
 void Coordinates::weightsBatch(std::span<const Vec3> points, std::span<double> rows) const {
-  const std::size_t m = columnCount();
-  if (rows.size() != points.size() * m) {
-    throw InvalidInput("coordinates: " + std::to_string(points.size()) + " points need " +
-                       std::to_string(points.size() * m) + " weights but the output has " +
+  weightsBatch(points, 0, points.size(), rows);
+}
+
+void Coordinates::weightsBatch(std::span<const Vec3> points, std::size_t begin, std::size_t end,
+                               std::span<double> rows) const {
+  if (begin > end || end > points.size()) {
+    throw InvalidInput("coordinates: the block [" + std::to_string(begin) + ", " +
+                       std::to_string(end) + ") is not within the " +
+                       std::to_string(points.size()) + " points");
+  }
+  const std::size_t m = columnCount(), n = end - begin;
+  if (rows.size() != n * m) {
+    throw InvalidInput("coordinates: " + std::to_string(n) + " points need " +
+                       std::to_string(n * m) + " weights but the output has " +
                        std::to_string(rows.size()));
   }
-  for (std::size_t i = 0; i < points.size(); ++i) {
+  for (std::size_t i = begin; i < end; ++i) {
     if (!isFinite(points[i]))
       throw InvalidInput("coordinates: point " + std::to_string(i) + " is not finite");
   }
-  const UnmappedPoints unmapped = detail::forEachRange(
-      points.size(), batchGrain(),
-      [&](std::size_t begin, std::size_t end) { return weightsRange(points, rows, begin, end); });
-  if (unmapped.count > 0) throwUnmapped(unmapped, points);
+  const std::span<const Vec3> block = points.subspan(begin, n);
+  UnmappedPoints unmapped = detail::forEachRange(
+      n, batchGrain(),
+      [&](std::size_t b, std::size_t e) { return weightsRange(block, rows, b, e); });
+  if (unmapped.count == 0) return;
+  unmapped.first += begin;  // the caller's index, not the block's
+  throwUnmapped(unmapped, points);
 }
 
 UnmappedPoints Coordinates::weightsRange(std::span<const Vec3> points, std::span<double> rows,

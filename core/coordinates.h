@@ -62,6 +62,13 @@ class Coordinates {
   /// some points have no weights.
   void weightsBatch(std::span<const Vec3> points, std::span<double> rows) const;
 
+  /// weightsBatch() of the block [begin, end) of a larger batch `points`, for callers that cut
+  /// a batch into blocks (progress, cancellation, a warp's ranges): `rows` holds the block's
+  /// rows only ((end − begin) × columnCount()). Errors name indices into `points` and its size,
+  /// so that the caller's point is named; the count is of the block's unmapped points.
+  void weightsBatch(std::span<const Vec3> points, std::size_t begin, std::size_t end,
+                    std::span<double> rows) const;
+
   /// At most how many weights of one point are non-zero: columnCount() for dense coordinates
   /// (cages, harmonic coordinates included, RBF); 8 for a trilinear lattice.
   virtual std::size_t maxNonZeros() const { return columnCount(); }

@@ -30,10 +30,10 @@ std::vector<Vec3> movedPositions(const Warp& warp, const std::vector<Vec3>& posi
   // applyBatch, small enough for a responsive display and cancel.
   ProgressTracker tracker(progress, "deform", n);
   const std::span<const Vec3> in(positions);
-  forEachBlock(
-      n, progress ? std::size_t{1} << 16 : 0, tracker, [&](std::size_t begin, std::size_t count) {
-        warp.applyBatch(in.subspan(begin, count), std::span<Vec3>(moved).subspan(begin, count));
-      });
+  forEachBlock(n, progress ? std::size_t{1} << 16 : 0, tracker,
+               [&](std::size_t begin, std::size_t count) {
+                 warp.applyBatch(in, moved, begin, begin + count);
+               });
   for (std::size_t i = 0; i < moved.size(); ++i) {
     if (!isFinite(moved[i])) {
       throw InvalidInput("the warp sent vertex " + std::to_string(i) + " to a non-finite position");

@@ -53,9 +53,21 @@ std::optional<Vec3> Warp::exactInverse(const Vec3&) const { return std::nullopt;
 
 void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const {
   detail::requireSameSize("Warp::applyBatch", in.size(), out.size());
+  applyBatch(in, out, 0, in.size());
+}
+
+void Warp::applyBatch(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                      std::size_t end) const {
+  detail::requireSameSize("Warp::applyBatch", in.size(), out.size());
+  if (begin > end || end > in.size()) {
+    throw InvalidInput("Warp::applyBatch: the block [" + std::to_string(begin) + ", " +
+                       std::to_string(end) + ") is not within the " + std::to_string(in.size()) +
+                       " points");
+  }
+  // applyRange() takes indices into the whole batch, so what it reports already names them.
   const UnmappedPoints unmapped = detail::forEachRange(
-      in.size(), batchGrain(),
-      [&](std::size_t begin, std::size_t end) { return applyRange(in, out, begin, end); });
+      end - begin, batchGrain(),
+      [&](std::size_t b, std::size_t e) { return applyRange(in, out, begin + b, begin + e); });
   if (unmapped.count > 0) (unmapped.by ? unmapped.by : this)->throwUnmapped(unmapped, in);
 }
 

@@ -71,6 +71,12 @@ class Warp {
   /// throwUnmapped() throws when some points could not be warped.
   void applyBatch(std::span<const Vec3> in, std::span<Vec3> out) const;
 
+  /// applyBatch() of the block [begin, end) of a larger batch `in` into out[begin, end) (`out`
+  /// has in.size() entries), for callers that cut a batch into blocks (progress, cancellation):
+  /// errors name indices into `in` and its size; the count is of the block's unmapped points.
+  void applyBatch(std::span<const Vec3> in, std::span<Vec3> out, std::size_t begin,
+                  std::size_t end) const;
+
   /// Writes this warp to an archive (core/archive.h): its tag, then what rebuilds it (solved
   /// state included, so that loading does not solve again). The default throws InvalidInput
   /// naming the type: a warp that cannot be saved (one made in Python, an internal cache).

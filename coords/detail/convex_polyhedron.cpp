@@ -9,6 +9,7 @@
 #include <unordered_map>
 #include <utility>
 
+#include <spacewarp/coords/detail/outside_hint.h>
 #include <spacewarp/core/errors.h>
 
 namespace spacewarp::detail {
@@ -439,9 +440,7 @@ std::string outsideMessage(const char* method, std::size_t count, std::size_t to
                            std::size_t first, const Vec3& x) {
   return std::string(method) + ": " + std::to_string(count) + " of " + std::to_string(total) +
          " points are outside the convex cage (the first is point " + std::to_string(first) +
-         " at " + pointText(x) +
-         "); ConvexOutsidePolicy::NearestPoint gives them the coordinates " +
-         "of the nearest surface point";
+         " at " + pointText(x) + "); " + detail::kNearestHint;
 }
 
 void checkPlanarity(const char* method, double planarity) {

@@ -128,8 +128,9 @@ Raises InvalidInput naming the element for an open, non-manifold or degenerate c
                              "The most vertices of a face: 3 for a triangle cage, 4 with quads.")
       .def_property_readonly("diagonal", &Cage::diagonal, "Bounding-box diagonal, world units.")
       .def_property_readonly("volume", &Cage::volume, "Enclosed volume, world units^3.")
-      .def_property_readonly("reoriented_count", &Cage::reorientedCount,
-                             "Input triangles flipped for a consistent outward orientation.")
+      .def_property_readonly(
+          "reoriented_count", &Cage::reorientedCount,
+          "Faces (input polygons) reversed for a consistent outward orientation.")
       .def(
           "winding_number",
           [](const Cage& c, py::handle p) {
@@ -161,7 +162,7 @@ DoubleArray weightsOf(const Coordinates& c, py::handle points, const py::object&
     ProgressTracker tracker(callback, "weights", in.size());
     forEachBlock(in.size(), callback ? std::size_t{1} << 12 : 0, tracker,
                  [&](std::size_t begin, std::size_t count) {
-                   c.weightsBatch(in.span.subspan(begin, count),
+                   c.weightsBatch(in.span, begin, begin + count,
                                   out.subspan(begin * columns, count * columns));
                  });
   });

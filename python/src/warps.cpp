@@ -73,7 +73,7 @@ DoubleArray applyWarp(const Warp& warp, py::handle points, const std::optional<p
           for (std::size_t b = r.begin(); b != r.end(); ++b) {
             const std::size_t begin = b * kBlock, count = std::min(kBlock, in.size() - begin);
             const auto block = moved.subspan(begin, count);
-            warp.applyBatch(in.span.subspan(begin, count), block);
+            warp.applyBatch(in.span, moved, begin, begin + count);
             if (const std::size_t bad = firstNonFinite(block); bad < count) {
               std::size_t seen = firstBad.load();
               while (begin + bad < seen && !firstBad.compare_exchange_weak(seen, begin + bad)) {

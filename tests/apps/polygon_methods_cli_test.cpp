@@ -219,7 +219,10 @@ TEST_F(PolygonMethodsTest, OutsideAppliesToTheMethodsWithAnOutsidePolicyOnly) {
                (dir_ / "cloud.ply").string() + " -o " + (dir_ / "out.ply").string());
   };
   for (const char* method : {"wachspress", "discrete-harmonic"}) {
-    EXPECT_EQ(deformOutside(method, "").exitCode, 3) << method << ": points outside refused";
+    const CliResult refused = deformOutside(method, "");
+    EXPECT_EQ(refused.exitCode, 3) << method << ": points outside refused";
+    // The remedy as the CLI spells it, not as the C++ enum does.
+    EXPECT_THAT(refused.err, HasSubstr("--outside nearest")) << method;
     const CliResult nearest = deformOutside(method, "--outside nearest");
     EXPECT_EQ(nearest.exitCode, 0) << method << ": " << nearest.err;
   }

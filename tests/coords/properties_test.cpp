@@ -8,9 +8,13 @@
 
 #include <gtest/gtest.h>
 
+#include <spacewarp/coords/green.h>
 #include <spacewarp/coords/mean_value.h>
+#include <spacewarp/coords/quad_mean_value.h>
+#include <spacewarp/coords/wachspress.h>
 #include <spacewarp/core/binding.h>
 #include <spacewarp/core/errors.h>
+#include <spacewarp/core/primitives.h>
 #include "coords_test_shapes.h"
 
 namespace spacewarp {
@@ -99,6 +103,23 @@ TEST(Properties, DetectsBrokenInterpolation) {
   EXPECT_NEAR(r.lagrange, 1.0, 1e-14);
   EXPECT_GT(r.faceInterpolation, 0.1);
   EXPECT_GT(r.linearReproduction, 0.01);
+}
+
+// On a cube of quads, coordinates that interpolate on faces score 0 whether their face
+// interpolant is bilinear (QMVC), 2D Wachspress or the triangles' (MVC); comparing with the
+// triangulation's barycentric rows gave QMVC and Wachspress 0.249. Green's vertex weights do not
+// interpolate, and are caught.
+TEST(Properties, FaceInterpolationOnQuadsIsJudgedByTheFacesOwnInterpolant) {
+  const auto cage =
+      std::make_shared<const Cage>(makeBoxSurface(Vec3(-1.0), Vec3(1.0), {1, 1, 1}), "cube");
+  ASSERT_EQ(cage->maxFaceSize(), 4u);
+  const auto samples = samplesInBox(Vec3(-0.9), Vec3(0.9), 50);
+  EXPECT_LE(measureProperties(QuadMeanValueCoordinates(cage), *cage, samples).faceInterpolation,
+            1e-12);
+  EXPECT_LE(measureProperties(WachspressCoordinates(cage), *cage, samples).faceInterpolation,
+            1e-12);
+  EXPECT_LE(measureProperties(MeanValueCoordinates(cage), *cage, samples).faceInterpolation, 1e-12);
+  EXPECT_GT(measureProperties(GreenCoordinates(cage), *cage, samples).faceInterpolation, 1e-3);
 }
 
 // TetBarycentric with `extra` more columns whose weights and column controls are zero (like

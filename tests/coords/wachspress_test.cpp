@@ -253,6 +253,31 @@ TEST(Wachspress, OutsidePointsThrowNamingTheFirstUnderThrow) {
   for (double w : row) EXPECT_TRUE(w == 0.0 || std::fabs(w - 0.25) <= 1e-15);
 }
 
+// The error names the remedy in every front end, and the caller's point: its index and count
+// are of the whole batch even where the batch is cut into blocks (a warp's ranges, progress).
+TEST(Wachspress, OutsideErrorsNameTheCallersPointAndTheRemedy) {
+  const auto coordinates = wachspress(test::convexBox(Vec3(0.0), Vec3(1.0)));
+  std::vector<Vec3> points(10000, Vec3(0.5));
+  points[7777] = Vec3(0.5, 0.5, 5.0);
+  const auto expectNamed = [](const std::string& message) {
+    EXPECT_THAT(message, HasSubstr("1 of 10000 points are outside"));
+    EXPECT_THAT(message, HasSubstr("the first is point 7777 at (0.5, 0.5, 5)"));
+    EXPECT_THAT(message, HasSubstr("--outside nearest in the CLI"));
+    EXPECT_THAT(message, HasSubstr("\"outside\": \"nearest\" in a rig"));
+    EXPECT_THAT(message, HasSubstr("outside=\"nearest\" in Python"));
+  };
+  std::vector<double> rows(4096 * 8);
+  expectNamed(
+      test::messageOf<InvalidInput>([&] { coordinates->weightsBatch(points, 4096, 8192, rows); }));
+  const auto warp = makeWarp(coordinates, coordinates->restControlPoints());
+  std::vector<Vec3> moved(points.size());
+  expectNamed(test::messageOf<InvalidInput>([&] { warp->applyBatch(points, moved); }));
+  expectNamed(test::messageOf<InvalidInput>([&] { warp->applyBatch(points, moved, 4096, 8192); }));
+  // A block without the outside point is weighed, in its own rows.
+  coordinates->weightsBatch(points, 0, 4096, rows);
+  EXPECT_DOUBLE_EQ(rows[0], 0.125);
+}
+
 TEST(Wachspress, OutsidePointsGetTheNearestSurfacePointUnderNearestPoint) {
   WachspressOptions options;
   options.outside = ConvexOutsidePolicy::NearestPoint;
