@@ -507,6 +507,7 @@ TEST(QuadMeanValueCoordinates, ReproducesFarOutsideAsTheHeaderSays) {
       EXPECT_LE(worst, 10.0 * worstMvc + 5e-13) << "twist " << twist << " at " << r;
     }
   }
+}
 
 // F11: a rotated hexagonal prism written in float32 or with 6 decimals (its hexagons non-planar
 // by ~1e-8 diagonals) is accepted with the default polygonPlanarity and reproduces x to about
