@@ -416,7 +416,7 @@ class Cage:
 
     @property
     def reoriented_count(self) -> int:
-        """Input triangles flipped for a consistent outward orientation."""
+        """Faces (input polygons) reversed for a consistent outward orientation."""
 
     def winding_number(self, points: _Points) -> _Float64Array:
         """The generalised winding number (n,) at points (n, 3): 1 inside, 0 outside."""
@@ -1104,8 +1104,8 @@ class QuadGreen(Coordinates):
     normal column per triangle face and four per quad face, in face order (column_names). Raises
     InvalidInput naming a face of more than 4 vertices. surface_tolerance: relative to the cage
     diagonal, in [0, 1e-3]. Rows sum to 1 over the vertex columns and reproduce the point at rest
-    to round-off (they are projected onto those constraints); within ~1e-12 of the diagonal of a
-    cage vertex single weights may still be off by up to ~5e-6.
+    to round-off (they are projected onto those constraints); within ~1e-12 of the diagonal of a cage
+    vertex single weights may still be off by up to ~5e-6.
     """
 
     def __init__(self, cage: Cage, *, surface_tolerance: float = 1e-14) -> None: ...
